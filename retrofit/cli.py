@@ -1,0 +1,103 @@
+"""The ``retrofit`` command line."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from importlib import import_module
+
+from .errors import RetrofitError
+
+#: modules that add sub-commands: each has ``add_commands(subparsers)`` and imports heavy
+#: libraries only inside its command functions
+COMMAND_MODULES: list[str] = [
+]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        return args.func(args) or 0
+    except RetrofitError as exc:
+        print(f"retrofit: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("retrofit: interrupted", file=sys.stderr)
+        return 130
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="retrofit", description="CNC retrofit toolkit: controller, simulator, outputs.")
+    sub = p.add_subparsers(metavar="COMMAND")
+
+    m = sub.add_parser("machines", help="list the machine files that ship with retrofit")
+    m.set_defaults(func=_cmd_machines)
+
+    d = sub.add_parser("demo", help="run a demo from the source papers")
+    d.add_argument("which", choices=["circle"], help="circle: the lathe paper's 100-point circle")
+    motion_options(d)
+    d.add_argument("--radius", type=float, default=15.0, help="circle radius in mm (default 15)")
+    d.add_argument("--points", type=int, default=100, help="points on the circle (default 100)")
+    d.set_defaults(func=_cmd_demo)
+    for module in COMMAND_MODULES:
+        import_module(module).add_commands(sub)
+    return p
+
+
+def motion_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--machine", default="chivu-lathe", help="shipped machine name or path to a .toml file")
+    p.add_argument("--output", action="append", metavar="URL",
+                   help="where the port frames go (repeatable; default sim://); see 'retrofit outputs'")
+    p.add_argument("--no-backlash-comp", action="store_true", help="turn backlash compensation off")
+    p.add_argument("--plot", metavar="FILE.png", help="save commanded vs carriage path as PNG")
+    p.add_argument("--report", metavar="FILE.json", help="write the run report (docs/report.md)")
+
+
+def _cmd_machines(args) -> int:
+    from .config import list_machines, load_machine
+    for name in list_machines():
+        m = load_machine(name)
+        axes = ", ".join(f"{a.name} {a.steps_per_mm:g} steps/mm" for a in m.axes)
+        print(f"{name:16s} {m.description}  [{axes}; tick {m.tick_us:g} us]")
+    return 0
+
+
+def _cmd_demo(args) -> int:
+    from .config import load_machine
+    from .demo import circle_targets
+    from .motion.errorloop import PositionErrorLoop
+    machine = load_machine(args.machine)
+    if args.points < 1 or not args.radius > 0:
+        raise RetrofitError(f"--points must be >= 1 and --radius > 0 (got {args.points}, {args.radius:g})")
+    loop = PositionErrorLoop(machine, backlash_comp=not args.no_backlash_comp)
+    log = loop.run(circle_targets(machine, args.radius, args.points))
+    comp = "off" if args.no_backlash_comp else "on"
+    finish_run(args, log, f"{machine.name}: circle r={args.radius:g} mm, {args.points} points, backlash comp {comp}")
+    return 0
+
+
+def finish_run(args, log, title: str) -> dict:
+    """Deliver frames to the outputs, print the summary, write plot and report."""
+    from .report import build_report, summary_lines, write_json_atomic
+    from .runner import deliver
+    sim = deliver(log, args.output or ["sim://"])
+    report = build_report(log, sim)
+    print(title)
+    for line in summary_lines(report):
+        print(line)
+    if args.plot:
+        from .plot import plot_path
+        print(f"  plot: {plot_path(log, sim, args.plot, title)}")
+    if args.report:
+        write_json_atomic(args.report, report)
+        print(f"  report: {args.report}")
+    return report
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,256 @@
+"""The instruction set in the middle: the 14 motion commands of 002, plus spindle and coolant.
+
+Every front end (G-code, CAM link, tool changer) compiles to these objects and every output or
+link consumes them. Each is a frozen dataclass whose ``str()`` is its text form and
+:func:`parse_command` gives the same object back::
+
+    >>> parse_command("PMOV X12.5 Z-3")
+    PMov(axes=(('X', 12.5), ('Z', -3.0)))
+    >>> str(parse_command("PMOV X12.5 Z-3"))
+    'PMOV X12.5 Z-3'
+
+Units in the text form and the objects: positions mm, feeds mm/min (mm per spindle revolution
+while ISTP is the step source), dwell seconds, spindle rpm. Inside the controller: steps, ticks.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from typing import ClassVar
+
+from .errors import RetrofitError
+
+
+class CommandError(RetrofitError, ValueError):
+    """A command's text form is malformed or its values are out of range."""
+
+
+def _num(value: float) -> str:
+    """Shortest text that reads back to the same float ('12.5', '-3', '0.1')."""
+    if float(value).is_integer() and abs(value) < 1e15:
+        return str(int(value))
+    return repr(float(value))
+
+
+@dataclass(frozen=True)
+class Command:
+    mnemonic: ClassVar[str] = ""
+    immediate: ClassVar[bool] = False      # STOP, RDPS, RDST: run at once, ahead of the queue
+    motion: ClassVar[bool] = False         # goes through prepare/execute
+
+    def __str__(self) -> str:
+        return self.mnemonic
+
+
+@dataclass(frozen=True)
+class _AxesCommand(Command):
+    """A command with axis words: ``axes`` is ((name, mm), ...) in the order given."""
+
+    axes: tuple[tuple[str, float], ...] = ()
+
+    def __str__(self) -> str:
+        return " ".join([self.mnemonic] + [f"{n}{_num(v)}" for n, v in self.axes])
+
+    def position(self) -> dict[str, float]:
+        return dict(self.axes)
+
+
+@dataclass(frozen=True)
+class _FeedCommand(Command):
+    feed: float = 0.0      # mm/min (mm/rev under ISTP)
+
+    def __str__(self) -> str:
+        return f"{self.mnemonic} F{_num(self.feed)}"
+
+
+@dataclass(frozen=True)
+class Init(Command):
+    """Defaults for position and feedrates, clear all queues, state ready."""
+    mnemonic: ClassVar[str] = "INIT"
+
+
+@dataclass(frozen=True)
+class FMov(_AxesCommand):
+    """Fast move to a position at the fast feedrate (G00)."""
+    mnemonic: ClassVar[str] = "FMOV"
+    motion: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class PMov(_AxesCommand):
+    """Programmed move at the machining feedrate (G01, arc chords)."""
+    mnemonic: ClassVar[str] = "PMOV"
+    motion: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class ZMov(Command):
+    """Home the named axes (all, in the machine's homing order, when none is named)."""
+    mnemonic: ClassVar[str] = "ZMOV"
+    motion: ClassVar[bool] = True
+    names: tuple[str, ...] = ()
+
+    def __str__(self) -> str:
+        return " ".join((self.mnemonic,) + self.names)
+
+
+@dataclass(frozen=True)
+class Stop(Command):
+    """Abrupt stop (operator)."""
+    mnemonic: ClassVar[str] = "STOP"
+    immediate: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class FFdr(_FeedCommand):
+    """Fast feedrate for FMOV / ZMOV; takes effect at once, even mid-move."""
+    mnemonic: ClassVar[str] = "FFDR"
+
+
+@dataclass(frozen=True)
+class MFdr(_FeedCommand):
+    """Machining feedrate for PMOV; takes effect at once (operator override)."""
+    mnemonic: ClassVar[str] = "MFDR"
+
+
+@dataclass(frozen=True)
+class PFdr(_FeedCommand):
+    """Program feedrate; takes effect when the next motion command is fetched."""
+    mnemonic: ClassVar[str] = "PFDR"
+
+
+@dataclass(frozen=True)
+class Dely(Command):
+    """Dwell for ``seconds`` (G04)."""
+    mnemonic: ClassVar[str] = "DELY"
+    motion: ClassVar[bool] = True
+    seconds: float = 0.0
+
+    def __str__(self) -> str:
+        return f"{self.mnemonic} P{_num(self.seconds)}"
+
+
+@dataclass(frozen=True)
+class CStp(Command):
+    """The tick clock is the step source (feed in mm/min)."""
+    mnemonic: ClassVar[str] = "CSTP"
+
+
+@dataclass(frozen=True)
+class IStp(Command):
+    """The spindle indexer is the step source (feed in mm per revolution: threads)."""
+    mnemonic: ClassVar[str] = "ISTP"
+
+
+@dataclass(frozen=True)
+class Pstn(_AxesCommand):
+    """Set the actual position of the named axes (coordinate set-up, G92)."""
+    mnemonic: ClassVar[str] = "PSTN"
+
+
+@dataclass(frozen=True)
+class Rdps(Command):
+    """Read the actual position."""
+    mnemonic: ClassVar[str] = "RDPS"
+    immediate: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Rdst(Command):
+    """Read the status flags."""
+    mnemonic: ClassVar[str] = "RDST"
+    immediate: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Spin(Command):
+    """Spindle: ``rpm`` and direction +1 (M3), -1 (M4) or 0 (M5, stopped). Not one of 002's 14."""
+    mnemonic: ClassVar[str] = "SPIN"
+    rpm: float = 0.0
+    direction: int = 0
+
+    def __str__(self) -> str:
+        return f"{self.mnemonic} S{_num(self.rpm)} D{self.direction}"
+
+
+@dataclass(frozen=True)
+class Cool(Command):
+    """Coolant: 0 off (M9), 7 mist (M7), 8 flood (M8). Not one of 002's 14."""
+    mnemonic: ClassVar[str] = "COOL"
+    mode: int = 0
+
+    def __str__(self) -> str:
+        return f"{self.mnemonic} M{self.mode}"
+
+
+#: every command class by mnemonic
+COMMANDS: dict[str, type[Command]] = {c.mnemonic: c for c in (
+    Init, FMov, ZMov, PMov, Stop, FFdr, MFdr, PFdr, Dely, CStp, IStp, Pstn, Rdps, Rdst, Spin, Cool)}
+
+_WORD = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)$")
+
+
+def parse_command(text: str) -> Command:
+    """The command object of a text form such as ``"PMOV X12.5 Z-3"`` (case-insensitive)."""
+    parts = text.strip().upper().split()
+    if not parts:
+        raise CommandError("empty command; expected a mnemonic such as PMOV X12.5 Z-3")
+    head, words = parts[0], parts[1:]
+    cls = COMMANDS.get(head)
+    if cls is None:
+        raise CommandError(f"unknown command {head!r}; known: {', '.join(COMMANDS)}")
+    if issubclass(cls, _AxesCommand):
+        return cls(tuple(_axis_words(head, words)))
+    if cls is ZMov:
+        bad = [w for w in words if not re.fullmatch(r"[A-Z]", w)]
+        if bad:
+            raise CommandError(f"ZMOV {bad[0]!r}: expected axis letters only, e.g. ZMOV X Z")
+        return ZMov(tuple(words))
+    values = dict(_words(head, words))
+    expected = {FFdr: "F", MFdr: "F", PFdr: "F", Dely: "P", Spin: "SD", Cool: "M"}.get(cls, "")
+    extra = set(values) - set(expected)
+    missing = set(expected) - set(values)
+    if extra or missing:
+        form = " ".join(f"{c}<number>" for c in expected) or "no arguments"
+        raise CommandError(f"{text.strip()!r}: expected {head} {form}".rstrip())
+    if cls in (FFdr, MFdr, PFdr):
+        return cls(_check(head, "F", values["F"], minval=0.0))
+    if cls is Dely:
+        return Dely(_check(head, "P", values["P"], minval=0.0))
+    if cls is Spin:
+        direction = values["D"]
+        if direction not in (-1.0, 0.0, 1.0):
+            raise CommandError(f"SPIN D{_num(direction)}: direction must be -1, 0 or 1")
+        return Spin(_check(head, "S", values["S"], minval=0.0), int(direction))
+    if cls is Cool:
+        if values["M"] not in (0.0, 7.0, 8.0):
+            raise CommandError(f"COOL M{_num(values['M'])}: mode must be 0, 7 or 8")
+        return Cool(int(values["M"]))
+    return cls()
+
+
+def _words(head: str, words: list[str]):
+    for word in words:
+        m = _WORD.match(word)
+        if not m:
+            raise CommandError(f"{head}: bad word {word!r}; expected a letter and a number, e.g. X12.5")
+        yield m.group(1), float(m.group(2))
+
+
+def _axis_words(head: str, words: list[str]):
+    seen = set()
+    for name, value in _words(head, words):
+        if name in seen:
+            raise CommandError(f"{head}: axis {name} given twice")
+        seen.add(name)
+        yield name, _check(head, name, value)
+
+
+def _check(head: str, letter: str, value: float, minval: float | None = None) -> float:
+    if not math.isfinite(value):
+        raise CommandError(f"{head} {letter}: {value} is not a finite number")
+    if minval is not None and value < minval:
+        raise CommandError(f"{head} {letter}{_num(value)}: must be >= {_num(minval)}")
+    return value

@@ -1,0 +1,209 @@
+"""Machine descriptions: TOML files read strictly into plain frozen dataclasses.
+
+Machines ship inside the package (``retrofit/machines/*.toml``) and load by name
+(``load_machine("chivu-lathe")``) or by path. Inside the toolkit every time is an integer tick
+and every position an integer step; mm and seconds exist only here and at the other edges.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Callable
+
+from .errors import ConfigError
+from .tomlreader import Section, load_toml
+
+#: DB25 data pins 2..9 drive data register bits 0..7 (003, Table 1).
+DB25_DATA_PINS = tuple(range(2, 10))
+
+
+@dataclass(frozen=True)
+class Axis:
+    """One axis: how steps become millimetres, its limits, its pulse timing and its pins."""
+
+    name: str                   # "X", "Z", ...
+    label: str                  # "transversal", "longitudinal", ...
+    steps_per_mm: float         # the lathe paper's KT / KL
+    min_mm: float               # soft limits
+    max_mm: float
+    pulse_high_ticks: int       # 'dunu' in the lathe paper: ticks at logic 1
+    pulse_low_ticks: int        # ticks at logic 0 before the next step; period = high + low ('perioada')
+    dir_setup_ticks: int        # direction stable this long before a rising step edge
+    dir_hold_ticks: int         # direction unchanged this long after a rising step edge
+    backlash_mm: float          # compensation clearance ('JocT' / 'JocL')
+    max_velocity_mm_s: float
+    max_accel_mm_s2: float
+    step_bit: int               # data-register bit of the step signal
+    dir_bit: int                # data-register bit of the direction signal
+    invert_step: bool = False
+    invert_dir: bool = False
+
+    @property
+    def backlash_steps(self) -> int:
+        """The compensation clearance rounded to whole steps."""
+        return round(self.backlash_mm * self.steps_per_mm)
+
+    @property
+    def min_steps(self) -> int:
+        return math.ceil(self.min_mm * self.steps_per_mm - 1e-9)
+
+    @property
+    def max_steps(self) -> int:
+        return math.floor(self.max_mm * self.steps_per_mm + 1e-9)
+
+    @property
+    def step_mm(self) -> float:
+        return 1.0 / self.steps_per_mm
+
+    def to_steps(self, mm: float) -> int:
+        """Nearest whole step to a position in mm."""
+        return round(mm * self.steps_per_mm)
+
+    def to_mm(self, steps: float) -> float:
+        return steps / self.steps_per_mm
+
+
+@dataclass(frozen=True)
+class SimModel:
+    """The physical machine the simulator models (may differ from what the controller assumes)."""
+
+    dead_band_mm: dict[str, float]
+
+
+@dataclass(frozen=True)
+class Machine:
+    """A whole machine: its axes in order, the tick, the simulator's physics and optional parts."""
+
+    name: str
+    description: str
+    source: str                     # file it was read from
+    tick_us: float
+    axes: tuple[Axis, ...]
+    sim: SimModel
+    parts: dict[str, object] = field(default_factory=dict)   # optional sections, see SECTION_PARSERS
+
+    @property
+    def tick_s(self) -> float:
+        return self.tick_us * 1e-6
+
+    @property
+    def axis_names(self) -> tuple[str, ...]:
+        return tuple(a.name for a in self.axes)
+
+    def axis(self, name: str) -> Axis:
+        for a in self.axes:
+            if a.name == name.upper():
+                return a
+        raise ConfigError(f"{self.name}: no axis {name!r}; axes are {', '.join(self.axis_names)}")
+
+    def ticks(self, seconds: float) -> int:
+        """Nearest whole tick to a time in seconds."""
+        return round(seconds / self.tick_s)
+
+
+#: Optional top-level sections other parts of retrofit read: name -> parser(Section, Machine axes).
+SECTION_PARSERS: dict[str, Callable[[Section, tuple[Axis, ...]], object]] = {}
+
+
+def machines_dir():
+    return resources.files("retrofit") / "machines"
+
+
+def list_machines() -> list[str]:
+    """Names of the machine files shipped with retrofit."""
+    return sorted(p.name[:-5] for p in machines_dir().iterdir() if p.name.endswith(".toml"))
+
+
+def resolve_machine_path(name_or_path: str | Path) -> Path:
+    text = str(name_or_path)
+    if text.endswith(".toml") or "/" in text or "\\" in text:
+        return Path(text)
+    candidate = machines_dir() / f"{text}.toml"
+    if not candidate.is_file():
+        raise ConfigError(f"unknown machine {text!r}; shipped machines: {', '.join(list_machines())}"
+                          " (or give a path to a .toml file)")
+    return Path(str(candidate))
+
+
+def load_machine(name_or_path: str | Path) -> Machine:
+    """Load a machine by shipped name (``"chivu-lathe"``) or by path to a TOML file.
+
+    Raises ConfigError naming file, section and key for a typo key, a wrong type or a value
+    out of range.
+    """
+    path = resolve_machine_path(name_or_path)
+    root = Section(path.name, "", load_toml(path))
+    head = root.section("machine")
+    name = head.get_str("name")
+    description = head.get_str("description", "")
+    tick_us = head.get_float("tick_us", above=0.0, maxval=1e6)
+    head.finish()
+    axes_section = root.section("axis")
+    axes = tuple(_read_axis(key, sec) for key, sec in axes_section.subsections())
+    axes_section.finish()
+    if not axes:
+        raise ConfigError(f"{path.name} [axis]: a machine needs at least one axis ([axis.x] ...)")
+    _check_pins(path.name, axes)
+    sim = _read_sim(root.section("sim", required=False), axes, path.name)
+    parts = {}
+    for key in list(root._data):
+        if key in SECTION_PARSERS:
+            parts[key] = SECTION_PARSERS[key](root.section(key), axes)
+    root.finish()
+    return Machine(name=name, description=description, source=str(path), tick_us=tick_us,
+                   axes=axes, sim=sim, parts=parts)
+
+
+def _read_axis(key: str, sec: Section) -> Axis:
+    step_pin = sec.get_int("step_pin", minval=2, maxval=9)
+    dir_pin = sec.get_int("dir_pin", minval=2, maxval=9)
+    min_mm = sec.get_float("min_mm")
+    max_mm = sec.get_float("max_mm")
+    if not max_mm > min_mm:
+        raise sec.error("max_mm", f"must be > min_mm ({min_mm:g})")
+    axis = Axis(
+        name=key.upper(),
+        label=sec.get_str("label", key.upper()),
+        steps_per_mm=sec.get_float("steps_per_mm", above=0.0, maxval=1e6),
+        min_mm=min_mm,
+        max_mm=max_mm,
+        pulse_high_ticks=sec.get_int("pulse_high_ticks", 1, minval=1, maxval=10_000),
+        pulse_low_ticks=sec.get_int("pulse_low_ticks", 1, minval=1, maxval=10_000),
+        dir_setup_ticks=sec.get_int("dir_setup_ticks", 1, minval=0, maxval=10_000),
+        dir_hold_ticks=sec.get_int("dir_hold_ticks", 1, minval=0, maxval=10_000),
+        backlash_mm=sec.get_float("backlash_mm", 0.0, minval=0.0, maxval=10.0),
+        max_velocity_mm_s=sec.get_float("max_velocity_mm_s", 50.0, above=0.0),
+        max_accel_mm_s2=sec.get_float("max_accel_mm_s2", 500.0, above=0.0),
+        step_bit=step_pin - 2,
+        dir_bit=dir_pin - 2,
+        invert_step=sec.get_bool("invert_step", False),
+        invert_dir=sec.get_bool("invert_dir", False),
+    )
+    sec.finish()
+    return axis
+
+
+def _check_pins(file: str, axes: tuple[Axis, ...]) -> None:
+    used: dict[int, str] = {}
+    for axis in axes:
+        for what, bit in (("step_pin", axis.step_bit), ("dir_pin", axis.dir_bit)):
+            if bit in used:
+                raise ConfigError(f"{file} [axis.{axis.name.lower()}] {what} = {bit + 2}: "
+                                  f"already used by {used[bit]}; each DB25 data pin (2..9) drives one signal")
+            used[bit] = f"{axis.name}.{what}"
+
+
+def _read_sim(sec: Section | None, axes: tuple[Axis, ...], file: str) -> SimModel:
+    if sec is None:
+        return SimModel(dead_band_mm={a.name: 0.0 for a in axes})
+    bands = sec.section("dead_band_mm", required=False)
+    dead: dict[str, float] = {a.name: 0.0 for a in axes}
+    if bands is not None:
+        for axis in axes:
+            dead[axis.name] = bands.get_float(axis.name.lower(), 0.0, minval=0.0, maxval=10.0)
+        bands.finish()
+    sec.finish()
+    return SimModel(dead_band_mm=dead)

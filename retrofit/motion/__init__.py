@@ -1,0 +1,1 @@
+"""Motion: pure, deterministic algorithms in integer ticks and steps (no I/O)."""

@@ -1,0 +1,103 @@
+"""The output contract: open, write port frames, close; options parsed once from the URL.
+
+An output is chosen by URL (``sim://``, ``vcd://out.vcd``, ...). Each backend states its URL
+grammar first in its docstring and declares its typed query options in ``options``; an unknown
+option is refused with the accepted form repeated.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Any, ClassVar
+from urllib.parse import parse_qsl, urlsplit
+
+from ..config import Machine
+from ..errors import OutputError
+from ..frames import PortFrames
+
+
+@dataclass(frozen=True)
+class OutputURL:
+    """A parsed output URL: ``scheme://target?key=value&...``."""
+
+    text: str
+    scheme: str
+    target: str
+    query: dict[str, str]
+
+    @classmethod
+    def parse(cls, text: str) -> "OutputURL":
+        if "://" not in text:
+            raise OutputError(f"output {text!r} is not a URL; expected scheme://..., e.g. sim:// or vcd://out.vcd")
+        parts = urlsplit(text)
+        target = (parts.netloc + parts.path) if parts.netloc else parts.path
+        return cls(text, parts.scheme.lower(), target, dict(parse_qsl(parts.query, keep_blank_values=True)))
+
+
+class Output(ABC):
+    """Base of every output. Subclasses set ``scheme``, ``grammar`` and ``options``.
+
+    Contract: ``open()`` before the first ``write()``; ``write(frames)`` takes port frames in
+    tick order (it may be called several times, each chunk continuing the last); ``close()``
+    finishes and releases everything, and is safe to call twice. Use as a context manager.
+    """
+
+    scheme: ClassVar[str] = ""
+    grammar: ClassVar[str] = ""
+    summary: ClassVar[str] = ""
+    #: typed query options: name -> (type, default)
+    options: ClassVar[dict[str, tuple[type, Any]]] = {}
+
+    def __init__(self, url: OutputURL, machine: Machine):
+        self.url = url
+        self.machine = machine
+        self.opts = self._parse_options(url)
+        self.is_open = False
+
+    def _parse_options(self, url: OutputURL) -> dict[str, Any]:
+        opts = {name: default for name, (_, default) in self.options.items()}
+        for key, raw in url.query.items():
+            if key not in self.options:
+                known = ", ".join(self.options) or "none"
+                raise OutputError(f"{url.text}: unknown option {key!r}; expected {self.grammar} "
+                                  f"(options: {known})")
+            kind = self.options[key][0]
+            try:
+                opts[key] = _convert(kind, raw)
+            except ValueError:
+                raise OutputError(f"{url.text}: option {key}={raw!r} must be {kind.__name__}; "
+                                  f"expected {self.grammar}") from None
+        return opts
+
+    def open(self) -> None:
+        self.is_open = True
+
+    @abstractmethod
+    def write(self, frames: PortFrames) -> None:
+        """Take the next chunk of port frames."""
+
+    def close(self) -> None:
+        self.is_open = False
+
+    def observe(self) -> dict | None:
+        """What this output knows of the machine after the run (the simulator answers; others None)."""
+        return None
+
+    def __enter__(self):
+        self.open()
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False
+
+
+def _convert(kind: type, raw: str):
+    if kind is bool:
+        if raw.lower() in ("1", "true", "yes", "on", ""):
+            return True
+        if raw.lower() in ("0", "false", "no", "off"):
+            return False
+        raise ValueError(raw)
+    return kind(raw)

@@ -1,0 +1,67 @@
+"""The run report: a stable JSON contract (docs/report.md) shared by every command that moves axes."""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+
+from .runlog import RunLog
+from .sim import SimMachine
+
+
+def build_report(log: RunLog, sim: SimMachine) -> dict:
+    """The report of one run: the controller's log joined with what the machine really did."""
+    machine = log.machine
+    final = log.final_target
+    axes = {}
+    for i, axis in enumerate(machine.axes):
+        motor_steps = sim.motor_steps[i]
+        errors = [abs(sim.state_at(w.reached_tick)[axis.name][1] - axis.to_mm(w.steps[i]))
+                  for w in log.waypoints if w.reached_tick is not None]
+        axes[axis.name] = {
+            "steps": int(log.steps_emitted.get(axis.name, 0)),
+            "target_mm": round(axis.to_mm(final[i]), 6),
+            "motor_mm": round(axis.to_mm(motor_steps), 6),
+            "carriage_mm": round(sim.carriage_mm(axis.name), 6),
+            "reversals": int(sim.reversals[i]),
+            "max_carriage_error_mm": round(max(errors, default=0.0), 6),
+        }
+    return {
+        "machine": machine.name,
+        "tick_us": float(machine.tick_us),
+        "ticks": int(log.ticks),
+        "duration_s": round(log.ticks * machine.tick_s, 6),
+        "axes": axes,
+        "violations": [v.as_dict() for v in sim.violations],
+        "max_following_error_steps": int(log.max_following_error_steps),
+    }
+
+
+def write_json_atomic(path: str | Path, data: dict) -> None:
+    """Write JSON so that the file is either the old one or the whole new one, never half."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w") as fh:
+            json.dump(data, fh, indent=2)
+            fh.write("\n")
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def summary_lines(report: dict) -> list[str]:
+    """A short human summary of a report."""
+    lines = [f"{report['machine']}: {report['ticks']} ticks of {report['tick_us']:g} us "
+             f"= {report['duration_s']:.3f} s of machine time"]
+    for name, ax in report["axes"].items():
+        lines.append(f"  {name}: {ax['steps']} steps, target {ax['target_mm']:.3f} mm, carriage "
+                     f"{ax['carriage_mm']:.3f} mm, {ax['reversals']} reversals, worst carriage error "
+                     f"at a reached point {ax['max_carriage_error_mm']:.3f} mm")
+    n = len(report["violations"])
+    lines.append(f"  violations: {n}" + (f" (first: {report['violations'][0]})" if n else ""))
+    return lines

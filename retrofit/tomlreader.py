@@ -1,0 +1,125 @@
+"""Strict, typed reading of TOML tables: every key read once, every error names file, section, key."""
+
+from __future__ import annotations
+
+import difflib
+import math
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from .errors import ConfigError
+
+_MISSING = object()
+
+
+def load_toml(path: Path) -> dict:
+    """Parse a TOML file, turning syntax errors into a one-line ConfigError."""
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: no such machine file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+
+
+class Section:
+    """One TOML table read strictly: typed getters with ranges, and a check for keys nobody read.
+
+    Klipper's habit: an option that nothing reads is a typo, so it is an error.
+    """
+
+    def __init__(self, file: str, name: str, data: dict):
+        self.file, self.name, self._data = file, name, data
+        self._read: set[str] = set()
+
+    # -- errors -----------------------------------------------------------------------------
+    def error(self, key: str, message: str) -> ConfigError:
+        """A ConfigError worded `file [section] key = value: message`."""
+        value = self._data.get(key, None)
+        shown = "" if value is None or isinstance(value, dict) else f" = {value!r}"
+        return ConfigError(f"{self.file} [{self.name}] {key}{shown}: {message}")
+
+    # -- getters ----------------------------------------------------------------------------
+    def has(self, key: str) -> bool:
+        return key in self._data
+
+    def _raw(self, key: str, default: Any) -> Any:
+        self._read.add(key)
+        if key in self._data:
+            return self._data[key]
+        if default is _MISSING:
+            typo = difflib.get_close_matches(key, [k for k in self._data if k not in self._read], 1)
+            if typo:
+                raise ConfigError(f"{self.file} [{self.name}] {typo[0]}: unknown key (did you mean {key}?)")
+            raise ConfigError(f"{self.file} [{self.name}] {key}: missing (required)")
+        return default
+
+    def get_float(self, key: str, default: Any = _MISSING, *, minval: float | None = None,
+                  maxval: float | None = None, above: float | None = None) -> float:
+        value = self._raw(key, default)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise self.error(key, f"must be a number, not {type(value).__name__}")
+        value = float(value)
+        if not math.isfinite(value):
+            raise self.error(key, "must be a finite number")
+        self._check_range(key, value, minval, maxval, above)
+        return value
+
+    def get_int(self, key: str, default: Any = _MISSING, *, minval: int | None = None,
+                maxval: int | None = None) -> int:
+        value = self._raw(key, default)
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self.error(key, f"must be a whole number, not {type(value).__name__}")
+        self._check_range(key, value, minval, maxval, None)
+        return value
+
+    def get_bool(self, key: str, default: Any = _MISSING) -> bool:
+        value = self._raw(key, default)
+        if not isinstance(value, bool):
+            raise self.error(key, "must be true or false")
+        return value
+
+    def get_str(self, key: str, default: Any = _MISSING, *, choices: tuple[str, ...] | None = None) -> str:
+        value = self._raw(key, default)
+        if not isinstance(value, str):
+            raise self.error(key, f"must be a string, not {type(value).__name__}")
+        if choices is not None and value not in choices:
+            raise self.error(key, f"must be one of {', '.join(choices)}")
+        return value
+
+    def get_list(self, key: str, default: Any = _MISSING) -> list:
+        value = self._raw(key, default)
+        if not isinstance(value, list):
+            raise self.error(key, f"must be a list, not {type(value).__name__}")
+        return value
+
+    def section(self, key: str, *, required: bool = True) -> "Section | None":
+        """A sub-table as a Section of its own (checked separately)."""
+        value = self._raw(key, _MISSING if required else None)
+        if value is None:
+            return None
+        if not isinstance(value, dict):
+            raise self.error(key, "must be a table")
+        return Section(self.file, f"{self.name}.{key}" if self.name else key, value)
+
+    def subsections(self) -> list[tuple[str, "Section"]]:
+        """Every key of this table as a sub-section, in file order."""
+        return [(key, self.section(key)) for key in list(self._data)]
+
+    def finish(self) -> None:
+        """Refuse keys nothing read (typos)."""
+        unread = [k for k in self._data if k not in self._read]
+        if unread:
+            key = unread[0]
+            known = ", ".join(sorted(self._read)) or "none"
+            raise ConfigError(f"{self.file} [{self.name}] {key}: unknown key; known keys here: {known}")
+
+    def _check_range(self, key, value, minval, maxval, above) -> None:
+        if above is not None and not value > above:
+            raise self.error(key, f"must be > {above:g}")
+        if minval is not None and value < minval:
+            raise self.error(key, f"must be >= {minval:g}")
+        if maxval is not None and value > maxval:
+            raise self.error(key, f"must be <= {maxval:g}")
