@@ -9,10 +9,17 @@ from importlib import import_module
 
 from .errors import RetrofitError
 
-#: modules that add sub-commands: each has ``add_commands(subparsers)`` and imports heavy
-#: libraries only inside its command functions
-COMMAND_MODULES: list[str] = [
-]
+
+def command_modules() -> list[str]:
+    """Modules ``retrofit/cli_*.py`` that add sub-commands.
+
+    Each has ``add_commands(subparsers)`` and imports heavy libraries only inside its command
+    functions, so building the parser stays cheap.
+    """
+    import pkgutil
+    import retrofit
+    return sorted(f"retrofit.{m.name}" for m in pkgutil.iter_modules(retrofit.__path__)
+                  if m.name.startswith("cli_"))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -44,7 +51,7 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--radius", type=float, default=15.0, help="circle radius in mm (default 15)")
     d.add_argument("--points", type=int, default=100, help="points on the circle (default 100)")
     d.set_defaults(func=_cmd_demo)
-    for module in COMMAND_MODULES:
+    for module in command_modules():
         import_module(module).add_commands(sub)
     return p
 

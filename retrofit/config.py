@@ -18,6 +18,8 @@ from .tomlreader import Section, load_toml
 
 #: DB25 data pins 2..9 drive data register bits 0..7 (003, Table 1).
 DB25_DATA_PINS = tuple(range(2, 10))
+#: what the step / direction pins of a machine are wired to
+PORT_KINDS = ("db25", "ramps", "none")
 
 
 @dataclass(frozen=True)
@@ -36,8 +38,10 @@ class Axis:
     backlash_mm: float          # compensation clearance ('JocT' / 'JocL')
     max_velocity_mm_s: float
     max_accel_mm_s2: float
-    step_bit: int               # data-register bit of the step signal
-    dir_bit: int                # data-register bit of the direction signal
+    step_bit: int               # bit of the step signal in the port frame byte
+    dir_bit: int                # bit of the direction signal in the port frame byte
+    step_pin: int | None        # the connector pin (DB25 pin on a parallel port, board pin on RAMPS)
+    dir_pin: int | None
     invert_step: bool = False
     invert_dir: bool = False
 
@@ -81,6 +85,7 @@ class Machine:
     description: str
     source: str                     # file it was read from
     tick_us: float
+    port: str                       # "db25" (parallel port), "ramps" (Arduino board pins), "none"
     axes: tuple[Axis, ...]
     sim: SimModel
     parts: dict[str, object] = field(default_factory=dict)   # optional sections, see SECTION_PARSERS
@@ -140,12 +145,15 @@ def load_machine(name_or_path: str | Path) -> Machine:
     name = head.get_str("name")
     description = head.get_str("description", "")
     tick_us = head.get_float("tick_us", above=0.0, maxval=1e6)
+    port = head.get_str("port", "db25", choices=PORT_KINDS)
     head.finish()
     axes_section = root.section("axis")
-    axes = tuple(_read_axis(key, sec) for key, sec in axes_section.subsections())
+    axes = tuple(_read_axis(key, sec, port, i) for i, (key, sec) in enumerate(axes_section.subsections()))
     axes_section.finish()
     if not axes:
         raise ConfigError(f"{path.name} [axis]: a machine needs at least one axis ([axis.x] ...)")
+    if len(axes) > 4:
+        raise ConfigError(f"{path.name} [axis]: at most 4 axes fit a port frame byte (step + dir each)")
     _check_pins(path.name, axes)
     sim = _read_sim(root.section("sim", required=False), axes, path.name)
     parts = {}
@@ -153,13 +161,22 @@ def load_machine(name_or_path: str | Path) -> Machine:
         if key in SECTION_PARSERS:
             parts[key] = SECTION_PARSERS[key](root.section(key), axes)
     root.finish()
-    return Machine(name=name, description=description, source=str(path), tick_us=tick_us,
+    return Machine(name=name, description=description, source=str(path), tick_us=tick_us, port=port,
                    axes=axes, sim=sim, parts=parts)
 
 
-def _read_axis(key: str, sec: Section) -> Axis:
-    step_pin = sec.get_int("step_pin", minval=2, maxval=9)
-    dir_pin = sec.get_int("dir_pin", minval=2, maxval=9)
+def _read_axis(key: str, sec: Section, port: str, index: int) -> Axis:
+    """One [axis.*] table. On a DB25 port the pins choose the data bits (pin 2 = bit 0);
+    elsewhere axis i uses bits 2i (step) and 2i + 1 (direction) of the frame byte."""
+    if port == "db25":
+        step_pin = sec.get_int("step_pin", minval=2, maxval=9)
+        dir_pin = sec.get_int("dir_pin", minval=2, maxval=9)
+        step_bit, dir_bit = step_pin - 2, dir_pin - 2
+    else:
+        required = port == "ramps"
+        step_pin = sec.get_int("step_pin", minval=0, maxval=255) if required else None
+        dir_pin = sec.get_int("dir_pin", minval=0, maxval=255) if required else None
+        step_bit, dir_bit = 2 * index, 2 * index + 1
     min_mm = sec.get_float("min_mm")
     max_mm = sec.get_float("max_mm")
     if not max_mm > min_mm:
@@ -177,8 +194,10 @@ def _read_axis(key: str, sec: Section) -> Axis:
         backlash_mm=sec.get_float("backlash_mm", 0.0, minval=0.0, maxval=10.0),
         max_velocity_mm_s=sec.get_float("max_velocity_mm_s", 50.0, above=0.0),
         max_accel_mm_s2=sec.get_float("max_accel_mm_s2", 500.0, above=0.0),
-        step_bit=step_pin - 2,
-        dir_bit=dir_pin - 2,
+        step_bit=step_bit,
+        dir_bit=dir_bit,
+        step_pin=step_pin,
+        dir_pin=dir_pin,
         invert_step=sec.get_bool("invert_step", False),
         invert_dir=sec.get_bool("invert_dir", False),
     )
@@ -189,11 +208,13 @@ def _read_axis(key: str, sec: Section) -> Axis:
 def _check_pins(file: str, axes: tuple[Axis, ...]) -> None:
     used: dict[int, str] = {}
     for axis in axes:
-        for what, bit in (("step_pin", axis.step_bit), ("dir_pin", axis.dir_bit)):
-            if bit in used:
-                raise ConfigError(f"{file} [axis.{axis.name.lower()}] {what} = {bit + 2}: "
-                                  f"already used by {used[bit]}; each DB25 data pin (2..9) drives one signal")
-            used[bit] = f"{axis.name}.{what}"
+        for what, pin in (("step_pin", axis.step_pin), ("dir_pin", axis.dir_pin)):
+            if pin is None:
+                continue
+            if pin in used:
+                raise ConfigError(f"{file} [axis.{axis.name.lower()}] {what} = {pin}: "
+                                  f"already used by {used[pin]}; each pin drives one signal")
+            used[pin] = f"{axis.name}.{what}"
 
 
 def _read_sim(sec: Section | None, axes: tuple[Axis, ...], file: str) -> SimModel:
