@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Callable
+from importlib import import_module
 
 from .errors import ConfigError
 from .tomlreader import Section, load_toml
@@ -78,6 +78,19 @@ class SimModel:
 
 
 @dataclass(frozen=True)
+class MotionSettings:
+    """How the planner moves the axes ([motion] section; every key has a default)."""
+
+    arc_tolerance_mm: float = 0.002      # allowed radius error of an arc's chords (004's e)
+    rapid_feed_mm_min: float = 3000.0    # FMOV / ZMOV feed (FFDR) unless a command sets another
+    default_feed_mm_min: float = 300.0   # PMOV feed (PFDR) before any F word
+    lookahead: int = 16                  # moves the planner looks ahead (1 = stop at every junction)
+    profile: str = "trapezoid"           # or "exponential" (the engraver paper's ramp)
+    junction_deviation_mm: float = 0.01  # how much a junction may round a corner when taken at speed
+    interpolator: str = "bresenham"      # or "dda" (004's digital integration)
+
+
+@dataclass(frozen=True)
 class Machine:
     """A whole machine: its axes in order, the tick, the simulator's physics and optional parts."""
 
@@ -88,6 +101,7 @@ class Machine:
     port: str                       # "db25" (parallel port), "ramps" (Arduino board pins), "none"
     axes: tuple[Axis, ...]
     sim: SimModel
+    motion: MotionSettings = MotionSettings()
     parts: dict[str, object] = field(default_factory=dict)   # optional sections, see SECTION_PARSERS
 
     @property
@@ -109,8 +123,11 @@ class Machine:
         return round(seconds / self.tick_s)
 
 
-#: Optional top-level sections other parts of retrofit read: name -> parser(Section, Machine axes).
-SECTION_PARSERS: dict[str, Callable[[Section, tuple[Axis, ...]], object]] = {}
+#: Optional top-level sections other parts of retrofit read: name -> "module:function", imported
+#: when a machine file has that section. The function takes (Section, axes) and returns a frozen
+#: object stored in ``Machine.parts[name]``; it must read every key and call ``section.finish()``.
+SECTION_PARSERS: dict[str, str] = {
+}
 
 
 def machines_dir():
@@ -156,13 +173,15 @@ def load_machine(name_or_path: str | Path) -> Machine:
         raise ConfigError(f"{path.name} [axis]: at most 4 axes fit a port frame byte (step + dir each)")
     _check_pins(path.name, axes)
     sim = _read_sim(root.section("sim", required=False), axes, path.name)
+    motion = _read_motion(root.section("motion", required=False))
     parts = {}
     for key in list(root._data):
         if key in SECTION_PARSERS:
-            parts[key] = SECTION_PARSERS[key](root.section(key), axes)
+            module, _, func = SECTION_PARSERS[key].partition(":")
+            parts[key] = getattr(import_module(module), func)(root.section(key), axes)
     root.finish()
     return Machine(name=name, description=description, source=str(path), tick_us=tick_us, port=port,
-                   axes=axes, sim=sim, parts=parts)
+                   axes=axes, sim=sim, motion=motion, parts=parts)
 
 
 def _read_axis(key: str, sec: Section, port: str, index: int) -> Axis:
@@ -228,3 +247,20 @@ def _read_sim(sec: Section | None, axes: tuple[Axis, ...], file: str) -> SimMode
         bands.finish()
     sec.finish()
     return SimModel(dead_band_mm=dead)
+
+
+def _read_motion(sec: Section | None) -> MotionSettings:
+    if sec is None:
+        return MotionSettings()
+    d = MotionSettings()
+    settings = MotionSettings(
+        arc_tolerance_mm=sec.get_float("arc_tolerance_mm", d.arc_tolerance_mm, above=0.0, maxval=1.0),
+        rapid_feed_mm_min=sec.get_float("rapid_feed_mm_min", d.rapid_feed_mm_min, above=0.0),
+        default_feed_mm_min=sec.get_float("default_feed_mm_min", d.default_feed_mm_min, above=0.0),
+        lookahead=sec.get_int("lookahead", d.lookahead, minval=1, maxval=1024),
+        profile=sec.get_str("profile", d.profile, choices=("trapezoid", "exponential")),
+        junction_deviation_mm=sec.get_float("junction_deviation_mm", d.junction_deviation_mm, minval=0.0),
+        interpolator=sec.get_str("interpolator", d.interpolator, choices=("bresenham", "dda")),
+    )
+    sec.finish()
+    return settings
