@@ -1,0 +1,115 @@
+"""Arcs as chords: the engraver paper's chord length from an allowed radius error (004).
+
+An arc of radius ``r`` is cut into chords whose sagitta (the largest gap between a chord and the
+arc, at the chord's middle) is at most the allowed radius error ``e``. 004 gives the chord length
+``l = 2·sqrt(r² − (r − e)²)`` and the central angle it spans, ``θ = 2·asin(l / 2r)``; the arc is
+then cut into the fewest equal central angles no larger than ``θ`` and each chord is run as a
+line. Positions are in mm; the last point is the end point exactly, so an arc never leaves a
+rounding error behind it::
+
+    >>> pts = arc_points((10.0, 0.0), (0.0, 10.0), (0.0, 0.0), False, (0, 1), 0.5)
+    >>> len(pts), pts[-1]
+    (3, (0.0, 10.0))
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+#: no chord spans more than a quarter turn, however coarse the tolerance
+MAX_CHORD_ANGLE = math.pi / 2
+
+
+def chord_length(radius_mm: float, tolerance_mm: float) -> float:
+    """Longest chord of an arc of ``radius_mm`` whose sagitta is ``tolerance_mm`` (004's ``l``).
+
+    ``l = 2·sqrt(r² − (r − e)²) = 2·sqrt(e·(2r − e))``; for ``r <= e`` the whole circle lies
+    within the tolerance and the diameter ``2r`` is returned.
+    """
+    _check(radius_mm, tolerance_mm)
+    if radius_mm <= tolerance_mm:
+        return 2.0 * radius_mm
+    return 2.0 * math.sqrt(tolerance_mm * (2.0 * radius_mm - tolerance_mm))
+
+
+def chord_angle(radius_mm: float, tolerance_mm: float) -> float:
+    """Central angle (radians) of the chord whose sagitta is the allowed radius error.
+
+    ``θ = 2·asin(l / 2r)`` with ``l`` from :func:`chord_length`, never more than a quarter turn
+    (:data:`MAX_CHORD_ANGLE`): for ``r <= e`` one chord per quarter turn.
+
+    >>> round(math.degrees(chord_angle(15.0, 0.002)), 3)
+    1.871
+    """
+    half = chord_length(radius_mm, tolerance_mm) / 2.0
+    return min(MAX_CHORD_ANGLE, 2.0 * math.asin(min(1.0, half / radius_mm)))
+
+
+def arc_sweep(start: Sequence[float], end: Sequence[float], center: Sequence[float],
+              clockwise: bool, plane_axes: tuple[int, int], full_turns: int = 0) -> float:
+    """Central angle (radians, > 0) travelled from ``start`` to ``end`` around ``center``.
+
+    Coordinates are tuples over all axes; ``plane_axes`` = (first, second) index of the plane,
+    counter-clockwise being from the first axis towards the second. ``start == end`` in the
+    plane is a full turn; ``full_turns`` adds whole turns.
+    """
+    a, b = plane_axes
+    a0 = math.atan2(start[b] - center[b], start[a] - center[a])
+    a1 = math.atan2(end[b] - center[b], end[a] - center[a])
+    if (start[a], start[b]) == (end[a], end[b]):
+        sweep = 2.0 * math.pi
+    else:
+        sweep = (a0 - a1) if clockwise else (a1 - a0)
+        sweep %= 2.0 * math.pi
+        if sweep == 0.0:          # same angle, different radius: a spiral once round
+            sweep = 2.0 * math.pi
+    return sweep + 2.0 * math.pi * full_turns
+
+
+def arc_points(start: Sequence[float], end: Sequence[float], center: Sequence[float],
+               clockwise: bool, plane_axes: tuple[int, int], tolerance_mm: float,
+               full_turns: int = 0) -> list[tuple[float, ...]]:
+    """End points (mm) of the chords of an arc; the start point is not included.
+
+    Parameters
+    ----------
+    start, end, center : tuples over all axes (the centre's coordinates off the plane are ignored)
+    clockwise : G2 (True) or G3 (False), seen with the plane's normal pointing at the viewer
+    plane_axes : (first, second) index of the plane's axes in the tuples, e.g. (0, 1) for XY
+    tolerance_mm : the allowed radius error ``e`` (largest sagitta of a chord)
+    full_turns : whole turns added to the sweep (``start == end`` is already one full turn)
+
+    Every chord spans the same central angle, at most :func:`chord_angle` of the larger of the
+    start and end radius, so no chord strays more than ``e`` from the arc. When the end radius
+    differs from the start radius the radius changes linearly with the angle (a spiral), and so
+    does every axis off the plane (helical motion). The last point is ``tuple(end)`` exactly.
+    """
+    a, b = plane_axes
+    r0 = math.hypot(start[a] - center[a], start[b] - center[b])
+    r1 = math.hypot(end[a] - center[a], end[b] - center[b])
+    if r0 == 0.0 or r1 == 0.0:
+        raise ValueError("arc radius is 0: the centre is on the start or the end point")
+    sweep = arc_sweep(start, end, center, clockwise, plane_axes, full_turns)
+    step = chord_angle(max(r0, r1), tolerance_mm)
+    n = max(1, math.ceil(sweep / step))
+    a0 = math.atan2(start[b] - center[b], start[a] - center[a])
+    sign = -1.0 if clockwise else 1.0
+    points = []
+    for k in range(1, n):
+        f = k / n
+        angle = a0 + sign * sweep * f
+        radius = r0 + (r1 - r0) * f
+        p = [s + (e - s) * f for s, e in zip(start, end)]
+        p[a] = center[a] + radius * math.cos(angle)
+        p[b] = center[b] + radius * math.sin(angle)
+        points.append(tuple(p))
+    points.append(tuple(float(v) for v in end))
+    return points
+
+
+def _check(radius_mm: float, tolerance_mm: float) -> None:
+    if not radius_mm > 0.0:
+        raise ValueError(f"arc radius {radius_mm} mm: must be > 0")
+    if not tolerance_mm > 0.0:
+        raise ValueError(f"arc tolerance {tolerance_mm} mm: must be > 0")

@@ -1,0 +1,149 @@
+"""Execute a plan, reference path: one interpolation cycle at a time, then one tick at a time.
+
+Readable on purpose, next to the papers:
+
+1. for each prepared move, the interpolator (Bresenham of 002, or 004's digital integration)
+   runs its execute phase cycle by cycle; each step gets the tick nearest its ideal time on the
+   move's velocity profile (a *step request*);
+2. the tick loop of 003 shapes the requests into pulses: each tick every axis's step generator
+   gives its bits, the port byte is computed once and recorded once, then each axis's next
+   request is tried (a step asked for during a pulse waits; the direction follows its set-up
+   and hold times).
+
+The fast path (``motion.fast``) must produce the very same port frames.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..frames import FrameRecorder, PinMap
+from ..runlog import RunLog, Waypoint
+from . import profile as prof
+from .bresenham import BresenhamExecutor, prepare_line
+from .dda import DdaExecutor, pulse_position
+from .planner import Plan
+from .stepgen import StepGenerator, StepTiming
+
+
+@dataclass
+class StepRequests:
+    """Per axis, the tick each step is wanted on and its direction; per move, steps so far."""
+
+    ticks: list[np.ndarray]
+    dirs: list[np.ndarray]
+    counts: np.ndarray          # counts[m, i]: steps of axis i requested up to the end of move m
+    move_end_ticks: np.ndarray  # tick nearest the planned end of each move
+    end_tick: int               # tick nearest the planned end of the program
+
+
+def tick_of(seconds: float, ticks_per_s: float) -> int:
+    """Nearest tick to a time (halves round up), the same rule on both paths."""
+    return int(math.floor(seconds * ticks_per_s + 0.5))
+
+
+def request_steps(plan: Plan) -> StepRequests:
+    """Step requests of every move, cycle by cycle (execute phase of the interpolator)."""
+    machine = plan.machine
+    rate = 1e6 / machine.tick_us
+    n_axes = len(machine.axes)
+    ticks: list[list[int]] = [[] for _ in range(n_axes)]
+    dirs: list[list[int]] = [[] for _ in range(n_axes)]
+    counts = np.zeros((len(plan.moves), n_axes), dtype=np.int64)
+    move_end = np.zeros(len(plan.moves), dtype=np.int64)
+    use_dda = machine.motion.interpolator == "dda"
+    for m, move in enumerate(plan.moves):
+        if move.profile is not None:
+            line = prepare_line(move.start, move.end)
+            steps = _dda_steps(line) if use_dda else _bresenham_steps(line)
+            length = move.profile[prof.P_LEN]
+            for axis, position, direction in steps:
+                s = position * length / line.n
+                t = move.t0_s + prof.time_at(s, move.profile)
+                ticks[axis].append(tick_of(t, rate))
+                dirs[axis].append(direction)
+        counts[m] = [len(t) for t in ticks]
+        move_end[m] = tick_of(move.t0_s + move.duration_s, rate)
+    return StepRequests([np.array(t, dtype=np.int64) for t in ticks],
+                        [np.array(d, dtype=np.int8) for d in dirs], counts, move_end,
+                        tick_of(plan.end_s, rate))
+
+
+def _bresenham_steps(line):
+    """(axis, position along the move in base steps, direction) of every step, in time order."""
+    executor = BresenhamExecutor(line)
+    cycle = 0
+    while not executor.done:
+        cycle += 1
+        for axis, step in enumerate(executor.step()):
+            if step:
+                yield axis, float(cycle), step
+    return
+
+
+def _dda_steps(line):
+    """The same for 004's digital integration: the k-th pulse of an axis with d pulses sits at k·n/d."""
+    executor = DdaExecutor(line)
+    sent = [0] * line.axes
+    while not executor.done:
+        for axis, delay in enumerate(executor.step()):
+            if delay is not None:
+                sent[axis] += 1
+                yield axis, pulse_position(sent[axis], line.n, abs(line.delta[axis])), line.direction[axis]
+
+
+def shape_reference(plan: Plan, requests: StepRequests) -> tuple:
+    """The tick loop of 003 over the requests: (port frames, rise ticks per axis)."""
+    machine = plan.machine
+    pins = PinMap(machine)
+    gens = [StepGenerator(StepTiming.of(a)) for a in machine.axes]
+    queues = [deque(zip(t.tolist(), d.tolist())) for t, d in zip(requests.ticks, requests.dirs)]
+    rises: list[list[int]] = [[] for _ in gens]
+    recorder = FrameRecorder()
+    tick = 0
+    while True:
+        bits = [gen.frame() for gen in gens]                       # 'PasAvans' for every axis
+        recorder.put(tick, pins.byte([b[0] for b in bits], [b[1] for b in bits]))   # once per tick
+        if tick >= requests.end_tick and not any(queues) and not any(g.busy for g in gens):
+            break
+        for gen, queue, axis_rises in zip(gens, queues, rises):
+            if not queue:
+                continue
+            due, direction = queue[0]
+            if gen.direction != direction and not gen.set_direction(direction):
+                continue                                          # hold time: turn as soon as allowed
+            if due <= tick + 1 and gen.start_step():
+                queue.popleft()
+                axis_rises.append(tick + 1)
+        tick += 1
+    return recorder.frames(tick + 1), [np.array(r, dtype=np.int64) for r in rises]
+
+
+def run_log(plan: Plan, requests: StepRequests, frames, rises: list[np.ndarray]) -> RunLog:
+    """The controller's log of an executed plan: waypoints reached, steps, following error."""
+    machine = plan.machine
+    log = RunLog(machine, frames, start_steps=plan.start_steps)
+    for m, move in enumerate(plan.moves):
+        last = [int(rises[i][c - 1]) for i, c in enumerate(requests.counts[m]) if c > 0
+                and (m == 0 or c > requests.counts[m - 1][i])]
+        reached = max(last) if last else int(requests.move_end_ticks[m])
+        log.waypoints.append(Waypoint(move.target, loaded_tick=0, reached_tick=reached))
+    log.steps_emitted = {a.name: int(len(r)) for a, r in zip(machine.axes, rises)}
+    lag = 0
+    for wanted, risen in zip(requests.ticks, rises):
+        if len(risen):
+            due_by = np.searchsorted(wanted, risen, side="right")
+            lag = max(lag, int(np.max(due_by - np.arange(1, len(risen) + 1))))
+    log.max_following_error_steps = lag
+    return log
+
+
+def execute_reference(plan: Plan) -> RunLog:
+    """Reference path: plan → step requests → tick loop → port frames and the run log."""
+    requests = request_steps(plan)
+    frames, rises = shape_reference(plan, requests)
+    return run_log(plan, requests, frames, rises)

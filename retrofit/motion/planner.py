@@ -1,0 +1,165 @@
+"""From commands to planned moves: targets in steps, backlash, limits, look-ahead and profiles.
+
+This is the *prepare* phase of 002 for a whole program: every motion command becomes a
+``PlannedMove`` holding all the constants the execute phase needs (start and end in motor
+steps, its velocity profile and its start time), so executing it is pure arithmetic.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from ..commands import Command, Dely, FFdr, FMov, MFdr, PFdr, PMov, Pstn, ZMov
+from ..config import Machine
+from ..errors import MotionError
+from . import profile as prof
+from .bresenham import prepare_line
+from .lookahead import Kinematics, plan_speeds
+
+#: the exponential profile starts from this speed (a stepper's start frequency), mm/s
+EXP_START_MM_S = 1.0
+
+
+@dataclass
+class PlannedMove:
+    """One prepared move (or dwell, when ``start == end`` and ``dwell_s > 0``)."""
+
+    start: tuple[int, ...]          # motor steps
+    end: tuple[int, ...]            # motor steps (backlash clearance included)
+    target: tuple[int, ...]         # commanded position at the end, in steps
+    t0_s: float                     # program time at which it starts
+    profile: np.ndarray | None      # profile row (see motion.profile), None for a dwell
+    dwell_s: float = 0.0
+    index: int = 0                  # position of the command in the program
+
+    @property
+    def duration_s(self) -> float:
+        return self.dwell_s if self.profile is None else prof.duration(self.profile)
+
+
+@dataclass
+class Plan:
+    machine: Machine
+    start_steps: tuple[int, ...]
+    moves: list[PlannedMove] = field(default_factory=list)
+    end_s: float = 0.0
+
+
+@dataclass
+class _Segment:
+    start: tuple[int, ...]
+    end: tuple[int, ...]
+    target: tuple[int, ...]
+    kin: Kinematics
+    dwell_s: float
+    index: int
+
+
+def plan_program(commands: Iterable[Command], machine: Machine, backlash_comp: bool = True,
+                 start_steps: Sequence[int] | None = None) -> Plan:
+    """Prepare every motion command of a program (see module doc)."""
+    start = tuple(start_steps or (0,) * len(machine.axes))
+    segments = list(_segments(list(commands), machine, backlash_comp, start))
+    settings = machine.motion
+    exponential = settings.profile == "exponential"
+    speeds = plan_speeds([s.kin for s in segments], settings.lookahead, settings.junction_deviation_mm,
+                         accel_scale=0.25 if exponential else 1.0)
+    plan = Plan(machine, start)
+    t = 0.0
+    for seg, (entry, exit_) in zip(segments, speeds):
+        row = None
+        if seg.kin.length_mm > 0.0:
+            k = seg.kin
+            row = (prof.exponential(k.length_mm, entry, k.v_max_mm_s, exit_, k.a_max_mm_s2,
+                                    min(EXP_START_MM_S, k.v_max_mm_s)) if exponential
+                   else prof.trapezoid(k.length_mm, entry, k.v_max_mm_s, exit_, k.a_max_mm_s2))
+        move = PlannedMove(seg.start, seg.end, seg.target, t, row, seg.dwell_s, seg.index)
+        plan.moves.append(move)
+        t = t + move.duration_s
+    plan.end_s = t
+    return plan
+
+
+def kinematics(machine: Machine, start: Sequence[int], end: Sequence[int], feed_mm_s: float) -> Kinematics:
+    """Length, direction and speed / acceleration caps of a straight move in motor steps."""
+    mm = np.array([(e - s) / a.steps_per_mm for s, e, a in zip(start, end, machine.axes)])
+    length = float(math.sqrt(float(np.sum(mm * mm))))
+    if length == 0.0:
+        return Kinematics(0.0, np.zeros(len(mm)), feed_mm_s, 1.0)
+    unit = mm / length
+    v_max, a_max = feed_mm_s, math.inf
+    for u, axis in zip(np.abs(unit), machine.axes):
+        if u > 0:
+            v_max = min(v_max, axis.max_velocity_mm_s / u)
+            a_max = min(a_max, axis.max_accel_mm_s2 / u)
+    return Kinematics(length, unit, v_max, a_max)
+
+
+def _segments(commands: list[Command], machine: Machine, backlash_comp: bool, start: tuple[int, ...]):
+    """Walk the program as an interpreter would, yielding straight segments and dwells."""
+    axes = machine.axes
+    rapid = machine.motion.rapid_feed_mm_min
+    feed = machine.motion.default_feed_mm_min
+    position = list(start)                         # commanded, in steps
+    offset = [0] * len(axes)                       # PSTN: program coordinates -> machine steps
+    clearance = [a.backlash_steps if backlash_comp else 0 for a in axes]
+    last_dir = [-1] * len(axes)                    # the nut starts on its negative face
+    motor = list(start)
+    for index, cmd in enumerate(commands):
+        if isinstance(cmd, (FFdr,)):
+            rapid = _positive_feed(cmd)
+        elif isinstance(cmd, (PFdr, MFdr)):
+            feed = _positive_feed(cmd)
+        elif isinstance(cmd, Pstn):
+            for name, mm in cmd.axes:
+                i = machine.axis_names.index(_axis_name(machine, name))
+                offset[i] = position[i] - axes[i].to_steps(mm)
+        elif isinstance(cmd, Dely):
+            kin = Kinematics(0.0, np.zeros(len(axes)), 1.0, 1.0, stop_before=True)
+            yield _Segment(tuple(motor), tuple(motor), tuple(position), kin, cmd.seconds, index)
+        elif isinstance(cmd, (FMov, PMov, ZMov)):
+            target = _target(machine, cmd, position, offset)
+            for i, (old, new) in enumerate(zip(position, target)):
+                if new != old:
+                    last_dir[i] = 1 if new > old else -1
+            new_motor = tuple(t + (clearance[i] if last_dir[i] > 0 else 0) for i, t in enumerate(target))
+            prepare_line(tuple(motor), new_motor, machine.axis_names)   # refuses moves outside the 24-bit step space
+            speed = (rapid if isinstance(cmd, (FMov, ZMov)) else feed) / 60.0
+            kin = kinematics(machine, motor, new_motor, speed)
+            kin.stop_before = isinstance(cmd, ZMov)
+            yield _Segment(tuple(motor), new_motor, tuple(target), kin, 0.0, index)
+            position, motor = list(target), list(new_motor)
+
+
+def _positive_feed(cmd) -> float:
+    if not cmd.feed > 0:
+        raise MotionError(f"{cmd}: feed must be > 0 mm/min")
+    return cmd.feed
+
+
+def _axis_name(machine: Machine, name: str) -> str:
+    if name.upper() not in machine.axis_names:
+        raise MotionError(f"axis {name} is not on machine {machine.name} (axes: {', '.join(machine.axis_names)})")
+    return name.upper()
+
+
+def _target(machine: Machine, cmd: Command, position: list[int], offset: list[int]) -> list[int]:
+    """The commanded end point in machine steps, checked against the soft limits."""
+    target = list(position)
+    if isinstance(cmd, ZMov):          # machine zero (homing against switches is the controller's)
+        names = cmd.names or machine.axis_names
+        for name in names:
+            target[machine.axis_names.index(_axis_name(machine, name))] = 0
+    else:
+        for name, mm in cmd.axes:
+            i = machine.axis_names.index(_axis_name(machine, name))
+            target[i] = machine.axes[i].to_steps(mm) + offset[i]
+    for i, axis in enumerate(machine.axes):
+        if not axis.min_steps <= target[i] <= axis.max_steps:
+            raise MotionError(f"{cmd}: {axis.name} {axis.to_mm(target[i]):.3f} mm is outside the soft "
+                              f"limits {axis.min_mm:g}..{axis.max_mm:g} mm")
+    return target
