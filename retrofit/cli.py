@@ -51,6 +51,15 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--radius", type=float, default=15.0, help="circle radius in mm (default 15)")
     d.add_argument("--points", type=int, default=100, help="points on the circle (default 100)")
     d.set_defaults(func=_cmd_demo)
+
+    r = sub.add_parser("run", help="run a G-code part program on a machine")
+    r.add_argument("program", help="G-code file (.ngc); the shipped examples: lathe-profile.ngc, engraving.ngc")
+    motion_options(r)
+    r.add_argument("--reference", action="store_true",
+                   help="step by the readable per-tick reference path instead of the compiled fast path")
+    r.add_argument("--progress", choices=["auto", "on", "off"], default="auto",
+                   help="progress bar (auto: only on a terminal)")
+    r.set_defaults(func=_cmd_run)
     for module in command_modules():
         import_module(module).add_commands(sub)
     return p
@@ -85,6 +94,28 @@ def _cmd_demo(args) -> int:
     log = loop.run(circle_targets(machine, args.radius, args.points))
     comp = "off" if args.no_backlash_comp else "on"
     finish_run(args, log, f"{machine.name}: circle r={args.radius:g} mm, {args.points} points, backlash comp {comp}")
+    return 0
+
+
+def _cmd_run(args) -> int:
+    from .config import load_machine
+    from .runprogram import Progress, execute, plan_gcode, resolve_program
+    machine = load_machine(args.machine)
+    path = resolve_program(args.program)
+    progress = Progress(["compiling and planning", "stepping", "simulating"],
+                        None if args.progress == "auto" else args.progress == "on")
+    try:
+        program, plan = plan_gcode(path, machine, backlash_comp=not args.no_backlash_comp)
+        progress.next()
+        log = execute(plan, reference=args.reference)
+        progress.next()
+        comp = "off" if args.no_backlash_comp else "on"
+        path_name = "reference" if args.reference else "fast"
+        finish_run(args, log, f"{machine.name}: {path.name}, {len(program.commands)} commands, "
+                              f"{len(plan.moves)} moves, backlash comp {comp}, {path_name} path")
+        progress.next()
+    finally:
+        progress.close()
     return 0
 
 

@@ -39,9 +39,11 @@ def junction_speed(prev: Kinematics, nxt: Kinematics, deviation_mm: float) -> fl
         return limit
     if cos_turn <= -1.0 + 1e-12:
         return 0.0
-    sin_half = math.sqrt(0.5 * (1.0 - cos_turn))            # sine of half the turning angle
+    # the corner's inside angle is pi - turn; its half-angle sine is cos(turn / 2)
+    sin_half = math.sqrt(0.5 * (1.0 + cos_turn))
     accel = min(prev.a_max_mm_s2, nxt.a_max_mm_s2)
-    v2 = accel * deviation_mm * sin_half / (1.0 - sin_half)
+    radius = deviation_mm * sin_half / (1.0 - sin_half)     # the arc that rounds the corner
+    v2 = accel * radius
     return min(limit, math.sqrt(v2))
 
 

@@ -63,7 +63,7 @@ def plan_program(commands: Iterable[Command], machine: Machine, backlash_comp: b
                  start_steps: Sequence[int] | None = None) -> Plan:
     """Prepare every motion command of a program (see module doc)."""
     start = tuple(start_steps or (0,) * len(machine.axes))
-    segments = list(_segments(list(commands), machine, backlash_comp, start))
+    segments = list(_segments(list(commands), machine, backlash_comp, start))   # may raise MotionError
     settings = machine.motion
     exponential = settings.profile == "exponential"
     speeds = plan_speeds([s.kin for s in segments], settings.lookahead, settings.junction_deviation_mm,
@@ -101,38 +101,60 @@ def kinematics(machine: Machine, start: Sequence[int], end: Sequence[int], feed_
 
 def _segments(commands: list[Command], machine: Machine, backlash_comp: bool, start: tuple[int, ...]):
     """Walk the program as an interpreter would, yielding straight segments and dwells."""
-    axes = machine.axes
-    rapid = machine.motion.rapid_feed_mm_min
-    feed = machine.motion.default_feed_mm_min
-    position = list(start)                         # commanded, in steps
-    offset = [0] * len(axes)                       # PSTN: program coordinates -> machine steps
-    clearance = [a.backlash_steps if backlash_comp else 0 for a in axes]
-    last_dir = [-1] * len(axes)                    # the nut starts on its negative face
-    motor = list(start)
-    for index, cmd in enumerate(commands):
-        if isinstance(cmd, (FFdr,)):
-            rapid = _positive_feed(cmd)
+    walker = _Walker(machine, backlash_comp, start)
+    index = -1
+    try:
+        for index, cmd in enumerate(commands):
+            yield from walker.take(cmd, index)
+    except MotionError as exc:
+        exc.command_index = index             # lets a front end name the source line
+        raise
+
+
+class _Walker:
+    """The interpreter's state while a program is prepared: feeds, position, backlash side."""
+
+    def __init__(self, machine: Machine, backlash_comp: bool, start: tuple[int, ...]):
+        self.machine = machine
+        self.rapid = machine.motion.rapid_feed_mm_min
+        self.feed = machine.motion.default_feed_mm_min
+        self.position = list(start)                          # commanded, in steps
+        self.offset = [0] * len(machine.axes)                # PSTN: program coordinates -> machine steps
+        self.clearance = [a.backlash_steps if backlash_comp else 0 for a in machine.axes]
+        self.last_dir = [-1] * len(machine.axes)             # the nut starts on its negative face
+        self.motor = list(start)
+
+    def take(self, cmd: Command, index: int):
+        machine = self.machine
+        if isinstance(cmd, FFdr):
+            self.rapid = _positive_feed(cmd)
         elif isinstance(cmd, (PFdr, MFdr)):
-            feed = _positive_feed(cmd)
+            self.feed = _positive_feed(cmd)
         elif isinstance(cmd, Pstn):
             for name, mm in cmd.axes:
                 i = machine.axis_names.index(_axis_name(machine, name))
-                offset[i] = position[i] - axes[i].to_steps(mm)
+                self.offset[i] = self.position[i] - machine.axes[i].to_steps(mm)
         elif isinstance(cmd, Dely):
-            kin = Kinematics(0.0, np.zeros(len(axes)), 1.0, 1.0, stop_before=True)
-            yield _Segment(tuple(motor), tuple(motor), tuple(position), kin, cmd.seconds, index)
+            kin = Kinematics(0.0, np.zeros(len(machine.axes)), 1.0, 1.0, stop_before=True)
+            yield _Segment(tuple(self.motor), tuple(self.motor), tuple(self.position), kin, cmd.seconds, index)
         elif isinstance(cmd, (FMov, PMov, ZMov)):
-            target = _target(machine, cmd, position, offset)
-            for i, (old, new) in enumerate(zip(position, target)):
-                if new != old:
-                    last_dir[i] = 1 if new > old else -1
-            new_motor = tuple(t + (clearance[i] if last_dir[i] > 0 else 0) for i, t in enumerate(target))
-            prepare_line(tuple(motor), new_motor, machine.axis_names)   # refuses moves outside the 24-bit step space
-            speed = (rapid if isinstance(cmd, (FMov, ZMov)) else feed) / 60.0
-            kin = kinematics(machine, motor, new_motor, speed)
-            kin.stop_before = isinstance(cmd, ZMov)
-            yield _Segment(tuple(motor), new_motor, tuple(target), kin, 0.0, index)
-            position, motor = list(target), list(new_motor)
+            yield self._move(cmd, index)
+
+    def _move(self, cmd: Command, index: int) -> _Segment:
+        """A straight move in motor steps: the clearance is added while the nut is on its + face."""
+        machine = self.machine
+        target = _target(machine, cmd, self.position, self.offset)
+        for i, (old, new) in enumerate(zip(self.position, target)):
+            if new != old:
+                self.last_dir[i] = 1 if new > old else -1
+        motor = tuple(t + (self.clearance[i] if self.last_dir[i] > 0 else 0) for i, t in enumerate(target))
+        prepare_line(tuple(self.motor), motor, machine.axis_names)   # refuses moves outside the 24-bit space
+        speed = (self.rapid if isinstance(cmd, (FMov, ZMov)) else self.feed) / 60.0
+        kin = kinematics(machine, self.motor, motor, speed)
+        kin.stop_before = isinstance(cmd, ZMov)
+        segment = _Segment(tuple(self.motor), motor, tuple(target), kin, 0.0, index)
+        self.position, self.motor = list(target), list(motor)
+        return segment
 
 
 def _positive_feed(cmd) -> float:
