@@ -87,7 +87,7 @@ class MotionSettings:
     lookahead: int = 16                  # moves the planner looks ahead (1 = stop at every junction)
     profile: str = "trapezoid"           # or "exponential" (the engraver paper's ramp)
     junction_deviation_mm: float = 0.01  # how much a junction may round a corner when taken at speed
-    interpolator: str = "bresenham"      # or "dda" (004's digital integration)
+    interpolator: str = "dda"            # 004 digital integration (evenly spaced pulses), or "bresenham" (002)
 
 
 @dataclass(frozen=True)
@@ -127,6 +127,8 @@ class Machine:
 #: when a machine file has that section. The function takes (Section, axes) and returns a frozen
 #: object stored in ``Machine.parts[name]``; it must read every key and call ``section.finish()``.
 SECTION_PARSERS: dict[str, str] = {
+    "servo": "retrofit.camlink.servo:read_servo_section",
+    "parport": "retrofit.outputs.parport:read_parport_section",
 }
 
 

@@ -67,7 +67,9 @@ def plan_program(commands: Iterable[Command], machine: Machine, backlash_comp: b
     settings = machine.motion
     exponential = settings.profile == "exponential"
     speeds = plan_speeds([s.kin for s in segments], settings.lookahead, settings.junction_deviation_mm,
-                         accel_scale=0.25 if exponential else 1.0)
+                         accel_scale=0.25 if exponential else 1.0,
+                         axis_accel=np.array([a.max_accel_mm_s2 for a in machine.axes]),
+                         axis_step=np.array([a.step_mm for a in machine.axes]))
     plan = Plan(machine, start)
     t = 0.0
     for seg, (entry, exit_) in zip(segments, speeds):

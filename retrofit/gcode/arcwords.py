@@ -1,0 +1,99 @@
+"""G2/G3 words: the plane's axes, the arc centre from I/J/K or R, and the rules an arc must meet.
+
+Planes follow RS274NGC: G17 is XY, G18 is ZX (Z first, X second, so G2 is clockwise seen from
++Y), G19 is YZ. Counter-clockwise (G3) turns from the plane's first axis towards its second.
+I, J and K are the centre's offsets from the start point along X, Y and Z, always incremental.
+R is the radius: positive for the short way (at most half a turn), negative for the long way.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+from ..config import Machine
+from .validate import RuleError
+
+#: plane G code -> (first axis, second axis, normal axis)
+PLANES: dict[int, tuple[str, str, str]] = {17: ("X", "Y", "Z"), 18: ("Z", "X", "Y"), 19: ("Y", "Z", "X")}
+#: the centre-offset word of each axis
+OFFSET_LETTER = {"X": "I", "Y": "J", "Z": "K"}
+#: the end radius may differ from the start radius by at least this much (mm), so that programs
+#: written with three decimals still pass on a machine with a finer arc tolerance
+MIN_RADIUS_MISMATCH_MM = 0.002
+
+
+def allowed_radius_mismatch(machine: Machine) -> float:
+    """How far (mm) the end point may lie off the circle through the start point."""
+    return max(machine.motion.arc_tolerance_mm, MIN_RADIUS_MISMATCH_MM)
+
+
+def plane_axes(machine: Machine, plane: int, mode: int) -> tuple[str, str]:
+    """The (first, second) axis names of ``plane``; both must be on the machine."""
+    first, second, _ = PLANES[plane]
+    missing = [n for n in (first, second) if n not in machine.axis_names]
+    if missing:
+        raise RuleError(f"G{mode} in plane G{plane} needs axes {first} and {second}; machine "
+                        f"{machine.name} has {', '.join(machine.axis_names)} (select G18 for ZX)")
+    return first, second
+
+
+def arc_center(mode: int, plane: int, start: tuple[float, float], end: tuple[float, float],
+               words_mm: Mapping[str, float], texts: Mapping[str, str],
+               allowed_mm: float) -> tuple[float, float]:
+    """Plane coordinates (first, second) of the centre of a G2/G3 from ``start`` to ``end``.
+
+    ``words_mm`` holds the block's I/J/K/R values converted to mm, ``texts`` the words as
+    written (for messages).
+    """
+    first, second, _ = PLANES[plane]
+    in_plane = (OFFSET_LETTER[first], OFFSET_LETTER[second])
+    offsets = [c for c in "IJK" if c in words_mm]
+    for letter in offsets:
+        if letter not in in_plane:
+            raise RuleError(f"{texts[letter]} is not a centre offset in plane G{plane} "
+                            f"(use {in_plane[0]} and {in_plane[1]})")
+    if "R" in words_mm and offsets:
+        raise RuleError(f"G{mode} with both R and {texts[offsets[0]]}: give the centre one way")
+    if "R" in words_mm:
+        return _center_from_radius(mode, start, end, words_mm["R"], allowed_mm)
+    if not offsets:
+        raise RuleError(f"G{mode} needs I/J/K or R in plane G{plane}")
+    center = (start[0] + words_mm.get(in_plane[0], 0.0), start[1] + words_mm.get(in_plane[1], 0.0))
+    _check_radii(mode, start, end, center, allowed_mm)
+    return center
+
+
+def _check_radii(mode: int, start, end, center, allowed_mm: float) -> None:
+    r0 = math.dist(start, center)
+    r1 = math.dist(end, center)
+    if r0 == 0.0 or r1 == 0.0:
+        raise RuleError(f"G{mode} radius 0: the centre offsets put the centre on the "
+                        f"{'start' if r0 == 0.0 else 'end'} point")
+    if abs(r1 - r0) > allowed_mm:
+        raise RuleError(f"G{mode} radius mismatch {abs(r1 - r0):.4g} mm > {allowed_mm:g} mm "
+                        f"(start radius {r0:.3f}, end radius {r1:.3f})")
+
+
+def _center_from_radius(mode: int, start, end, radius: float, allowed_mm: float):
+    dx, dy = end[0] - start[0], end[1] - start[1]
+    d = math.hypot(dx, dy)
+    if d == 0.0:
+        raise RuleError(f"G{mode} with R cannot make a full circle (end point = start point); "
+                        "use I/J/K")
+    if radius == 0.0:
+        raise RuleError(f"G{mode} with R0: the radius must not be 0")
+    r = abs(radius)
+    h2 = r * r - (d / 2.0) ** 2
+    if h2 < 0.0:
+        if d / 2.0 - r > allowed_mm:
+            raise RuleError(f"G{mode} radius {r:.3f} mm is too small for the {d:.3f} mm from "
+                            f"start to end (needs |R| >= {d / 2.0:.3f} mm)")
+        h2 = 0.0
+    h = math.sqrt(h2)
+    # short way: the centre lies left of start->end for G3 (counter-clockwise), right for G2
+    side = 1.0 if mode == 3 else -1.0
+    if radius < 0.0:
+        side = -side
+    nx, ny = -dy / d, dx / d
+    return (start[0] + dx / 2.0 + side * h * nx, start[1] + dy / 2.0 + side * h * ny)
