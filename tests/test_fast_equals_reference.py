@@ -9,6 +9,7 @@ from retrofit.config import load_machine
 from retrofit.motion.execute import execute_reference
 from retrofit.motion.fast import execute_fast
 from retrofit.motion.planner import plan_program
+from retrofit.motion.vectorised import execute_numpy
 
 LATHE = load_machine("chivu-lathe")
 ENGRAVER = replace(load_machine("engraver"), tick_us=20.0)    # coarser tick keeps the per-tick loop short
@@ -57,11 +58,11 @@ def test_fast_path_equals_reference_bit_for_bit(data):
     commands = data.draw(programs(machine))
     plan = plan_program(commands, machine, backlash_comp=data.draw(st.booleans()))
     ref = execute_reference(plan)
-    fast = execute_fast(plan)
-    assert fast.frames == ref.frames                        # every port byte at every tick
-    assert [w.reached_tick for w in fast.waypoints] == [w.reached_tick for w in ref.waypoints]
-    assert fast.steps_emitted == ref.steps_emitted
-    assert fast.max_following_error_steps == ref.max_following_error_steps
+    for fast in (execute_fast(plan), execute_numpy(plan)):       # compiled, and plain NumPy
+        assert fast.frames == ref.frames                        # every port byte at every tick
+        assert [w.reached_tick for w in fast.waypoints] == [w.reached_tick for w in ref.waypoints]
+        assert fast.steps_emitted == ref.steps_emitted
+        assert fast.max_following_error_steps == ref.max_following_error_steps
 
 
 def test_equal_when_the_driver_forces_deferred_steps():
@@ -71,7 +72,8 @@ def test_equal_when_the_driver_forces_deferred_steps():
     machine = replace(LATHE, axes=axes)
     zigzag = [PMov((("X", x), ("Z", -x))) for x in (2.0, -1.0, 1.5, -2.0, 0.0)]
     plan = plan_program([PFdr(3000.0)] + zigzag, machine)
-    ref, fast = execute_reference(plan), execute_fast(plan)
+    ref = execute_reference(plan)
     assert ref.max_following_error_steps > 0              # the generator really deferred steps
-    assert fast.frames == ref.frames
-    assert fast.max_following_error_steps == ref.max_following_error_steps
+    for fast in (execute_fast(plan), execute_numpy(plan)):
+        assert fast.frames == ref.frames
+        assert fast.max_following_error_steps == ref.max_following_error_steps

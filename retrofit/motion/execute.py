@@ -123,8 +123,13 @@ def shape_reference(plan: Plan, requests: StepRequests) -> tuple:
     return recorder.frames(tick + 1), [np.array(r, dtype=np.int64) for r in rises]
 
 
-def run_log(plan: Plan, requests: StepRequests, frames, rises: list[np.ndarray]) -> RunLog:
-    """The controller's log of an executed plan: waypoints reached, steps, following error."""
+def run_log(plan: Plan, requests: StepRequests, frames, rises: list[np.ndarray],
+            lag: int | None = None) -> RunLog:
+    """The controller's log of an executed plan: waypoints reached, steps, following error.
+
+    The following error is the most steps ever due but not yet risen (``lag`` when the caller
+    already knows it).
+    """
     machine = plan.machine
     log = RunLog(machine, frames, start_steps=plan.start_steps)
     for m, move in enumerate(plan.moves):
@@ -133,13 +138,18 @@ def run_log(plan: Plan, requests: StepRequests, frames, rises: list[np.ndarray])
         reached = max(last) if last else int(requests.move_end_ticks[m])
         log.waypoints.append(Waypoint(move.target, loaded_tick=0, reached_tick=reached))
     log.steps_emitted = {a.name: int(len(r)) for a, r in zip(machine.axes, rises)}
-    lag = 0
-    for wanted, risen in zip(requests.ticks, rises):
-        if len(risen):
-            due_by = np.searchsorted(wanted, risen, side="right")
-            lag = max(lag, int(np.max(due_by - np.arange(1, len(risen) + 1))))
-    log.max_following_error_steps = lag
+    if lag is None:
+        lag = max((_lag(wanted, risen) for wanted, risen in zip(requests.ticks, rises)), default=0)
+    log.max_following_error_steps = int(lag)
     return log
+
+
+def _lag(wanted: np.ndarray, risen: np.ndarray) -> int:
+    """The most steps of one axis ever due (wanted by a tick) but not yet risen by it."""
+    if not len(risen):
+        return 0
+    due_by = np.searchsorted(wanted, risen, side="right")
+    return max(0, int(np.max(due_by - np.arange(1, len(risen) + 1))))
 
 
 def execute_reference(plan: Plan) -> RunLog:

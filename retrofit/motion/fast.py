@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..frames import PinMap, PortFrames
-from ._jit import kernel
+from ._jit import HAVE_NUMBA, kernel
 from .execute import StepRequests, run_log, tick_of
 from .planner import Plan
 from .profile import P_LEN, time_at
@@ -90,12 +90,15 @@ def _dda_requests(starts, ends, profiles, t0s, has_profile, rate, out_ticks, out
 def _shape_axis(wanted, dirs, period, high, setup, hold, rises, change_ticks, change_dirs):
     """Rise tick of every step and the direction turns (the step generator's rules, solved).
 
-    Returns the number of direction turns written to ``change_ticks`` / ``change_dirs``.
+    Returns the number of direction turns written to ``change_ticks`` / ``change_dirs`` and the
+    following error: the most steps ever due but not yet risen.
     """
     direction = -1
     last_rise = _NEVER
     last_turn = _NEVER
     turns = 0
+    due = 0
+    lag = 0
     for j in range(wanted.shape[0]):
         first = last_rise + 1 if j > 0 else 1            # the first tick this request is looked at
         if dirs[j] != direction:
@@ -116,78 +119,70 @@ def _shape_axis(wanted, dirs, period, high, setup, hold, rises, change_ticks, ch
             rise = last_turn + setup
         rises[j] = rise
         last_rise = rise
-    return turns
+        while due < wanted.shape[0] and wanted[due] <= rise:
+            due += 1
+        if due - (j + 1) > lag:
+            lag = due - (j + 1)
+    return turns, lag
 
 
 @kernel
-def _axis_timeline(rises, high, change_ticks, change_dirs, n_turns, out_ticks, out_states):
-    """Run-length (tick, state) of one axis: state = step bit | (direction > 0) << 1."""
-    count = 0
-    step = 0
-    dir_bit = 0
-    i_rise = 0
-    i_fall = 0
-    i_turn = 0
-    n = rises.shape[0]
-    big = np.int64(1) << 62
-    while i_rise < n or i_fall < n or i_turn < n_turns:
-        t_rise = rises[i_rise] if i_rise < n else big
-        t_fall = rises[i_fall] + high if i_fall < n else big
-        t_turn = change_ticks[i_turn] if i_turn < n_turns else big
-        tick = min(t_rise, t_fall, t_turn)
-        if t_fall == tick:
-            step = 0
-            i_fall += 1
-        if t_turn == tick:
-            dir_bit = 1 if change_dirs[i_turn] > 0 else 0
-            i_turn += 1
-        if t_rise == tick:
-            step = 1
-            i_rise += 1
-        state = step | (dir_bit << 1)
-        if count > 0 and out_ticks[count - 1] == tick:
-            out_states[count - 1] = state
-        else:
-            out_ticks[count] = tick
-            out_states[count] = state
-            count += 1
-    return count
+def _frames(rises, rise_start, turns, turn_dirs, turn_start, high, step_mask, dir_mask, invert,
+            out_ticks, out_values):
+    """Port byte stream of every axis's rises (high for ``high`` ticks) and direction turns.
 
-
-@kernel
-def _merge_axes(ticks, states, lengths, table, invert, out_ticks, out_values):
-    """Merge the axes' timelines into the port byte stream, recording only changes."""
-    n_axes = lengths.shape[0]
-    pos = np.zeros(n_axes, dtype=np.int64)
-    current = np.zeros(n_axes, dtype=np.int64)       # every axis starts: step low, direction negative
+    The axes' events are merged in tick order; all events of one tick are applied before the
+    byte is compared with the last one recorded, so only real changes are kept.
+    """
+    n_axes = high.shape[0]
+    i_rise = rise_start[:-1].copy()
+    i_fall = rise_start[:-1].copy()
+    i_turn = turn_start[:-1].copy()
     big = np.int64(1) << 62
-    value = invert
-    for a in range(n_axes):
-        value ^= table[a, 0]
+    upcoming = np.full(n_axes, -1, dtype=np.int64)          # -1: work out this axis's next change
+    bits = 0                                     # logical bits: steps low, directions negative
     out_ticks[0] = 0
-    out_values[0] = value
+    out_values[0] = bits ^ invert
+    last = bits ^ invert
     count = 1
     while True:
         tick = big
         for a in range(n_axes):
-            if pos[a] < lengths[a] and ticks[a, pos[a]] < tick:
-                tick = ticks[a, pos[a]]
+            if upcoming[a] < 0:                              # the next fall, turn or rise of axis a
+                nxt = big
+                if i_fall[a] < rise_start[a + 1]:
+                    nxt = rises[i_fall[a]] + high[a]
+                if i_rise[a] < rise_start[a + 1] and rises[i_rise[a]] < nxt:
+                    nxt = rises[i_rise[a]]
+                if i_turn[a] < turn_start[a + 1] and turns[i_turn[a]] < nxt:
+                    nxt = turns[i_turn[a]]
+                upcoming[a] = nxt
+            if upcoming[a] < tick:
+                tick = upcoming[a]
         if tick == big:
             break
         for a in range(n_axes):
-            if pos[a] < lengths[a] and ticks[a, pos[a]] == tick:
-                current[a] = states[a, pos[a]]
-                pos[a] += 1
-        value = invert
-        for a in range(n_axes):
-            value ^= table[a, current[a]]
-        if value != out_values[count - 1]:
-            if out_ticks[count - 1] == tick:
-                out_values[count - 1] = value
-            else:
-                out_ticks[count] = tick
-                out_values[count] = value
-                count += 1
+            if upcoming[a] != tick:
+                continue
+            if i_fall[a] < rise_start[a + 1] and rises[i_fall[a]] + high[a] == tick:
+                bits &= ~step_mask[a]
+                i_fall[a] += 1
+            if i_turn[a] < turn_start[a + 1] and turns[i_turn[a]] == tick:
+                if turn_dirs[i_turn[a]] > 0:
+                    bits |= dir_mask[a]
+                else:
+                    bits &= ~dir_mask[a]
+                i_turn[a] += 1
+            if i_rise[a] < rise_start[a + 1] and rises[i_rise[a]] == tick:
+                bits |= step_mask[a]
+                i_rise[a] += 1
+            upcoming[a] = -1
+        value = bits ^ invert
+        if value != last:
+            out_ticks[count] = tick
+            out_values[count] = value
+            last = value
+            count += 1
     return count
 
 
@@ -218,48 +213,51 @@ def request_steps_fast(plan: Plan) -> StepRequests:
                         counts, move_end, tick_of(plan.end_s, rate))
 
 
-def shape_fast(plan: Plan, requests: StepRequests) -> tuple[PortFrames, list[np.ndarray]]:
-    """Pulses and port frames of the requests (equal to ``execute.shape_reference``)."""
+def shape_fast(plan: Plan, requests: StepRequests):
+    """(port frames, rise ticks per axis, following error) of the requests.
+
+    Equal to ``execute.shape_reference`` and the lag ``execute.run_log`` would find.
+    """
     machine = plan.machine
     pins = PinMap(machine)
     n_axes = len(machine.axes)
-    rises, timelines = [], []
+    sizes = np.array([len(t) for t in requests.ticks], dtype=np.int64)
+    rise_start = np.concatenate(([0], np.cumsum(sizes))).astype(np.int64)
+    rises = np.empty(int(rise_start[-1]), dtype=np.int64)
+    turns = np.empty(int(rise_start[-1]), dtype=np.int64)
+    turn_dirs = np.empty(int(rise_start[-1]), dtype=np.int8)
+    turn_start = np.zeros(n_axes + 1, dtype=np.int64)
     end = requests.end_tick
+    lag = 0
     for a, axis in enumerate(machine.axes):
-        wanted, dirs = requests.ticks[a], requests.dirs[a]
-        n = len(wanted)
+        lo, hi = rise_start[a], rise_start[a + 1]
         period = axis.pulse_high_ticks + axis.pulse_low_ticks
-        axis_rises = np.zeros(n, dtype=np.int64)
-        turn_ticks = np.zeros(n, dtype=np.int64)
-        turn_dirs = np.zeros(n, dtype=np.int8)
-        turns = _shape_axis(wanted, dirs, period, axis.pulse_high_ticks, axis.dir_setup_ticks,
-                            axis.dir_hold_ticks, axis_rises, turn_ticks, turn_dirs)
-        t_ticks = np.zeros(2 * n + turns + 1, dtype=np.int64)
-        t_states = np.zeros(2 * n + turns + 1, dtype=np.int64)
-        count = _axis_timeline(axis_rises, axis.pulse_high_ticks, turn_ticks, turn_dirs, turns, t_ticks, t_states)
-        rises.append(axis_rises)
-        timelines.append((t_ticks[:count], t_states[:count]))
-        if n:
-            end = max(end, int(axis_rises[-1]) + period - 1)
-    width = max([len(t) for t, _ in timelines] + [1])
-    ticks = np.zeros((n_axes, width), dtype=np.int64)
-    states = np.zeros((n_axes, width), dtype=np.int64)
-    lengths = np.zeros(n_axes, dtype=np.int64)
-    for a, (t, s) in enumerate(timelines):
-        ticks[a, :len(t)], states[a, :len(s)], lengths[a] = t, s, len(t)
-    table = np.zeros((n_axes, 4), dtype=np.int64)
-    for a in range(n_axes):
-        step, dmask = pins.step_masks[a], pins.dir_masks[a]
-        table[a] = (0, step, dmask, step | dmask)
-    out_ticks = np.zeros(int(lengths.sum()) + 1, dtype=np.int64)
-    out_values = np.zeros(int(lengths.sum()) + 1, dtype=np.int64)
-    count = _merge_axes(ticks, states, lengths, table, pins.invert, out_ticks, out_values)
-    frames = PortFrames(out_ticks[:count], out_values[:count].astype(np.uint8), max(end, 0) + 1)
-    return frames, rises
+        count, axis_lag = _shape_axis(requests.ticks[a], requests.dirs[a], period, axis.pulse_high_ticks,
+                            axis.dir_setup_ticks, axis.dir_hold_ticks, rises[lo:hi],
+                            turns[turn_start[a]:], turn_dirs[turn_start[a]:])
+        turn_start[a + 1] = turn_start[a] + count
+        lag = max(lag, axis_lag)
+        if hi > lo:
+            end = max(end, int(rises[hi - 1]) + period - 1)
+    high = np.array([a.pulse_high_ticks for a in machine.axes], dtype=np.int64)
+    capacity = 2 * len(rises) + int(turn_start[-1]) + 1
+    out_ticks = np.empty(capacity, dtype=np.int64)
+    out_values = np.empty(capacity, dtype=np.uint8)
+    count = _frames(rises, rise_start, turns, turn_dirs, turn_start, high,
+                    np.array(pins.step_masks, dtype=np.int64), np.array(pins.dir_masks, dtype=np.int64),
+                    pins.invert, out_ticks, out_values)
+    frames = PortFrames(out_ticks[:count], out_values[:count], max(end, 0) + 1)
+    return frames, [rises[rise_start[a]:rise_start[a + 1]] for a in range(n_axes)], lag
 
 
 def execute_fast(plan: Plan):
-    """Fast path: plan → step requests → pulses → port frames and the run log."""
+    """Fast path: plan → step requests → pulses → port frames and the run log.
+
+    Compiled loops when Numba is installed; otherwise whole-array NumPy (``motion.vectorised``).
+    """
+    if not HAVE_NUMBA:
+        from .vectorised import execute_numpy
+        return execute_numpy(plan)
     requests = request_steps_fast(plan)
-    frames, rises = shape_fast(plan, requests)
-    return run_log(plan, requests, frames, rises)
+    frames, rises, lag = shape_fast(plan, requests)
+    return run_log(plan, requests, frames, rises, lag)

@@ -15,6 +15,9 @@ from .base import Output, OutputURL
 #: scheme -> "module:Class", imported on first use
 REGISTRY: dict[str, str] = {
     "sim": "retrofit.outputs.sim:SimOutput",
+    "parport": "retrofit.outputs.parport:ParportOutput",
+    "parport+record": "retrofit.outputs.record:RecordOutput",
+    "vcd": "retrofit.outputs.vcd:VcdOutput",
 }
 
 

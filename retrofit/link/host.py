@@ -1,0 +1,241 @@
+"""The host end of the link: send each command, resend on NAK or timeout, wait out BUSY.
+
+A pure state machine; time is the ``now`` (seconds, any origin) each call passes in, so a test
+runs it on a fake clock and the transport on ``time.monotonic``. Two channels run side by side,
+each stop-and-wait: queued commands in order on one, and STOP / RDPS / RDST on the other so they
+are never held behind a full queue. A channel's first frame is a SYNC.
+
+    host = HostEndpoint(machine)
+    t = host.send(PMov((("X", 1.0),)), now)
+    port.write(host.take_output())
+    host.receive(port.read(64), now); host.poll(now)   # until t.done; t.reply is the answer
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, field
+
+from ..commands import Command, Rdps, Rdst
+from ..config import Machine
+from ..errors import LinkError
+from .codec import ERR_NOT_SYNCED, ERR_SEQUENCE, SYNC, PayloadError, encode_command
+from .framing import IMMEDIATE, QUEUED, SEQ_MOD, BadFrame, FrameDecoder, encode_frame, seq_byte
+from .replies import Ack, Busy, Err, Nak, Position, Reply, Status, decode_reply
+
+
+@dataclass(eq=False)
+class Transaction:
+    """One command on its way: its answer (``reply``) or why it failed (``error``) once done."""
+
+    cmd: Command | None             # None for the link's own SYNC
+    channel: int
+    payload: bytes
+    reply: Reply | None = None
+    error: LinkError | None = None
+    sends: int = 0                  # frames sent for it, the first included
+
+    @property
+    def done(self) -> bool:
+        """True once answered or failed."""
+        return self.reply is not None or self.error is not None
+
+    @property
+    def name(self) -> str:
+        """The command's text form (``SYNC`` for the link's own frame)."""
+        return "SYNC" if self.cmd is None else str(self.cmd)
+
+    @property
+    def expected(self) -> type[Reply]:
+        """The kind of answer that completes it: Position for RDPS, Status for RDST, else Ack."""
+        return {Rdps: Position, Rdst: Status}.get(type(self.cmd), Ack)
+
+
+@dataclass
+class HostStats:
+    """What the host did and saw."""
+
+    frames_sent: int = 0
+    resends: int = 0
+    timeouts: int = 0
+    naks: int = 0
+    busy: int = 0
+    bad_frames: int = 0       # damaged replies (each triggers a resend)
+    stale: int = 0            # intact replies to a frame no longer outstanding (ignored)
+
+
+@dataclass(eq=False)
+class _Channel:
+    number: int
+    seq: int = 0                      # sequence number of the current / next frame
+    synced: bool = False
+    queue: deque = field(default_factory=deque)
+    current: Transaction | None = None
+    frame: bytes = b""
+    tries: int = 0                    # sends since the last sign of life (BUSY resets it)
+    deadline: float = 0.0             # resend if no answer by then
+    busy_wait: bool = False           # True while waiting out a BUSY before resending
+    busy_since: float | None = None   # first BUSY for the current frame
+
+
+class HostEndpoint:
+    """The host side of the link for one machine (its axes turn mm into steps)."""
+
+    def __init__(self, machine: Machine, *, timeout_s: float = 0.1, max_tries: int = 10,
+                 busy_retry_s: float = 0.05, busy_limit_s: float | None = None):
+        if timeout_s <= 0 or busy_retry_s <= 0 or max_tries < 1:
+            raise ValueError("HostEndpoint: timeout_s and busy_retry_s must be > 0, max_tries >= 1")
+        self.machine = machine
+        self.timeout_s, self.max_tries = timeout_s, max_tries
+        self.busy_retry_s, self.busy_limit_s = busy_retry_s, busy_limit_s
+        self.stats = HostStats()
+        self._channels = (_Channel(QUEUED), _Channel(IMMEDIATE))
+        self._decoder = FrameDecoder()
+        self._out = bytearray()
+        self._failures: list[LinkError] = []
+
+    # -- public API --------------------------------------------------------------------------
+
+    def send(self, cmd: Command, now: float, *, urgent: bool | None = None) -> Transaction:
+        """Queue ``cmd`` (encoded at once, so a bad value raises here) and return its Transaction.
+
+        ``urgent`` puts it on the immediate channel; by default STOP, RDPS and RDST go there.
+        """
+        channel = self._channels[IMMEDIATE if (cmd.immediate if urgent is None else urgent)
+                                 else QUEUED]
+        t = Transaction(cmd, channel.number, encode_command(cmd, self.machine))
+        channel.queue.append(t)
+        self._start(channel, now)
+        return t
+
+    def receive(self, data: bytes, now: float) -> None:
+        """Consume bytes from the device; raises LinkError when a command failed."""
+        for event in self._decoder.feed(data):
+            if isinstance(event, BadFrame):
+                if event.complete:
+                    self.stats.bad_frames += 1
+                    self._resend_all(now)
+                continue
+            try:
+                reply = decode_reply(event.payload, self.machine)
+            except PayloadError:
+                self.stats.bad_frames += 1
+                self._resend_all(now)
+                continue
+            if isinstance(reply, Nak):
+                self.stats.naks += 1
+                self._resend_all(now)
+            else:
+                self._answer(event.seq, reply, now)
+        self._raise_failures()
+
+    def poll(self, now: float) -> None:
+        """Resend what timed out or waited out its BUSY; raises LinkError when tries run out."""
+        for ch in self._channels:
+            if ch.current is None:
+                continue
+            if ch.busy_wait:
+                if self.busy_limit_s is not None and now - ch.busy_since >= self.busy_limit_s:
+                    self._fail(ch, f"the device answered BUSY for {now - ch.busy_since:.3g} s "
+                               f"(limit {self.busy_limit_s:g} s)", now)
+                elif now >= ch.deadline:
+                    ch.busy_wait = False
+                    self._transmit(ch, now)
+            elif now >= ch.deadline:
+                self.stats.timeouts += 1
+                self._resend(ch, now)
+        self._raise_failures()
+
+    def take_output(self) -> bytes:
+        """The bytes to write to the device since the last call."""
+        out, self._out = bytes(self._out), bytearray()
+        return out
+
+    def next_deadline(self) -> float | None:
+        """When ``poll`` next has something to do (None: nothing outstanding)."""
+        times = [ch.deadline for ch in self._channels if ch.current is not None]
+        return min(times) if times else None
+
+    @property
+    def idle(self) -> bool:
+        """True when nothing is outstanding or queued."""
+        return all(ch.current is None and not ch.queue for ch in self._channels)
+
+    # -- state machine -----------------------------------------------------------------------
+
+    def _start(self, ch: _Channel, now: float) -> None:
+        if ch.current is not None or not ch.queue:
+            return
+        if not ch.synced:
+            ch.queue.appendleft(Transaction(None, ch.number, bytes((SYNC,))))
+        ch.current = ch.queue.popleft()
+        ch.frame = encode_frame(seq_byte(ch.number, ch.seq), ch.current.payload)
+        ch.tries, ch.busy_wait, ch.busy_since = 0, False, None
+        self._transmit(ch, now)
+
+    def _transmit(self, ch: _Channel, now: float) -> None:
+        ch.tries += 1
+        ch.current.sends += 1
+        self.stats.frames_sent += 1
+        self.stats.resends += ch.current.sends > 1
+        ch.deadline = now + self.timeout_s
+        self._out += ch.frame
+
+    def _resend(self, ch: _Channel, now: float) -> None:
+        if ch.tries >= self.max_tries:
+            self._fail(ch, f"no acknowledgement after {ch.tries} tries "
+                       f"({self.timeout_s:g} s timeout each); is the device on, at the same baud "
+                       "rate, running the same protocol?", now)
+        else:
+            self._transmit(ch, now)
+
+    def _resend_all(self, now: float) -> None:
+        for ch in self._channels:
+            if ch.current is not None and not ch.busy_wait:
+                self._resend(ch, now)
+
+    def _answer(self, seq: int, reply: Reply, now: float) -> None:
+        ch = self._channels[seq >> 7]
+        if ch.current is None or seq != seq_byte(ch.number, ch.seq):
+            self.stats.stale += 1
+            return
+        if isinstance(reply, Busy):
+            self.stats.busy += 1
+            ch.tries, ch.busy_wait = 0, True
+            ch.busy_since = now if ch.busy_since is None else ch.busy_since
+            ch.deadline = now + self.busy_retry_s
+        elif isinstance(reply, Err):
+            if reply.code in (ERR_NOT_SYNCED, ERR_SEQUENCE):
+                ch.synced = False
+            self._fail(ch, f"the device refused it: {reply.text()}", now)
+        elif not isinstance(reply, ch.current.expected):
+            self._fail(ch, f"the device answered {type(reply).__name__.upper()}, expected "
+                       f"{ch.current.expected.__name__.upper()}; is it running the same protocol?",
+                       now)
+        else:
+            if ch.current.cmd is None:
+                ch.synced = True
+            ch.current.reply = reply
+            self._next(ch, now)
+
+    def _fail(self, ch: _Channel, why: str, now: float) -> None:
+        t = ch.current
+        t.error = LinkError(f"serial link, {'immediate' if ch.number else 'queued'} channel: "
+                            f"{t.name} (sequence {ch.seq}, sent {t.sends} times): {why}")
+        self._failures.append(t.error)
+        for dropped in ch.queue:
+            dropped.error = LinkError(f"serial link: {dropped.name} not sent, because {t.name} "
+                                      "before it failed")
+        ch.queue.clear()
+        ch.synced = False
+        self._next(ch, now)
+
+    def _next(self, ch: _Channel, now: float) -> None:
+        ch.seq = (ch.seq + 1) % SEQ_MOD
+        ch.current = None
+        self._start(ch, now)
+
+    def _raise_failures(self) -> None:
+        if self._failures:
+            first, self._failures = self._failures[0], []
+            raise first

@@ -1,0 +1,158 @@
+"""The link endpoints over a real port: any object with pyserial's read(n), write(b) and timeout.
+
+That is a ``serial.Serial``, a ``serial.serial_for_url("socket://host:port")``, or a test double.
+pyserial itself is imported only by ``open_port``, never when ``retrofit.link`` is imported.
+This is the one place of the link that reads the wall clock and waits on I/O.
+
+    with HostLink.open("/dev/ttyUSB0", machine, baudrate=115200) as link:
+        link.request(parse_command("PMOV X12.5 Z-3"))     # -> Ack()
+        link.request(Rdps())                              # -> Position(steps=...)
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Callable, Protocol
+
+from ..commands import Command
+from ..config import Machine
+from ..errors import LinkError
+from .device import DeviceEndpoint, Handler
+from .host import HostEndpoint, Transaction
+from .replies import Reply
+
+
+class Port(Protocol):
+    """What the link needs of a port (pyserial's interface)."""
+
+    timeout: float | None
+
+    def read(self, size: int = 1) -> bytes: ...
+
+    def write(self, data: bytes) -> int | None: ...
+
+
+def open_port(url: str, baudrate: int = 115200, timeout_s: float = 0.01) -> Port:
+    """Open a serial device path or a pyserial URL (``socket://``, ``loop://``, ``rfc2217://``)."""
+    try:
+        import serial
+    except ImportError as exc:
+        raise LinkError(f"serial link {url!r}: pyserial is not installed "
+                        "(python3 -m pip install pyserial)") from exc
+    try:
+        return serial.serial_for_url(url, baudrate=baudrate, timeout=timeout_s)
+    except (OSError, ValueError) as exc:
+        raise LinkError(f"serial link {url!r}: cannot open it ({exc}); expected a device such as "
+                        "/dev/ttyUSB0 or COM3, or a URL such as socket://127.0.0.1:5555") from exc
+
+
+def read_some(port: Port, name: str) -> bytes:
+    """Wait up to ``port.timeout`` for one byte, then take whatever else is already waiting."""
+    try:
+        data = port.read(1)
+        waiting = getattr(port, "in_waiting", 0) if data else 0
+        return data + port.read(waiting) if waiting else data
+    except LinkError:
+        raise
+    except OSError as exc:
+        raise LinkError(f"serial link {name}: read failed: {exc}") from exc
+
+
+def write_all(port: Port, data: bytes, name: str) -> None:
+    """Write ``data``; an OSError becomes a LinkError naming the port."""
+    if not data:
+        return
+    try:
+        port.write(data)
+    except LinkError:
+        raise
+    except OSError as exc:
+        raise LinkError(f"serial link {name}: write failed: {exc}") from exc
+
+
+class HostLink:
+    """The host endpoint driven over a port; thread-safe, so STOP can be sent while a move waits.
+
+    Sets ``port.timeout`` to ``poll_s``. Endpoint options (``timeout_s``, ``max_tries``,
+    ``busy_retry_s``, ``busy_limit_s``) pass through to HostEndpoint.
+    """
+
+    def __init__(self, port: Port, machine: Machine, *, clock: Callable[[], float] = time.monotonic,
+                 poll_s: float = 0.005, name: str | None = None, **endpoint_options):
+        self.port, self.clock = port, clock
+        self.name = name or str(getattr(port, "port", None) or type(port).__name__)
+        self.endpoint = HostEndpoint(machine, **endpoint_options)
+        port.timeout = poll_s
+        self._lock = threading.RLock()
+
+    @classmethod
+    def open(cls, url: str, machine: Machine, *, baudrate: int = 115200, **options) -> "HostLink":
+        """Open ``url`` with pyserial (see open_port) and put a HostLink on it."""
+        return cls(open_port(url, baudrate), machine, name=url, **options)
+
+    def submit(self, cmd: Command, *, urgent: bool | None = None) -> Transaction:
+        """Queue a command without waiting; ``wait`` (or a later ``request``) carries it out."""
+        with self._lock:
+            t = self.endpoint.send(cmd, self.clock(), urgent=urgent)
+            write_all(self.port, self.endpoint.take_output(), self.name)
+            return t
+
+    def wait(self, t: Transaction) -> Reply:
+        """Run the link until ``t`` is answered; its reply, or its LinkError raised."""
+        while not t.done:
+            with self._lock:
+                self._step(t)
+        if t.error is not None:
+            raise t.error
+        return t.reply
+
+    def request(self, cmd: Command, *, urgent: bool | None = None) -> Reply:
+        """Send ``cmd`` and wait for its answer (Ack, Position for RDPS, Status for RDST)."""
+        return self.wait(self.submit(cmd, urgent=urgent))
+
+    def _step(self, t: Transaction) -> None:
+        if t.done:
+            return
+        data = read_some(self.port, self.name)
+        try:
+            if data:
+                self.endpoint.receive(data, self.clock())
+            self.endpoint.poll(self.clock())
+        except LinkError:
+            pass    # recorded in the failed Transaction; wait() raises it to that one's waiter
+        write_all(self.port, self.endpoint.take_output(), self.name)
+
+    def close(self) -> None:
+        """Close the port (if it can be closed)."""
+        close = getattr(self.port, "close", None)
+        if close is not None:
+            close()
+
+    def __enter__(self) -> "HostLink":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+class DeviceLink:
+    """The device endpoint driven over a port: what ``retrofit mcu`` runs (or a test's server)."""
+
+    def __init__(self, port: Port, machine: Machine, handler: Handler, *, name: str | None = None):
+        self.port = port
+        self.name = name or str(getattr(port, "port", None) or type(port).__name__)
+        self.endpoint = DeviceEndpoint(machine, handler)
+
+    def serve_once(self) -> bool:
+        """Read what arrived within ``port.timeout`` and answer it; True if bytes came."""
+        data = read_some(self.port, self.name)
+        if data:
+            self.endpoint.receive(data)
+            write_all(self.port, self.endpoint.take_output(), self.name)
+        return bool(data)
+
+    def serve(self, stop: threading.Event) -> None:
+        """Answer the host until ``stop`` is set."""
+        while not stop.is_set():
+            self.serve_once()

@@ -1,0 +1,357 @@
+"""The serial link: CRC, frames, payloads of every command, the endpoints' rules, a real port."""
+
+import doctest
+import os
+import socket
+import subprocess
+import sys
+import threading
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import retrofit.link as link
+from retrofit.commands import (COMMANDS, CommandError, Cool, CStp, Dely, FFdr, FMov, Init, IStp,
+                               MFdr, PFdr, PMov, Pstn, Rdps, Rdst, Spin, Stop, ZMov, parse_command)
+from retrofit.config import load_machine
+from retrofit.errors import LinkError, MotionError
+from retrofit.link import (FEED_UNIT_MM, IMMEDIATE, POS_MAX, QUEUED, Ack, BadFrame, Busy,
+                           DeviceLink, Err, Frame, FrameDecoder, HostLink, Nak, PayloadError,
+                           Position, Status, StatusFlags, decode_command, decode_reply,
+                           encode_command, encode_frame, encode_reply, seq_byte)
+from retrofit.link.crc import CHECK, crc16_bitwise, crc16_ccitt_false
+
+LATHE = load_machine("chivu-lathe")
+DOCS = Path(__file__).resolve().parents[1] / "docs" / "protocol.md"
+
+
+def mill():
+    """The lathe with a Y axis added (80 steps/mm): a 3-axis machine for the codec."""
+    x = LATHE.axis("X")
+    return replace(LATHE, name="test-mill", axes=(x, replace(x, name="Y", steps_per_mm=80.0),
+                                                    LATHE.axis("Z")))
+
+
+def hexs(data: bytes) -> str:
+    return data.hex(" ").upper()
+
+
+# -- CRC ---------------------------------------------------------------------------------------
+
+def test_crc_is_ccitt_false_with_its_check_value():
+    assert crc16_ccitt_false(b"123456789") == CHECK == 0x29B1
+    assert crc16_bitwise(b"123456789") == 0x29B1
+
+
+@given(st.binary(max_size=64))
+def test_crc_table_matches_bitwise_and_appended_crc_leaves_zero(data):
+    crc = crc16_ccitt_false(data)
+    assert crc == crc16_bitwise(data)
+    assert crc16_ccitt_false(data + crc.to_bytes(2, "big")) == 0
+
+
+# -- worked examples of docs/protocol.md ------------------------------------------------------
+
+EXAMPLES = [
+    ("PMOV", lambda: encode_frame(seq_byte(QUEUED, 1), encode_command(parse_command("PMOV X12.5 Z-3"), LATHE)),
+     "7E 08 01 04 05 00 01 F4 FF FF 6A C8 06"),
+    ("stuffed FMOV", lambda: encode_frame(seq_byte(QUEUED, 5),
+                                          encode_command(parse_command("FMOV X-3.25 Z2.52"), LATHE)),
+     "7E 08 05 02 05 FF FF 7D 5E 00 00 7D 5E 5B D9"),
+    ("ACK", lambda: encode_frame(0x01, encode_reply(Ack())), "7E 01 01 80 59 15"),
+    ("SYNC queued", lambda: encode_frame(0x00, bytes([0x7F])), "7E 01 00 7F 74 D4"),
+    ("SYNC answer", lambda: encode_frame(0x00, encode_reply(Ack())), "7E 01 00 80 6A 24"),
+    ("SYNC immediate", lambda: encode_frame(0x80, bytes([0x7F])), "7E 01 80 7F 6F 4C"),
+    ("RDPS", lambda: encode_frame(seq_byte(IMMEDIATE, 0), encode_command(Rdps(), LATHE)),
+     "7E 01 80 0D 31 99"),
+    ("POS", lambda: encode_frame(0x80, encode_reply(Position((("X", 500), ("Z", -150))))),
+     "7E 08 80 84 05 00 01 F4 FF FF 6A 61 16"),
+    ("STAT", lambda: encode_frame(0x81, encode_reply(Status(
+        StatusFlags.MOVING | StatusFlags.QUEUE_FULL | StatusFlags.HOMED, 3))),
+     "7E 04 81 85 00 83 03 9F E5"),
+    ("NAK", lambda: encode_frame(0x00, encode_reply(Nak())), "7E 01 00 81 7A 05"),
+    ("BUSY", lambda: encode_frame(0x02, encode_reply(Busy())), "7E 01 02 82 2C 04"),
+    ("ERR", lambda: encode_frame(0x02, encode_reply(Err(4, 0))), "7E 03 02 83 04 00 BC 78"),
+]
+
+
+@pytest.mark.parametrize("make, wire", [e[1:] for e in EXAMPLES], ids=[e[0] for e in EXAMPLES])
+def test_worked_examples_in_the_spec_are_what_the_encoder_sends(make, wire):
+    assert hexs(make()) == wire
+    assert wire in DOCS.read_text(), "docs/protocol.md must show this exact frame"
+
+
+def test_spec_crc_of_the_worked_example_body():
+    body = bytes.fromhex("08 01 04 05 00 01 F4 FF FF 6A")
+    assert crc16_ccitt_false(body) == 0xC806
+    assert "0xC806" in DOCS.read_text()
+
+
+# -- framing -----------------------------------------------------------------------------------
+
+frames = st.lists(st.tuples(st.integers(0, 255), st.binary(min_size=1, max_size=32)), max_size=8)
+noise = st.binary(max_size=6).map(lambda b: b.replace(b"\x7e", b"\x00"))
+
+
+@given(frames, st.lists(noise, min_size=9, max_size=9), st.lists(st.integers(1, 9), min_size=1))
+def test_decoder_finds_every_frame_in_noise_whatever_the_chunk_sizes(items, gaps, cuts):
+    wire = b"".join(gaps[i] + encode_frame(seq, p) for i, (seq, p) in enumerate(items)) + gaps[-1]
+    decoder, events, i, k = FrameDecoder(), [], 0, 0
+    while i < len(wire):
+        events += decoder.feed(wire[i:i + cuts[k % len(cuts)]])
+        i, k = i + cuts[k % len(cuts)], k + 1
+    assert events == [Frame(seq, p) for seq, p in items]
+
+
+def test_decoder_reports_each_kind_of_bad_frame_and_recovers():
+    good = encode_frame(0x05, b"\x04\x7e\x7d")
+    flipped = bytearray(good)
+    flipped[3] ^= 0x10
+    events = FrameDecoder().feed(
+        b"\x7e\x00" + b"\x7e\x21" + bytes(flipped) + b"\x7e\x03\x7d\x00" + good[:5] + good)
+    assert [e.reason for e in events if isinstance(e, BadFrame)] == [
+        "length", "length", "crc", "escape", "truncated"]
+    assert events[-1] == Frame(0x05, b"\x04\x7e\x7d")
+    assert [e.complete for e in events[:-1]] == [True, True, True, True, False]
+
+
+def test_encode_frame_refuses_what_a_receiver_could_not_take():
+    with pytest.raises(ValueError, match="1..32"):
+        encode_frame(0, bytes(33))
+    with pytest.raises(ValueError, match="0..255"):
+        encode_frame(256, b"\x01")
+
+
+# -- codec: every command round-trips in steps ------------------------------------------------
+
+pos_steps = st.integers(-POS_MAX, POS_MAX)
+
+
+def axes_cmd(cls, machine):
+    names = machine.axis_names
+    return st.lists(st.sampled_from(names), min_size=1, unique=True).flatmap(
+        lambda chosen: st.tuples(*[pos_steps for _ in chosen]).map(
+            lambda steps: cls(tuple((n, s / machine.axis(n).steps_per_mm)
+                                    for n, s in zip(chosen, steps)))))
+
+
+def command_strategies(machine):
+    feed = st.integers(0, 0xFFFFFFFF).map(lambda n: n * FEED_UNIT_MM)
+    return {
+        Init: st.just(Init()), Stop: st.just(Stop()), CStp: st.just(CStp()), IStp: st.just(IStp()),
+        Rdps: st.just(Rdps()), Rdst: st.just(Rdst()),
+        FMov: axes_cmd(FMov, machine), PMov: axes_cmd(PMov, machine), Pstn: axes_cmd(Pstn, machine),
+        ZMov: st.permutations(machine.axis_names).flatmap(
+            lambda p: st.integers(0, len(p)).map(lambda n: ZMov(tuple(p[:n])))),
+        FFdr: feed.map(FFdr), MFdr: feed.map(MFdr), PFdr: feed.map(PFdr),
+        Dely: st.integers(0, 0xFFFFFFFF).map(lambda ms: Dely(ms / 1000)),
+        Spin: st.builds(Spin, st.integers(0, 0xFFFF).map(float), st.sampled_from((-1, 0, 1))),
+        Cool: st.sampled_from((0, 7, 8)).map(Cool),
+    }
+
+
+def test_the_round_trip_covers_every_command_of_the_instruction_set():
+    assert set(command_strategies(LATHE)) == set(COMMANDS.values())
+
+
+def steps_of(cmd, machine):
+    return {n: machine.axis(n).to_steps(mm) for n, mm in getattr(cmd, "axes", ())}
+
+
+@pytest.mark.parametrize("machine", [LATHE, mill()], ids=["lathe-XZ", "mill-XYZ"])
+@given(data=st.data())
+def test_every_command_round_trips_through_its_payload(machine, data):
+    cls = data.draw(st.sampled_from(sorted(COMMANDS.values(), key=lambda c: c.mnemonic)))
+    cmd = data.draw(command_strategies(machine)[cls])
+    payload = encode_command(cmd, machine)
+    back = decode_command(payload, machine)
+    assert type(back) is cls
+    assert encode_command(back, machine) == payload
+    assert steps_of(back, machine) == steps_of(cmd, machine)
+    if not hasattr(cmd, "axes"):
+        assert back == cmd
+
+
+def test_decoded_positions_are_steps_over_steps_per_mm_in_axis_letter_order():
+    back = decode_command(encode_command(PMov((("Z", -3.0), ("X", 12.5))), LATHE), LATHE)
+    assert back == PMov((("X", 500 / 40), ("Z", -150 / 50)))
+    nearest = decode_command(encode_command(PMov((("X", 0.0374),)), LATHE), LATHE)
+    assert nearest.axes == (("X", 0.025),)          # 1.496 steps -> 1 step
+
+
+@pytest.mark.parametrize("steps", [POS_MAX + 1, -POS_MAX - 1, 10**9], ids=["above", "below", "far"])
+def test_a_position_outside_the_24_bit_space_is_refused_by_name(steps):
+    cmd = PMov((("X", 1.0), ("Z", steps / 50)))
+    with pytest.raises(MotionError, match=r"PMOV Z: .* steps is outside the link's 24-bit step "
+                                          r"space \(-8388607..8388607\)"):
+        encode_command(cmd, LATHE)
+
+
+@pytest.mark.parametrize("cmd, message", [
+    (PMov((("Y", 1.0),)), r"axis 'Y' is not on machine chivu-lathe \(axes X, Z"),
+    (FMov((("X", 1.0), ("X", 2.0))), "axis X given twice"),
+    (FFdr(-1.0), "feed -1.0 must be a finite number >= 0"),
+    (PFdr(1e6), "too large for the link"),
+    (Dely(float("nan")), "must be a finite number"),
+    (Spin(70000.0, 1), "rpm must be 0..65535"),
+    (Cool(9), "mode must be 0, 7 or 8"),
+    (ZMov(("X", "X")), "named twice"),
+], ids=["axis", "twice", "negative-feed", "huge-feed", "nan-dwell", "rpm", "coolant", "zmov"])
+def test_values_a_field_cannot_hold_are_refused_before_sending(cmd, message):
+    with pytest.raises(CommandError, match=message):
+        encode_command(cmd, LATHE)
+
+
+@pytest.mark.parametrize("payload, code, message", [
+    ("20", 1, "opcode 0x20 is not a command; known: 0x01 INIT"),
+    ("", 2, "empty payload"),
+    ("01 00", 2, "INIT: 1 argument bytes; expected 0"),
+    ("04 05 00 01 f4", 2, "mask 0x05 names 2 axes, needs 7"),
+    ("04 01 80 00 00", 3, "0x800000 is reserved"),
+    ("04 02 00 00 01", 3, r"mask bit 1 \(Y\) is not an axis of chivu-lathe"),
+    ("03 01 01", 3, "ZMOV: axis bit 1"),
+    ("0f 00 10 05", 3, "direction byte 0x05"),
+], ids=["opcode", "empty", "init-extra", "short", "reserved", "no-y", "zmov-y", "spin-dir"])
+def test_malformed_payloads_are_refused_with_the_err_code_to_answer(payload, code, message):
+    with pytest.raises(PayloadError, match=message) as info:
+        decode_command(bytes.fromhex(payload), LATHE)
+    assert info.value.code == code and isinstance(info.value, LinkError)
+
+
+@given(st.one_of(
+    st.builds(Position, st.tuples(st.tuples(st.just("X"), pos_steps), st.tuples(st.just("Z"), pos_steps))),
+    st.builds(Status, st.integers(0, 0xFFFF).map(StatusFlags), st.integers(0, 255)),
+    st.builds(Err, st.integers(0, 255), st.integers(0, 255)),
+    st.sampled_from((Ack(), Nak(), Busy()))))
+def test_replies_round_trip(reply):
+    assert decode_reply(encode_reply(reply), LATHE) == reply
+
+
+def test_position_reply_in_mm_and_a_bad_reply():
+    assert Position((("X", 500), ("Z", -150))).mm(LATHE) == {"X": 12.5, "Z": -3.0}
+    with pytest.raises(PayloadError, match="not a reply opcode"):
+        decode_reply(b"\x04", LATHE)
+
+
+def test_importing_the_link_does_not_import_pyserial():
+    code = "import sys, retrofit.link; print('serial' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+
+
+@pytest.mark.parametrize("module", ["crc", "framing", "codec", "replies"])
+def test_docstring_examples_run(module):
+    mod = __import__(f"retrofit.link.{module}", fromlist=["_"])
+    result = doctest.testmod(mod)
+    assert result.failed == 0 and result.attempted > 0
+
+
+def test_every_link_module_is_short():
+    for path in Path(link.__file__).parent.glob("*.py"):
+        assert len(path.read_text().splitlines()) <= 400, path.name
+
+
+# -- over real ports ---------------------------------------------------------------------------
+
+class SocketPort:
+    """A connected socket with pyserial's read / write / timeout / in_waiting."""
+
+    def __init__(self, sock):
+        self.sock, self.timeout = sock, None
+
+    def read(self, size=1):
+        self.sock.settimeout(self.timeout)
+        try:
+            return self.sock.recv(size)
+        except (socket.timeout, BlockingIOError):
+            return b""
+
+    @property
+    def in_waiting(self):
+        try:
+            return len(self.sock.recv(4096, socket.MSG_PEEK | socket.MSG_DONTWAIT))
+        except BlockingIOError:
+            return 0
+
+    def write(self, data):
+        self.sock.sendall(data)
+
+
+class FdPort:
+    """The master side of a pty with pyserial's read / write / timeout."""
+
+    def __init__(self, fd):
+        self.fd, self.timeout = fd, None
+
+    def read(self, size=1):
+        import select
+        ready, _, _ = select.select([self.fd], [], [], self.timeout)
+        return os.read(self.fd, size) if ready else b""
+
+    def write(self, data):
+        os.write(self.fd, data)
+
+
+class Recorder:
+    """A device application that records deliveries and answers RDPS at X 500, Z -150 steps."""
+
+    def __init__(self):
+        self.delivered = []
+
+    def __call__(self, cmd):
+        self.delivered.append(cmd)
+        return Position((("X", 500), ("Z", -150))) if isinstance(cmd, Rdps) else None
+
+
+def drive(host_port, device_port):
+    """Serve a device on one port in a thread; send a few commands and RDPS on the other."""
+    app, stop = Recorder(), threading.Event()
+    device_port.timeout = 0.01
+    server = threading.Thread(target=DeviceLink(device_port, LATHE, app).serve, args=(stop,))
+    server.start()
+    try:
+        with HostLink(host_port, LATHE, timeout_s=0.5) as host:
+            answers = [host.request(parse_command(t)) for t in
+                       ("INIT", "FFDR F1200", "PMOV X12.5 Z-3", "FMOV X-3.25 Z2.52", "RDPS")]
+    finally:
+        stop.set()
+        server.join(5)
+    assert answers == [Ack()] * 4 + [Position((("X", 500), ("Z", -150)))]
+    assert app.delivered == [Init(), FFdr(1200.0), PMov((("X", 12.5), ("Z", -3.0))),
+                             FMov((("X", -3.25), ("Z", 2.52))), Rdps()]
+
+
+def test_end_to_end_over_a_loopback_tcp_socket_with_pyserial():
+    import serial
+    listener = socket.create_server(("127.0.0.1", 0))
+    port_number = listener.getsockname()[1]
+    accepted = {}
+    acceptor = threading.Thread(target=lambda: accepted.setdefault("s", listener.accept()[0]))
+    acceptor.start()
+    client = serial.serial_for_url(f"socket://127.0.0.1:{port_number}", timeout=0.01)
+    acceptor.join(5)
+    try:
+        drive(client, SocketPort(accepted["s"]))
+    finally:
+        accepted["s"].close()
+        listener.close()
+
+
+@pytest.mark.skipif(not hasattr(os, "openpty"), reason="needs a pty (POSIX)")
+def test_end_to_end_over_a_pty_with_pyserial():
+    import serial
+    master, slave = os.openpty()
+    try:
+        drive(serial.Serial(os.ttyname(slave), 115200, timeout=0.01), FdPort(master))
+    finally:
+        os.close(slave)
+        os.close(master)
+
+
+def test_open_port_names_the_url_and_the_accepted_forms():
+    with pytest.raises(LinkError, match=r"serial link '/dev/no-such-tty': cannot open it .*"
+                                        r"expected a device such as /dev/ttyUSB0"):
+        link.open_port("/dev/no-such-tty")

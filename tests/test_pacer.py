@@ -1,0 +1,180 @@
+"""The paced loop: bytes on the (recorded) port equal the frames, every tick, in order; lateness figures."""
+
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from retrofit.config import load_machine
+from retrofit.demo import circle_targets
+from retrofit.errors import OutputError
+from retrofit.frames import PortFrames
+from retrofit.motion.errorloop import PositionErrorLoop
+from retrofit.outputs import open_output
+from retrofit.outputs.pacer import Lateness, Pacer, RealtimeMode, calibrate, repeat_frames
+from retrofit.outputs.record import load_recording
+from retrofit.runner import deliver
+
+
+@pytest.fixture(scope="module")
+def lathe():
+    return load_machine("chivu-lathe")
+
+
+@pytest.fixture(scope="module")
+def short_log(lathe):
+    """A small circle (r = 2 mm, 20 points): about 2,500 ticks, 0.5 s when paced at 200 us."""
+    return PositionErrorLoop(lathe).run(circle_targets(lathe, 2.0, 20))
+
+
+def record(lathe, frames, path, query):
+    out = open_output(f"parport+record://{path}?{query}", lathe)
+    out.quiet = True
+    with out:
+        out.write(frames)
+    return out
+
+
+def test_paced_bytes_equal_the_sim_frames_every_tick_in_order(lathe, short_log, tmp_path):
+    """Through the runner, next to sim://: the recording is the frames the simulator saw, bit for bit."""
+    path = tmp_path / "run.bin"
+    url = f"parport+record://{path}?tick_us=200&every_tick=1&force=1"
+    sim = deliver(short_log, ["sim://", url])
+    assert sim.end_tick == short_log.frames.end_tick
+    data = np.fromfile(path, np.uint8)
+    assert len(data) == short_log.frames.end_tick, "one byte per tick, none skipped"
+    assert np.array_equal(data, short_log.frames.per_tick())
+    assert load_recording(path) == short_log.frames
+
+
+def test_every_tick_mode_writes_each_tick_itself(lathe, short_log, tmp_path):
+    out = record(lathe, short_log.frames, tmp_path / "r.bin", "tick_us=200&every_tick=1&force=1")
+    rec = out.recording
+    assert rec.writes == short_log.frames.end_tick
+    assert rec.filled == 0, "the loop wrote every tick; the recorder held nothing over"
+    assert out.timing.writes == rec.writes and out.timing.paced
+    assert out.timing.p50_ns <= out.timing.p99_ns <= out.timing.max_ns
+
+
+def test_changes_mode_writes_only_changes_and_the_latch_holds_them(lathe, short_log, tmp_path):
+    out = record(lathe, short_log.frames, tmp_path / "r.bin", "tick_us=200&force=1")
+    assert out.recording.writes == len(short_log.frames)
+    assert load_recording(tmp_path / "r.bin") == short_log.frames
+
+
+def test_unpaced_full_circle_same_code_path(lathe, tmp_path):
+    log = PositionErrorLoop(lathe).run(circle_targets(lathe))
+    out = record(lathe, log.frames, tmp_path / "c.bin", "paced=0&every_tick=1")
+    assert not out.timing.paced and out.calibration is None
+    assert np.array_equal(np.fromfile(tmp_path / "c.bin", np.uint8), log.frames.per_tick())
+
+
+def test_chunks_continue_one_schedule(lathe, short_log, tmp_path):
+    frames = short_log.frames
+    cut = int(frames.ticks[len(frames) // 2]) + 1
+    first = frames.ticks < cut
+    chunks = [PortFrames(frames.ticks[first], frames.values[first], cut),
+              PortFrames(frames.ticks[~first], frames.values[~first], frames.end_tick)]
+    out = open_output(f"parport+record://{tmp_path / 'k.bin'}?paced=0&every_tick=1", lathe)
+    with out:
+        for chunk in chunks:
+            out.write(chunk)
+    assert load_recording(tmp_path / "k.bin") == frames
+    with pytest.raises(OutputError, match="tick order"):
+        with open_output(f"parport+record://{tmp_path / 'bad.bin'}?paced=0", lathe) as out:
+            out.write(chunks[1])
+            out.write(chunks[0])
+
+
+def test_pacer_writes_at_tick_boundaries_in_order():
+    seen = []
+    pacer = Pacer(100_000, every_tick=True, spin_ns=50_000)
+    pacer.play(PortFrames.from_per_tick([0, 1, 1, 3, 3, 0]), lambda tick, value: seen.append((tick, value)))
+    timing = pacer.finish()
+    assert seen == [(0, 0), (1, 1), (2, 1), (3, 3), (4, 3), (5, 0)]
+    assert timing.writes == 6 and len(timing.samples_ns) == 6
+    assert (timing.samples_ns >= 0).all(), "no write before its tick boundary"
+
+
+def test_late_writes_are_written_not_skipped(lathe, short_log, tmp_path):
+    """A 2 us tick cannot be held; forced, every byte still goes out in order."""
+    out = record(lathe, short_log.frames, tmp_path / "f.bin", "tick_us=2&every_tick=1&force=1")
+    assert not out.calibration.holds
+    assert out.timing.late > 0
+    assert load_recording(tmp_path / "f.bin") == short_log.frames
+
+
+def test_a_tick_this_computer_cannot_hold_is_refused_with_the_figure(lathe, tmp_path):
+    with pytest.raises(OutputError) as err:
+        open_output(f"parport+record://{tmp_path / 'x.bin'}?tick_us=2", lathe).open()
+    text = str(err.value)
+    assert "cannot hold a 2.0 us tick" in text and "force=1" in text
+    assert re.search(r"p99 lateness [\d.]+ us", text) and "\n" not in text
+    assert not (tmp_path / "x.bin").exists()
+
+
+def test_calibration_reports_a_shortest_tick():
+    cal = calibrate(200_000)
+    assert cal.trial.writes >= 200
+    assert cal.shortest_tick_ns == 2 * cal.trial.p99_ns
+    assert "calibration:" in cal.line()
+
+
+def test_lateness_figures():
+    tick = 50_000
+    samples = [1_000] * 98 + [30_000, 90_000]
+    lat = Lateness.of(tick, 100, samples)
+    assert (lat.p50_ns, lat.max_ns, lat.late) == (1_000, 90_000, 2)
+    assert 30_000 <= lat.p99_ns <= 90_000
+    assert "p50 1.0 us" in lat.line() and "2 later than half a tick (25.0 us)" in lat.line()
+
+
+def test_realtime_mode_says_what_it_got_and_gives_it_back():
+    before = os.sched_getscheduler(0)
+    mode = RealtimeMode()
+    notes = mode.enter()
+    try:
+        assert len(notes) == 2
+        assert notes[0].startswith(("SCHED_FIFO priority", "SCHED_FIFO not permitted"))
+        assert notes[1].startswith(("memory locked", "mlockall not"))
+    finally:
+        mode.leave()
+    assert os.sched_getscheduler(0) == before
+
+
+def test_realtime_mode_says_plainly_what_was_not_permitted(monkeypatch):
+    import ctypes
+    import errno
+
+    def refuse(*args):
+        raise PermissionError(errno.EPERM, "Operation not permitted")
+
+    class NoLock:
+        def mlockall(self, flags):
+            return -1
+
+    monkeypatch.setattr(os, "sched_setscheduler", refuse)
+    monkeypatch.setattr(ctypes, "CDLL", lambda *a, **k: NoLock())
+    monkeypatch.setattr(ctypes, "get_errno", lambda: errno.EPERM)
+    mode = RealtimeMode()
+    fifo, lock = mode.enter()
+    mode.leave()
+    assert fifo.startswith("SCHED_FIFO not permitted (Operation not permitted): the loop runs at normal priority")
+    assert "rtprio" in fifo and "memlock" in lock
+    assert lock.startswith("mlockall not permitted")
+    assert not mode.fifo
+
+
+def test_repeat_frames_tiles_the_run():
+    base = PortFrames.from_per_tick([0, 1, 1, 0])
+    assert np.array_equal(repeat_frames(base, 10).per_tick(), [0, 1, 1, 0, 0, 1, 1, 0, 0, 1])
+
+
+def test_only_the_pacer_reads_the_clock_or_sleeps():
+    folder = Path(__file__).resolve().parents[1] / "retrofit" / "outputs"
+    for name in ("parport.py", "record.py", "vcd.py"):
+        text = (folder / name).read_text()
+        assert not re.search(r"^\s*(import time|from time import)", text, re.M), name
+        assert "sleep(" not in text and "perf_counter" not in text, name
