@@ -77,3 +77,21 @@ def test_engraving_runs_on_the_engraver(tmp_path):
     assert set(rep["axes"]) == {"X", "Y", "Z"} and rep["violations"] == []
     for ax in rep["axes"].values():
         assert abs(ax["carriage_mm"] - ax["target_mm"]) < 1e-9
+
+
+def test_without_the_compiler_the_same_report(tmp_path):
+    """Where Numba is absent the fast path falls back to NumPy and gives the same answer."""
+    import os
+    program = tmp_path / "short.ngc"
+    program.write_text("G21 G90\nG0 X3 Z2\nG1 F400 X1 Z-4\nG3 X0 Z-5 R1\nG0 X0 Z0\nM30\n")
+    reports = []
+    for no_numba in ("", "1"):
+        env = dict(os.environ, RETROFIT_NO_NUMBA=no_numba)
+        proc = subprocess.run([sys.executable, "-c", "import sys, retrofit.motion._jit as j; "
+                               "from retrofit.cli import main; print(j.HAVE_NUMBA, file=sys.stderr); "
+                               "sys.exit(main(sys.argv[1:]))", "run", str(program), "--report", "r.json"],
+                              capture_output=True, text=True, cwd=tmp_path, env=env)
+        assert proc.returncode == 0, proc.stderr
+        assert proc.stderr.strip().endswith(str(not no_numba))
+        reports.append(json.loads((tmp_path / "r.json").read_text()))
+    assert reports[0] == reports[1]

@@ -97,11 +97,12 @@ def frames_numpy(machine, rises: list[np.ndarray], turns: list[tuple[np.ndarray,
     pins = PinMap(machine)
     per_axis = []
     for axis, r, (t_ticks, t_dirs) in zip(machine.axes, rises, turns):
-        step_ticks = np.concatenate((r, r + axis.pulse_high_ticks))
-        step_vals = np.concatenate((np.ones(len(r), np.int64), np.zeros(len(r), np.int64)))
-        order = np.argsort(step_ticks, kind="stable")
-        per_axis.append((step_ticks[order], step_vals[order], t_ticks, (t_dirs > 0).astype(np.int64)))
-    changes = np.unique(np.concatenate([np.concatenate((s, t)) for s, _, t, _ in per_axis] + [[0]]))
+        step_ticks = np.empty(2 * len(r), dtype=np.int64)        # rise, fall, rise, ...: already in order
+        step_ticks[0::2], step_ticks[1::2] = r, r + axis.pulse_high_ticks
+        step_vals = np.tile(np.array([1, 0], dtype=np.int64), len(r))
+        per_axis.append((step_ticks, step_vals, t_ticks, (t_dirs > 0).astype(np.int64)))
+    changes = np.sort(np.concatenate([np.concatenate((s, t)) for s, _, t, _ in per_axis] + [[0]]))
+    changes = changes[np.concatenate(([True], changes[1:] != changes[:-1]))]
     value = np.full(len(changes), pins.invert, dtype=np.int64)
     for a, (s_ticks, s_vals, t_ticks, t_vals) in enumerate(per_axis):
         step = _sample(s_ticks, s_vals, changes)
