@@ -132,11 +132,12 @@ def run_log(plan: Plan, requests: StepRequests, frames, rises: list[np.ndarray],
     """
     machine = plan.machine
     log = RunLog(machine, frames, start_steps=plan.start_steps)
+    rate = 1e6 / machine.tick_us
     for m, move in enumerate(plan.moves):
         last = [int(rises[i][c - 1]) for i, c in enumerate(requests.counts[m]) if c > 0
                 and (m == 0 or c > requests.counts[m - 1][i])]
         reached = max(last) if last else int(requests.move_end_ticks[m])
-        log.waypoints.append(Waypoint(move.target, loaded_tick=0, reached_tick=reached))
+        log.waypoints.append(Waypoint(move.target, loaded_tick=tick_of(move.t0_s, rate), reached_tick=reached))
     log.steps_emitted = {a.name: int(len(r)) for a, r in zip(machine.axes, rises)}
     if lag is None:
         lag = max((_lag(wanted, risen) for wanted, risen in zip(requests.ticks, rises)), default=0)
