@@ -57,6 +57,8 @@ def _parser() -> argparse.ArgumentParser:
     motion_options(r)
     r.add_argument("--reference", action="store_true",
                    help="step by the readable per-tick reference path instead of the compiled fast path")
+    r.add_argument("--controller", action="store_true",
+                   help="run through the tick-by-tick 002 controller (automatic for threads and homing)")
     r.add_argument("--progress", choices=["auto", "on", "off"], default="auto",
                    help="progress bar (auto: only on a terminal)")
     r.set_defaults(func=_cmd_run)
@@ -99,34 +101,60 @@ def _cmd_demo(args) -> int:
 
 def _cmd_run(args) -> int:
     from .config import load_machine
-    from .runprogram import Progress, execute, plan_gcode, resolve_program
+    from .gcode import load_program
+    from .runprogram import Progress, controller_reason, execute, plan_compiled, resolve_program
     machine = load_machine(args.machine)
     path = resolve_program(args.program)
     progress = Progress(["compiling and planning", "stepping", "simulating"],
                         None if args.progress == "auto" else args.progress == "on")
     try:
-        program, plan = plan_gcode(path, machine, backlash_comp=not args.no_backlash_comp)
+        program = load_program(path, machine)
+        reason = "--controller" if args.controller else controller_reason(program.commands, machine)
+        if reason:
+            return _run_controller(args, machine, path, program, reason, progress)
+        program, plan = plan_compiled(program, machine, backlash_comp=not args.no_backlash_comp)
         progress.next()
         log = execute(plan, reference=args.reference)
         progress.next()
         comp = "off" if args.no_backlash_comp else "on"
         path_name = "reference" if args.reference else "fast"
         finish_run(args, log, f"{machine.name}: {path.name}, {len(program.commands)} commands, "
-                              f"{len(plan.moves)} moves, backlash comp {comp}, {path_name} path")
+                              f"{len(plan.moves)} moves, backlash comp {comp}, {path_name} path",
+                   program.commands)
         progress.next()
     finally:
         progress.close()
     return 0
 
 
-def finish_run(args, log, title: str) -> dict:
-    """Deliver frames to the outputs, print the summary, write plot and report."""
+def _run_controller(args, machine, path, program, reason: str, progress) -> int:
+    """``retrofit run`` through the 002 controller: its frames, from a simulated machine's inputs."""
+    from .runprogram import run_on_controller
+    if args.reference:
+        raise RetrofitError(f"--reference steps the planner's per-tick reference path; {path.name} runs "
+                            f"through the controller ({reason}), which is per tick already")
+    progress.next()
+    log = run_on_controller(program, machine, backlash_comp=not args.no_backlash_comp)
+    progress.next()
+    comp = "off" if args.no_backlash_comp else "on"
+    finish_run(args, log, f"{machine.name}: {path.name}, {len(program.commands)} commands, backlash comp "
+                          f"{comp}, 002 controller ({reason})", program.commands)
+    progress.next()
+    return 0
+
+
+def finish_run(args, log, title: str, commands=None) -> dict:
+    """Deliver frames (or, to command-level outputs, ``commands``), print the summary, write plot and report."""
     from .report import build_report, summary_lines, write_json_atomic
     from .runner import deliver
-    sim = deliver(log, args.output or ["sim://"])
+    from .runprogram import command_outputs, remote_lines
+    urls, remote = command_outputs(args.output or ["sim://"], log.machine, commands)
+    sim = deliver(log, urls)
     report = build_report(log, sim)
+    if remote:
+        report["remote"] = remote
     print(title)
-    for line in summary_lines(report):
+    for line in summary_lines(report) + remote_lines(remote):
         print(line)
     if args.plot:
         from .plot import plot_path

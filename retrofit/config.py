@@ -75,6 +75,7 @@ class SimModel:
     """The physical machine the simulator models (may differ from what the controller assumes)."""
 
     dead_band_mm: dict[str, float]
+    motors: dict[str, object] = field(default_factory=dict)   # [sim.motor.<axis>]: sim.pullout.MotorModel
 
 
 @dataclass(frozen=True)
@@ -129,6 +130,13 @@ class Machine:
 SECTION_PARSERS: dict[str, str] = {
     "servo": "retrofit.camlink.servo:read_servo_section",
     "parport": "retrofit.outputs.parport:read_parport_section",
+    "switches": "retrofit.controller.settings:read_switches_section",
+    "spindle": "retrofit.controller.settings:read_spindle_section",
+    "homing": "retrofit.controller.settings:read_homing_section",
+    "atc": "retrofit.atc.settings:read_atc_section",
+    "tools": "retrofit.atc.settings:read_tools_section",
+    "setter": "retrofit.atc.setter:read_setter_section",
+    "ramps": "retrofit.atc.board:read_ramps_section",
 }
 
 
@@ -247,8 +255,13 @@ def _read_sim(sec: Section | None, axes: tuple[Axis, ...], file: str) -> SimMode
         for axis in axes:
             dead[axis.name] = bands.get_float(axis.name.lower(), 0.0, minval=0.0, maxval=10.0)
         bands.finish()
+    motor_tables = sec.section("motor", required=False)
+    motors = {}
+    if motor_tables is not None:
+        from .sim.pullout import read_motor_tables     # lazily: only a machine with motor tables needs it
+        motors = read_motor_tables(motor_tables, axes)
     sec.finish()
-    return SimModel(dead_band_mm=dead)
+    return SimModel(dead_band_mm=dead, motors=motors)
 
 
 def _read_motion(sec: Section | None) -> MotionSettings:

@@ -28,3 +28,15 @@ class OutputError(RetrofitError, OSError):
 
 class MotionError(RetrofitError, ValueError):
     """A move cannot be made: outside the step space, the soft limits, or the machine's reach."""
+
+
+class ToolChangeError(RetrofitError, ValueError):
+    """A tool change or a tool measurement is refused: a tool number out of range, no reference."""
+
+
+class ToolStateError(RetrofitError, ValueError):
+    """The record of the tool in the spindle (or the tool table) cannot be trusted or read."""
+
+
+class ProbeError(RetrofitError, RuntimeError):
+    """A probing move ended without the tool setter's beam breaking."""

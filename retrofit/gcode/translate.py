@@ -3,18 +3,22 @@
 G0 is FMOV and G1 is PMOV, both naming every machine axis with its absolute target in mm; a
 G2/G3 arc becomes one PMOV per chord (:mod:`retrofit.motion.arcs`); F becomes a PFDR sent just
 before the next feed move when it changed; G4 is DELY, G28 ZMOV, G92 PSTN, M3/M4/M5 with S are
-SPIN and M7/M8/M9 are COOL. Within a block the words act in this order: plane, units and
-distance mode; feed; spindle; coolant; dwell; G28/G92 or the motion; program end.
+SPIN and M7/M8/M9 are COOL; T, M6, G43 and G49 go to the tool changer (:mod:`retrofit.atc.gcode`);
+G33 and the G76 cycle become moves under the spindle's indexer (:mod:`retrofit.gcode.threading`).
+Within a block the words act in this order: plane, units and distance mode; feed; T and M6;
+spindle; coolant; dwell; G43/G49; G28/G92 or the motion; program end.
 """
 
 from __future__ import annotations
 
 from ..commands import Command, Cool, Dely, FMov, PFdr, PMov, Pstn, Spin, ZMov
 from ..config import Machine
+from ..controller.settings import home_positions_mm
 from ..motion.arcs import arc_points
 from .arcwords import allowed_radius_mismatch, arc_center, plane_axes
 from .parser import ParsedBlock
 from .state import ModalState, clean_mm
+from .threading import g33, g76, leave
 from .validate import RuleError, check_feed, check_soft_limits, check_word_use
 
 
@@ -27,6 +31,8 @@ class Translator:
         self.commands: list[Command] = []
         self.lines: list[int] = []
         self._line = 0
+        self.offset_mm = {name: 0.0 for name in machine.axis_names}   # machine - program (G92, G43)
+        self.indexing = False             # ISTP emitted and not yet ended by CSTP (a G33 chain)
 
     def run(self, block: ParsedBlock) -> bool:
         """Translate one block; True when it ends the program (M2, M30)."""
@@ -36,17 +42,25 @@ class Translator:
         self._modes(block)
         if "F" in block.values:
             self.state.feed_mm_min = clean_mm(self.state.to_mm(block.values["F"]))
+        if "T" in block.values or "tool change" in block.m:
+            from ..atc.gcode import change_tool       # T and M6 (machines with a tool changer)
+            change_tool(self, block)
         self._spindle(block)
         self._coolant(block)
         nonmodal = block.g.get("non-modal")
         if nonmodal == 4:
             self._emit(Dely(block.values["P"]))
+        if "tool length" in block.g:
+            from ..atc.gcode import tool_length       # G43 [H], G49 (machines with a tool table)
+            tool_length(self, block)
         if block.motion is not None:
             self.state.motion = block.motion
         if nonmodal == 28:
             self._home(block)
         elif nonmodal == 92:
             self._set_position(block)
+        elif nonmodal == 76:
+            g76(self, block)
         else:
             self._motion(block, mode)
         if "program end" in block.m:
@@ -88,6 +102,7 @@ class Translator:
 
     def _end(self) -> None:
         """M2/M30: the spindle stops and the coolant goes off if they were on."""
+        leave(self)
         if self.state.spindle:
             self.state.spindle = 0
             self._emit(Spin(0.0, 0))
@@ -98,18 +113,21 @@ class Translator:
     # -- G28, G92 ----------------------------------------------------------------------------
     def _home(self, block: ParsedBlock) -> None:
         """G28: rapid to the intermediate point if axis words are given, then home every axis;
-        machine zero is 0 mm on every axis."""
+        machine zero is 0 mm on every axis (each axis's ``home_mm`` when it homes on switches)."""
+        leave(self)
         if block.axes:
             via = self.state.target(block.axes)
             check_soft_limits(self.machine, via, " (G28 intermediate point)")
             self._emit(FMov(self._axes(via)))
         self._emit(ZMov())
-        self.state.position = {name: 0.0 for name in self.state.position}
+        self.state.position = home_positions_mm(self.machine)
 
     def _set_position(self, block: ParsedBlock) -> None:
         """G92: the named axes are now at the given values (absolute, whatever G90/G91 says)."""
         named = {n: clean_mm(self.state.to_mm(v)) for n, v in block.axes.items()}
         self._emit(Pstn(tuple((n, named[n]) for n in self.machine.axis_names if n in named)))
+        for n, value in named.items():
+            self.offset_mm[n] = clean_mm(self.offset_mm[n] + self.state.position[n] - value)
         self.state.position.update(named)
 
     # -- motion ----------------------------------------------------------------------------
@@ -121,6 +139,11 @@ class Translator:
         if mode is None:
             raise RuleError("axis words without a motion mode (put G0, G1, G2 or G3 before them)")
         end = self.state.target(block.axes)
+        if mode == 33:
+            g33(self, block, end)
+            self.state.position = end
+            return
+        leave(self)
         if mode == 0:
             check_soft_limits(self.machine, end)
             self._emit(FMov(self._axes(end)))

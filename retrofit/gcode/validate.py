@@ -48,14 +48,18 @@ def check_word_use(block, mode: int | None) -> None:
     if nonmodal in (28, 92) and block.motion is not None and block.axes:
         raise RuleError(f"G{block.motion} and G{nonmodal} in one block both use the axis words; "
                         "put them on separate lines")
-    arc_words = [block.texts[c] for c in "IJKR" if c in block.values]
     moves = bool(block.axes) or block.motion is not None
+    thread = mode == 33 and nonmodal not in (28, 92) and moves       # G33 takes K, its pitch
+    arc_words = [block.texts[c] for c in "IJKR" if c in block.values and not (thread and c == "K")]
     arc_applies = mode in (2, 3) and nonmodal not in (28, 92) and moves
-    if arc_words and not arc_applies:
+    if arc_words and not arc_applies and nonmodal != 76:
         raise RuleError(f"{arc_words[0]} is an arc word but no G2/G3 arc is made in this block")
-    if "P" in block.values and nonmodal != 4:
+    if "P" in block.values and nonmodal not in (4, 76):
         raise RuleError(f"{block.texts['P']} without G4 (P is the dwell time of G4, in seconds)")
     if nonmodal == 4 and "P" not in block.values:
         raise RuleError("G4 needs P<seconds>, e.g. G4 P0.5")
     if nonmodal == 92 and not block.axes:
         raise RuleError("G92 without an axis word (G92 X0 sets the current X to 0)")
+    if "H" in block.values and block.g.get("tool length") != 43 and nonmodal != 76:
+        raise RuleError(f"{block.texts['H']} without G43 (H names the tool whose length offset "
+                        "G43 applies)")

@@ -18,6 +18,7 @@ REGISTRY: dict[str, str] = {
     "parport": "retrofit.outputs.parport:ParportOutput",
     "parport+record": "retrofit.outputs.record:RecordOutput",
     "vcd": "retrofit.outputs.vcd:VcdOutput",
+    "serial": "retrofit.outputs.serial:SerialOutput", "serial+socket": "retrofit.outputs.serial:SerialSocketOutput",
 }
 
 

@@ -2,6 +2,9 @@
 
 It reads only the port bytes, the way the real electronics do, and reports what really happened:
 where each motor and carriage is, how often each reversed, and every timing or travel violation.
+A machine with ``[switches]`` gets its limit, home and precise-position switches (read from the
+carriages), one with ``[spindle]`` a spindle with an encoder and an index pulse; a controller
+reads both through :meth:`SimMachine.switch_states` and ``SimMachine.spindle``.
 """
 
 from __future__ import annotations
@@ -14,6 +17,9 @@ from ..backlash import DeadBand
 from ..config import Machine
 from ..frames import PortFrames
 from .drivers import DriverInput, Violation
+from .spindle import SimSpindle
+from .switches import SwitchBank
+from .pullout import PullOutMotor, turn_screw
 
 
 class AxisTrace:
@@ -47,8 +53,18 @@ class SimMachine:
         self._last_dir = [0] * len(machine.axes)
         self._out_of_travel = [False] * len(machine.axes)
         self.extra_violations: list[Violation] = []
+        # [sim.motor.<axis>]: a rotor that may fall out of step (None: it takes every step)
+        self.motors = [PullOutMotor(machine.sim.motors[a.name], a.name, machine.tick_s)
+                       if a.name in machine.sim.motors else None for a in machine.axes]
         self.end_tick = 0
         self._initial = [(s, s / a.steps_per_mm) for s, a in zip(start, machine.axes)]
+        self.switches = SwitchBank(machine, machine.parts.get("switches"),
+                                   {a.name: c for a, (_, c) in zip(machine.axes, self._initial)})
+        self._travel = [self.switches.hard_travel(a) for a in machine.axes]
+        spindle = machine.parts.get("spindle")
+        self.spindle = SimSpindle(spindle, machine.tick_us) if spindle is not None else None
+        self._masks = [((a.invert_step << a.step_bit) | (a.invert_dir << a.dir_bit), a.step_bit, a.dir_bit)
+                       for a in machine.axes]
 
     def feed(self, frames: PortFrames) -> None:
         """Run the machine through a chunk of frames."""
@@ -57,31 +73,56 @@ class SimMachine:
             self._move(i, axis, rises, dirs)
         self.end_tick = max(self.end_tick, frames.end_tick)
 
+    def feed_frame(self, tick: int, value: int) -> None:
+        """Run the machine through one port byte, holding from ``tick`` on (a controller's hook:
+        the same driver rules as :meth:`feed`, for one frame, without array overhead)."""
+        for i, (axis, driver) in enumerate(zip(self.machine.axes, self.drivers)):
+            invert, step_bit, dir_bit = self._masks[i]
+            logical = value ^ invert
+            step = (logical >> step_bit) & 1
+            direction = 1 if (logical >> dir_bit) & 1 else -1
+            rise = step and not driver.step
+            if rise or step != driver.step or direction != driver.direction:
+                driver._check([tick] if rise else [], [tick] if driver.step and not step else [],
+                              [tick] if direction != driver.direction else [])
+                driver.step, driver.direction = step, direction
+            if rise:
+                self._move(i, axis, (tick,), (direction,))
+        self.end_tick = max(self.end_tick, tick + 1)
+
+    def switch_states(self) -> dict[str, bool]:
+        """Switch name -> closed, after the frames fed so far."""
+        return self.switches.states()
+
     def _move(self, i, axis, rises: np.ndarray, dirs: np.ndarray) -> None:
         trace, screw, spm = self.traces[axis.name], self.screws[i], axis.steps_per_mm
         motor, last_dir = self.motor_steps[i], self._last_dir[i]
-        for tick, direction in zip(rises.tolist(), dirs.tolist()):
+        for tick, direction in zip(list(rises), list(dirs)):
             if last_dir and direction != last_dir:
                 self.reversals[i] += 1
             last_dir = direction
-            motor += direction
-            carriage = screw.move_motor(direction) / spm
+            moved = int(direction) if self.motors[i] is None else self.motors[i].follow(tick, direction)
+            motor += moved
+            carriage = turn_screw(screw, moved) / spm
             trace.ticks.append(tick)
             trace.motor_steps.append(motor)
             trace.carriage_mm.append(carriage)
             self._check_travel(i, axis, tick, carriage)
+            self.switches.on_carriage(axis.name, tick, carriage)
         self.motor_steps[i], self._last_dir[i] = motor, last_dir
 
     def _check_travel(self, i, axis, tick: int, carriage: float) -> None:
-        outside = not (axis.min_mm - 1e-9 <= carriage <= axis.max_mm + 1e-9)
+        lo, hi = self._travel[i]
+        outside = not (lo - 1e-9 <= carriage <= hi + 1e-9)
         if outside and not self._out_of_travel[i]:
             self.extra_violations.append(Violation(tick, axis.name, "travel",
-                f"carriage at {carriage:.3f} mm, outside {axis.min_mm:g}..{axis.max_mm:g} mm"))
+                f"carriage at {carriage:.3f} mm, outside {lo:g}..{hi:g} mm"))
         self._out_of_travel[i] = outside
 
     @property
     def violations(self) -> list[Violation]:
         found = [v for d in self.drivers for v in d.violations] + self.extra_violations
+        found += [v for m in self.motors if m is not None for v in m.violations]
         return sorted(found, key=lambda v: (v.tick, v.axis, v.kind))
 
     def carriage_mm(self, axis: str) -> float:

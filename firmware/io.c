@@ -1,0 +1,69 @@
+/* io.c - Timer3 as a 1 ms clock, the spindle (PWM on D10, direction on D11), coolant, the LED. */
+#include <avr/interrupt.h>
+#include <avr/io.h>
+#include <util/atomic.h>
+
+#include "board.h"
+#include "config.h"
+#include "io.h"
+
+static volatile uint16_t millis;
+
+ISR(TIMER3_COMPA_vect)
+{
+    millis++;
+}
+
+void io_init(void)
+{
+    TCCR3A = 0;
+    OCR3A = CLOCK_TOP;                                 /* 250 counts of F_CPU / 64: 1 ms */
+    TCCR3B = _BV(WGM32) | _BV(CS31) | _BV(CS30);      /* CTC on OCR3A, clock / 64 */
+    TIMSK3 = _BV(OCIE3A);
+    /* Spindle speed: Timer2 fast PWM on OC2A (D10), duty 0 = off. */
+    SPINDLE_PWM_DDR |= _BV(SPINDLE_PWM_BIT);
+    SPINDLE_DIR_DDR |= _BV(SPINDLE_DIR_BIT);
+    TCCR2A = _BV(COM2A1) | _BV(WGM21) | _BV(WGM20);
+    TCCR2B = _BV(CS22);                                /* clock / 64: about 1 kHz */
+    OCR2A = 0;
+    FLOOD_DDR |= _BV(FLOOD_BIT);
+    MIST_DDR |= _BV(MIST_BIT);
+    LED_DDR |= _BV(LED_BIT);
+}
+
+uint16_t io_millis(void)
+{
+    uint16_t now;
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { now = millis; }
+    return now;
+}
+
+void spindle_set(uint16_t rpm, int8_t direction)
+{
+    uint32_t duty = direction ? (uint32_t)rpm * 255UL / SPINDLE_MAX_RPM : 0;
+    OCR2A = duty > 255 ? 255 : (uint8_t)duty;
+    if (direction < 0)
+        SPINDLE_DIR_PORT |= _BV(SPINDLE_DIR_BIT);      /* M4: reverse */
+    else
+        SPINDLE_DIR_PORT &= (uint8_t)~_BV(SPINDLE_DIR_BIT);
+}
+
+void coolant_set(uint8_t mode)
+{
+    if (mode == 8)
+        FLOOD_PORT |= _BV(FLOOD_BIT);
+    else
+        FLOOD_PORT &= (uint8_t)~_BV(FLOOD_BIT);
+    if (mode == 7)
+        MIST_PORT |= _BV(MIST_BIT);
+    else
+        MIST_PORT &= (uint8_t)~_BV(MIST_BIT);
+}
+
+void led_set(uint8_t on)
+{
+    if (on)
+        LED_PORT |= _BV(LED_BIT);
+    else
+        LED_PORT &= (uint8_t)~_BV(LED_BIT);
+}

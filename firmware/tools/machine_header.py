@@ -1,0 +1,162 @@
+"""Write the firmware's machine header (firmware/machines/NAME.h) from a retrofit machine file.
+
+    python3 firmware/tools/machine_header.py mitic-lathe > firmware/machines/mitic-lathe.h
+
+The firmware compiles in what the Python side plans with: steps/mm, speed and acceleration
+limits, backlash, pulse timing, feeds, switches, homing and the spindle encoder. Axes are listed
+in the link's axis-bit order (X, Y, Z, A, ...) and drive the RAMPS socket of their letter (a
+fourth axis: E0). The 002 switches go to the endstop connectors of ``SWITCH_CONNECTORS``; others
+take the free connectors in order.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from retrofit.config import Machine, load_machine  # noqa: E402
+from retrofit.link.codec import AXIS_LETTERS  # noqa: E402
+
+SOCKETS = {"X": "X", "Y": "Y", "Z": "Z"}            # any other axis letter: the E0 socket
+#: the 002 switches on the RAMPS endstop connectors, and their bit in the status word
+SWITCH_CONNECTORS = {"nlsx": ("XMIN", 2), "plsx": ("XMAX", 3), "plsz": ("ZMAX", 4),
+                     "ppsx": ("YMIN", 5), "ppsz": ("YMAX", 6)}
+CONNECTORS = ("XMIN", "XMAX", "YMIN", "YMAX", "ZMIN", "ZMAX")
+KINDS = {"limit": "SW_LIMIT", "home": "SW_HOME", "precise": "SW_PRECISE"}
+
+
+def _float(value: float) -> str:
+    """A C float literal: 1500.0f, 0.025f, 1e+06f."""
+    text = f"{value:.7g}"
+    return text + ("f" if "." in text or "e" in text else ".0f")
+
+
+def _floats(values) -> str:
+    return "{ " + ", ".join(_float(v) for v in values) + " }"
+
+
+def _ints(values) -> str:
+    return "{ " + ", ".join(str(int(v)) for v in values) + " }"
+
+
+def axis_lines(m: Machine, axes) -> list[str]:
+    """N_AXES, the axis bits, sockets and per-axis arrays."""
+    us = [m.tick_us * a.pulse_high_ticks for a in axes]
+    period = [m.tick_us * (a.pulse_high_ticks + a.pulse_low_ticks) for a in axes]
+    setup = [m.tick_us * max(a.dir_setup_ticks, 1) for a in axes]
+    sockets = [SOCKETS.get(a.name, "E0") for a in axes]
+    return [
+        f"#define N_AXES              {len(axes)}",
+        f"#define AXIS_LETTERS        \"{''.join(a.name for a in axes)}\"",
+        f"#define AXIS_BITS           {_ints(AXIS_LETTERS.index(a.name) for a in axes)}"
+        "   /* link mask bit of each axis */",
+        "#define FOR_EACH_AXIS(M)   " + " ".join(f"M({i}, {s})" for i, s in enumerate(sockets))
+        + "   /* index, RAMPS socket */",
+        f"#define DIR_INVERT          0x{sum(1 << i for i, a in enumerate(axes) if a.invert_dir):02X}",
+        f"#define STEPS_PER_MM        {_floats(a.steps_per_mm for a in axes)}",
+        f"#define MAX_RATE_STEPS_S    {_floats(a.max_velocity_mm_s * a.steps_per_mm for a in axes)}",
+        f"#define ACCEL_STEPS_S2      {_floats(a.max_accel_mm_s2 * a.steps_per_mm for a in axes)}",
+        f"#define BACKLASH_STEPS      {_ints(a.backlash_steps for a in axes)}",
+        f"#define MIN_STEPS           {_ints(a.min_steps for a in axes)}   /* soft limits */",
+        f"#define MAX_STEPS           {_ints(a.max_steps for a in axes)}",
+        f"#define TRAVEL_STEPS        {_ints(math.ceil((a.max_mm - a.min_mm + 5) * 1.1 * a.steps_per_mm) for a in axes)}"
+        "   /* the longest homing seek */",
+        f"#define PULSE_HIGH_US       {math.ceil(max(us))}   /* 'dunu': the step pulse */",
+        f"#define MIN_PERIOD_US       {math.ceil(max(period))}   /* 'perioada': the shortest step period */",
+        f"#define DIR_SETUP_US        {math.ceil(max(setup))}",
+    ]
+
+
+def switch_lines(m: Machine, axes) -> tuple[list[str], dict[str, int]]:
+    """The SWITCHES X-macro, one entry per switch of [switches]; returns the switch ids too."""
+    switches = m.parts.get("switches")
+    specs = switches.specs if switches else ()
+    free = [c for c in CONNECTORS if c not in {v[0] for k, v in SWITCH_CONNECTORS.items()
+                                               if switches and switches.named(k)}]
+    index = {a.name: i for i, a in enumerate(axes)}
+    lines, ids = ["/* SWITCH(id, axis, side, kind, RAMPS endstop connector, status bit or -1) */",
+                  "#define SWITCHES \\"], {}
+    for i, spec in enumerate(specs):
+        connector, bit = SWITCH_CONNECTORS.get(spec.name, (None, -1))
+        if connector is None:
+            if not free:
+                raise SystemExit(f"{m.name}: more switches than RAMPS endstop connectors")
+            connector = free.pop(0)
+        ids[spec.name] = i
+        lines.append(f"    SWITCH({i}, {index[spec.axis]}, {spec.side:+d}, {KINDS[spec.kind]}, "
+                     f"{connector}, {bit})   /* {spec.name.upper()} */ \\")
+    lines.append("")
+    lines.append(f"#define N_SWITCHES          {len(specs)}")
+    return lines, ids
+
+
+def homing_lines(m: Machine, axes, ids: dict[str, int]) -> list[str]:
+    """Homing order and per-axis seek switch, reference switch, home position, back-off, latch."""
+    homing = m.parts.get("homing")
+    order = [a.name for a in axes if homing and a.name in homing.order]
+    if homing:
+        order = list(homing.order)
+    index = {a.name: i for i, a in enumerate(axes)}
+    none = 255
+    seek, ref, home, back, latch, dirs = [], [], [], [], [], []
+    for a in axes:
+        how = homing.axes.get(a.name) if homing else None
+        spec = m.parts["switches"].named(how.switch) if how else None
+        seek.append(ids[how.switch] if how else none)
+        ref.append(ids[how.precise or how.switch] if how else none)
+        home.append(round((how.home_mm if how else 0.0) * a.steps_per_mm))
+        back.append(round((how.backoff_mm if how else 0.0) * a.steps_per_mm))
+        latch.append(how.latch_mm_min if how else 30.0)
+        dirs.append(spec.side if spec else 1)
+    return [
+        f"#define HOME_COUNT          {len(order)}",
+        f"#define HOME_ORDER          {_ints([index[n] for n in order] + [0] * (len(axes) - len(order)))}",
+        f"#define HOME_DIRS           {_ints(dirs)}",
+        f"#define HOME_SEEK_SWITCH    {_ints(seek)}   /* 255: the axis is not homed */",
+        f"#define HOME_REF_SWITCH     {_ints(ref)}",
+        f"#define HOME_STEPS          {_ints(home)}   /* the position at the reference switch */",
+        f"#define HOME_BACKOFF_STEPS  {_ints(back)}",
+        f"#define HOME_LATCH_MM_MIN   {_floats(latch)}",
+    ]
+
+
+def header(m: Machine) -> str:
+    """The whole header text."""
+    for a in m.axes:
+        if a.name not in AXIS_LETTERS:
+            raise SystemExit(f"{m.name}: axis {a.name} has no letter on the serial link "
+                             f"({' '.join(AXIS_LETTERS)}); the firmware cannot drive it")
+    axes = sorted(m.axes, key=lambda a: AXIS_LETTERS.index(a.name))
+    spindle = m.parts.get("spindle")
+    switches, ids = switch_lines(m, axes)
+    name = Path(m.source).name
+    lines = [
+        f"/* {m.name}.h - the settings of retrofit/machines/{name} the firmware compiles in.",
+        " * Written by firmware/tools/machine_header.py (make machine MACHINE=" + m.name + ");",
+        " * edit the machine file, not this header: a test checks that they agree. */",
+        f"#define MACHINE_NAME        \"{m.name}\"",
+        *axis_lines(m, axes),
+        f"#define RAPID_FEED_MM_MIN   {_float(m.motion.rapid_feed_mm_min)}",
+        f"#define DEFAULT_FEED_MM_MIN {_float(m.motion.default_feed_mm_min)}",
+        f"#define ENCODER_COUNTS_PER_REV {spindle.encoder_counts_per_rev if spindle else 0}",
+        f"#define SPINDLE_MAX_RPM     {round(spindle.max_rpm) if spindle else 3000}UL",
+        *switches,
+        *homing_lines(m, axes, ids),
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def main(argv: list[str]) -> int:
+    if len(argv) != 2:
+        print("usage: machine_header.py MACHINE (a shipped name or a .toml path)", file=sys.stderr)
+        return 2
+    sys.stdout.write(header(load_machine(argv[1])))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))

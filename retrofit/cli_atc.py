@@ -1,0 +1,170 @@
+"""Sub-commands of the mill with the tool changer: ``retrofit tool``, ``retrofit setter``, ``retrofit mill``.
+
+Each runs on the simulated machine (``sim://``), which starts at home with the tools where the
+spindle record says they are, and each reads and updates the same records as the controller:
+the tool in the spindle and the tool table (``--state-dir``, default $RETROFIT_STATE_DIR or
+~/.local/state/retrofit).
+"""
+
+from __future__ import annotations
+
+from .errors import RetrofitError
+
+
+def add_commands(sub) -> None:
+    """Add ``tool``, ``setter`` and ``mill`` to the ``retrofit`` command line."""
+    t = sub.add_parser("tool", help="show or change the tool in the spindle (T0..T12 on tul-mill)",
+                       description="Without a tool: show the tool in the spindle. With Tn: change to it "
+                                   "on the simulated mill (T0 puts the tool back). With --recover: take "
+                                   "Tn as the tool you see in the spindle, home the carousel and put it back.")
+    t.add_argument("tool", nargs="?", help="T0..T12")
+    t.add_argument("--recover", action="store_true",
+                   help="the record is lost: TOOL is what you see in the spindle (T0 if empty)")
+    _common(t)
+    t.set_defaults(func=cmd_tool)
+
+    s = sub.add_parser("setter", help="measure tools on the optical tool setter; show the tool table")
+    s.add_argument("action", choices=["reference", "measure", "table"],
+                   help="reference: calibrate with the reference tool; measure T..: length and "
+                        "diameter of each tool; table: print the tool table")
+    s.add_argument("tools", nargs="*", help="tools to measure (T3 T5 ...)")
+    _common(s)
+    s.set_defaults(func=cmd_setter)
+
+    m = sub.add_parser("mill", help="run a part program with tool changes (T, M6) and G43 on the simulated mill")
+    m.add_argument("program", help="G-code file (.ngc)")
+    _common(m)
+    m.set_defaults(func=cmd_mill)
+
+
+def _common(p) -> None:
+    p.add_argument("--machine", default="tul-mill", help="shipped machine name or path to a .toml file")
+    p.add_argument("--state-dir", metavar="DIR", help="where the spindle record and the tool table live")
+
+
+def _tool_number(text: str) -> int:
+    body = text[1:] if text[:1] in "Tt" else text
+    if not body.isdigit():
+        raise RetrofitError(f"tool {text!r}: expected T followed by a number, e.g. T3 (T0: spindle empty)")
+    return int(body)
+
+
+class _Mill:
+    """The machine, its records and a simulated cell that starts from what the records say."""
+
+    def __init__(self, args):
+        from pathlib import Path
+        from .atc.cell import SimCell
+        from .atc.changer import ToolChanger
+        from .atc.magazine import MagazineState
+        from .atc.state import SpindleStore
+        from .atc.tooltable import ToolTableStore
+        from .config import load_machine
+        self.machine = load_machine(args.machine)
+        name = self.machine.name
+        folder = Path(args.state_dir) if args.state_dir else None
+        self.store = SpindleStore(name, folder / f"{name}-spindle.json" if folder else None)
+        self.tables = ToolTableStore(name, folder / f"{name}-tooltable.json" if folder else None)
+        recover = getattr(args, "recover", False)
+        self.changer = ToolChanger(self.machine, self.store, read_record=not recover)
+        tool = _tool_number(args.tool) if recover and args.tool else self.changer.spindle_tool
+        self.cell = SimCell(self.machine, MagazineState.loaded(self.machine, tool or 0))
+
+    def finish(self) -> int:
+        """Print what the simulated machine holds and every violation; 1 when there was one."""
+        state = self.cell.magazine.state
+        spindle = f"T{state.spindle}" if state.spindle else "empty"
+        pockets = " ".join(f"{p}:{'T%d' % t if t else '-'}" for p, t in sorted(state.pockets.items()))
+        print(f"  sim: spindle {spindle}; pockets {pockets}")
+        found = self.cell.violations
+        print(f"  violations: {len(found)}")
+        for v in found:
+            print(f"    tick {v.tick} {v.axis} {v.kind}: {v.detail}")
+        return 1 if found else 0
+
+
+def cmd_tool(args) -> int:
+    """``retrofit tool [Tn] [--recover]``."""
+    if args.recover and args.tool is None:
+        raise RetrofitError("--recover needs the tool you see in the spindle, e.g. retrofit tool T3 --recover")
+    mill = _Mill(args)
+    if args.recover:
+        seen = _tool_number(args.tool)
+        steps = mill.changer.recover(seen, mill.cell)
+        _print_steps(f"{mill.machine.name}: recovery with T{seen} in the spindle", steps)
+        return mill.finish()
+    if args.tool is None:
+        tool = mill.changer.spindle_tool
+        print(f"{mill.machine.name}: {'T%d' % tool if tool else 'no tool'} in the spindle "
+              f"(record {mill.store.path})")
+        return 0
+    seq = mill.changer.change(_tool_number(args.tool), mill.cell)
+    title = {0: "already in the spindle, nothing to do", 1: "condition 1: pick",
+             2: "condition 2: put back, then pick", 3: "condition 3: put back (T0)"}[seq.condition]
+    _print_steps(f"{mill.machine.name}: T{seq.current} -> T{seq.new}, {title}", seq.steps)
+    return mill.finish()
+
+
+def cmd_setter(args) -> int:
+    """``retrofit setter reference | measure T.. | table``."""
+    from .atc.measure import ToolSetter
+    mill = _Mill(args)
+    table = mill.tables.load()
+    setter = ToolSetter(mill.machine, table)
+    name = mill.machine.name
+    if args.action == "reference":
+        mill.changer.change(setter.settings.reference_tool, mill.cell)
+        ref = setter.calibrate(mill.cell, mill.changer.spindle_tool)
+        mill.tables.save(table)
+        print(f"{name}: reference T{ref.tool} ({ref.length_mm:g} mm) meets the beam at Z {ref.z_break_mm:.4f}")
+    elif args.action == "measure":
+        if not args.tools:
+            raise RetrofitError("setter measure needs the tools to measure, e.g. retrofit setter measure T3 T5")
+        setter.reference()                  # before any tool moves
+        for tool in [_tool_number(t) for t in args.tools]:
+            mill.changer.change(tool, mill.cell)
+            got = setter.measure(mill.cell, mill.changer.spindle_tool)
+            mill.tables.save(table)
+            print(f"{name}: T{tool} length {got.length_mm:.4f} mm, diameter {got.diameter_mm:.4f} mm, "
+                  f"offset {table.length_offset(tool):+.4f} mm")
+    else:
+        _print_table(name, table, mill.tables.path)
+        return 0
+    return mill.finish()
+
+
+def cmd_mill(args) -> int:
+    """``retrofit mill PROGRAM``: compile with the spindle record, run, record every change."""
+    from pathlib import Path
+    from .atc.gcode import ToolSession
+    from .gcode import compile_program
+    mill = _Mill(args)
+    path = Path(args.program)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise RetrofitError(f"{path}: cannot read the program ({exc.strerror})") from None
+    session = ToolSession(mill.machine, mill.changer.spindle_tool, mill.tables.load())
+    with session.active():
+        program = compile_program(text, mill.machine, file=path.name, start_mm=mill.cell.commanded_mm())
+    mill.changer.run_program(program.commands, session.changes, mill.cell)
+    print(f"{mill.machine.name}: {path.name}, {len(program.commands)} commands, "
+          f"{len(session.changes)} tool change(s), T{mill.changer.spindle_tool} in the spindle at the end")
+    return mill.finish()
+
+
+def _print_steps(title: str, steps) -> None:
+    print(title)
+    for i, step in enumerate(steps, 1):
+        print(f"  {i}. {step.says}: {'; '.join(str(c) for c in step.commands)}")
+
+
+def _print_table(name: str, table, path) -> None:
+    ref = table.reference
+    print(f"{name} tool table ({path})")
+    print("  reference: " + (f"T{ref.tool}, {ref.length_mm:g} mm, beam at Z {ref.z_break_mm:.4f}"
+                             if ref else "none (retrofit setter reference)"))
+    for tool, entry in sorted(table.tools.items()):
+        length = "-" if entry.length_mm is None else f"{entry.length_mm:.4f}"
+        diameter = "-" if entry.diameter_mm is None else f"{entry.diameter_mm:.4f}"
+        print(f"  T{tool}: length {length} mm, diameter {diameter} mm")

@@ -1,0 +1,303 @@
+"""Lab exercises: find the labs folder, run a lab's file, and check it with messages written for students.
+
+A lab is a folder ``labs/NN_topic/`` holding ``README.md`` (the handout), ``student.py`` (the
+file the student completes, with ``TODO`` markers), ``solution.py`` (the reference solution:
+the same file completed) and ``checks.py`` (pytest tests). Each lab file has a
+``main(out_dir)`` that draws the lab's plots into ``out_dir`` and returns the files written.
+
+Where the labs folder is, first found wins:
+
+1. the ``--labs DIR`` option of ``retrofit lab`` (the ``root`` argument here);
+2. the environment variable ``RETROFIT_LABS``;
+3. ``labs/`` next to the ``retrofit`` package, i.e. the repository's own ``labs/`` when retrofit
+   is installed editable (``pip install -e .``) or run from a checkout;
+4. ``labs/`` in the current directory.
+
+Which file the checks test: ``RETROFIT_LAB_TARGET`` = ``student`` (the default), ``solution``,
+or a path to any ``.py`` file; the checks get the module from :func:`load_target`. So
+``pytest labs/01_circle/checks.py`` checks the student's file and
+``RETROFIT_LAB_TARGET=solution pytest labs/01_circle/checks.py`` the reference solution.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import re
+import sys
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+
+from .errors import ConfigError
+
+LABS_ENV = "RETROFIT_LABS"
+TARGET_ENV = "RETROFIT_LAB_TARGET"
+_LAB_DIR = re.compile(r"^(\d\d)_([A-Za-z0-9_]+)$")
+
+
+@dataclass(frozen=True)
+class Lab:
+    """One lab folder ``NN_topic``."""
+
+    number: str         # "01"
+    topic: str          # "circle"
+    path: Path
+    title: str          # the first heading of its README.md
+
+    @property
+    def checks(self) -> Path:
+        return self.path / "checks.py"
+
+    def file(self, solution: bool = False) -> Path:
+        """The student's file, or the reference solution."""
+        return self.path / ("solution.py" if solution else "student.py")
+
+
+def labs_dir(root: str | Path | None = None) -> Path:
+    """The labs folder (see the module doc for the order it is looked for in)."""
+    if root is not None or os.environ.get(LABS_ENV):
+        path = Path(root if root is not None else os.environ[LABS_ENV])
+        if not path.is_dir():
+            where = "--labs" if root is not None else LABS_ENV
+            raise ConfigError(f"{where} {path}: no such folder; give the folder that holds 01_circle/ ...")
+        return path
+    package = Path(__file__).resolve().parent
+    for candidate in (package.parent / "labs", Path.cwd() / "labs"):
+        if candidate.is_dir() and list_labs(candidate):
+            return candidate
+    raise ConfigError(f"no labs folder found (looked in {package.parent / 'labs'} and ./labs); "
+                      f"give --labs DIR or set {LABS_ENV}")
+
+
+def list_labs(root: str | Path) -> list[Lab]:
+    """Every ``NN_topic`` folder with a README.md, in number order."""
+    labs = []
+    for path in sorted(Path(root).iterdir()):
+        match = _LAB_DIR.match(path.name)
+        if match and path.is_dir() and (path / "README.md").is_file():
+            labs.append(Lab(match[1], match[2], path, _title(path / "README.md")))
+    return labs
+
+
+def _title(readme: Path) -> str:
+    for line in readme.read_text(encoding="utf-8").splitlines():
+        if line.startswith("# "):
+            return line[2:].strip()
+    return readme.parent.name
+
+
+def find_lab(root: str | Path, key: str) -> Lab:
+    """A lab by number (``1``, ``01``), folder name (``01_circle``) or topic (``circle``)."""
+    labs = list_labs(root)
+    for lab in labs:
+        if key in (lab.number, lab.path.name, lab.topic) or (key.isdigit() and int(key) == int(lab.number)):
+            return lab
+    known = ", ".join(lab.path.name for lab in labs) or "none"
+    raise ConfigError(f"no lab {key!r} in {root}; labs: {known}")
+
+
+def load_module(path: str | Path):
+    """Import a lab file afresh (a new module each time, so edits and targets take effect)."""
+    path = Path(path)
+    name = "retrofit_lab_" + re.sub(r"\W", "_", f"{path.parent.name}_{path.stem}")
+    spec = importlib.util.spec_from_file_location(name, path)
+    if spec is None or spec.loader is None:
+        raise ConfigError(f"{path}: not a Python file")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        sys.modules.pop(name, None)
+        raise
+    return module
+
+
+def target_path(lab_path: str | Path) -> Path:
+    """The file the checks of the lab in ``lab_path`` test, chosen by ``RETROFIT_LAB_TARGET``."""
+    choice = os.environ.get(TARGET_ENV, "student") or "student"
+    if choice in ("student", "solution"):
+        return Path(lab_path) / f"{choice}.py"
+    path = Path(choice)
+    if not path.is_file():
+        raise ConfigError(f"{TARGET_ENV}={choice}: no such file; use student, solution or a path to a .py file")
+    return path
+
+
+def load_target(checks_file: str | Path):
+    """For a lab's ``checks.py``: the module under check (the student's file by default)."""
+    return load_module(target_path(Path(checks_file).resolve().parent))
+
+
+class CheckFailed(AssertionError):
+    """A check that failed, worded for a student: what was checked, expected, got, and a hint."""
+
+    def __init__(self, what: str, expected, got, hint: str = ""):
+        self.what, self.expected, self.got, self.hint = what, expected, got, hint
+        lines = [what, f"expected: {expected}", f"your code gave: {got}"]
+        if hint:
+            lines.append(f"hint: {hint}")
+        super().__init__("\n".join(lines))
+
+
+def expect(ok: bool, what: str, *, expected, got, hint: str = "") -> None:
+    """Raise :class:`CheckFailed` unless ``ok``."""
+    if not ok:
+        raise CheckFailed(what, expected, got, hint)
+
+
+def explain(exc: BaseException, target: Path) -> str:
+    """A failure in words a student can act on, never a traceback.
+
+    >>> explain(NotImplementedError("TODO 1: compute the target"), Path("student.py"))
+    'not written yet: TODO 1: compute the target'
+    """
+    if isinstance(exc, CheckFailed):
+        return str(exc)
+    if isinstance(exc, SyntaxError) and exc.filename and Path(exc.filename).name == target.name:
+        return (f"{target.name} line {exc.lineno} does not read as Python: {exc.msg}; "
+                "fix that line, then check again")
+    where = _where(exc, target)
+    if isinstance(exc, NotImplementedError):
+        return f"not written yet: {exc or 'a TODO'}" + (f" ({where})" if where else "")
+    if type(exc) is AssertionError:
+        return str(exc).split("\nassert ")[0] or "a check's assertion failed"
+    text = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+    if where:
+        return f"your code raised {text} ({where}); fix it there, then check again"
+    return f"the check raised {text} while using your code; look at what your functions return"
+
+
+def _where(exc: BaseException, target: Path) -> str:
+    """'student.py line 42, in calc_next_input' for the deepest frame in the target file."""
+    frames = [f for f in traceback.extract_tb(exc.__traceback__) if Path(f.filename).name == target.name]
+    if not frames:
+        return ""
+    frame = frames[-1]
+    return f"{target.name} line {frame.lineno}, in {frame.name}"
+
+
+@dataclass(frozen=True)
+class CheckResult:
+    """One check: its title (the first line of its docstring), passed / failed / skipped, and why."""
+
+    title: str
+    status: str
+    message: str = ""
+
+
+def _collector(target: Path):
+    """A pytest plugin that records each check's outcome with a student-facing message."""
+    import pytest
+
+    class Collector:
+        def __init__(self):
+            self.results: list[CheckResult] = []
+
+        @pytest.hookimpl(wrapper=True)
+        def pytest_runtest_makereport(self, item, call):
+            report = yield
+            if report.when == "call" or not report.passed:
+                function = getattr(item, "function", None)
+                doc = (function.__doc__ or "").strip() if function is not None else ""
+                title = doc.splitlines()[0] if doc else item.name.removeprefix("test_").replace("_", " ")
+                if getattr(item, "callspec", None) is not None:
+                    title += f" [{item.callspec.id}]"
+                if report.skipped:
+                    reason = report.longrepr[2] if isinstance(report.longrepr, tuple) else ""
+                    self.results.append(CheckResult(title, "skipped", reason.removeprefix("Skipped: ")))
+                elif report.failed:
+                    self.results.append(CheckResult(title, "failed", explain(call.excinfo.value, target)))
+                else:
+                    self.results.append(CheckResult(title, "passed"))
+            return report
+
+        def pytest_collectreport(self, report):
+            if report.failed:
+                text = str(report.longrepr).strip().splitlines()
+                self.results.append(CheckResult("the checks load", "failed", text[-1] if text else ""))
+
+    return Collector()
+
+
+#: pytest plugins a lab check does without: its own report replaces the terminal's, nothing is
+#: cached in the labs folder, and no garbage collection after every check (slow in a big process)
+_QUIET = ("-p", "no:terminal", "-p", "no:cacheprovider", "-p", "no:unraisableexception",
+          "-p", "no:threadexception")
+
+
+def check_lab(lab: Lab, solution: bool = False, target: str | Path | None = None) -> list[CheckResult]:
+    """Run a lab's checks against the student's file, the solution, or ``target``; one result per check."""
+    try:
+        import pytest
+    except ImportError:
+        raise ConfigError("the lab checks need pytest: python3 -m pip install -e '.[test]'") from None
+    chosen = Path(target) if target is not None else lab.file(solution)
+    collector = _collector(chosen)
+    saved = os.environ.get(TARGET_ENV)
+    os.environ[TARGET_ENV] = str(chosen.resolve())
+    _forget_checks()
+    try:
+        code = pytest.main([str(lab.checks), "--import-mode=importlib", "--rootdir", str(lab.path.parent),
+                            "-W", "ignore::DeprecationWarning", *_QUIET], plugins=[collector])
+    finally:
+        if saved is None:
+            os.environ.pop(TARGET_ENV, None)
+        else:
+            os.environ[TARGET_ENV] = saved
+    if not collector.results:
+        collector.results.append(CheckResult("the checks run", "failed",
+                                             f"{lab.checks} ran no checks (pytest exit code {int(code)})"))
+    return collector.results
+
+
+def _forget_checks() -> None:
+    """Drop checks modules a previous run imported, so every lab's own checks.py is read afresh."""
+    for name, module in list(sys.modules.items()):
+        if Path(getattr(module, "__file__", None) or "").name == "checks.py":
+            del sys.modules[name]
+
+
+def result_lines(results: list[CheckResult], ascii_only: bool = False) -> list[str]:
+    """One line per check (✓ / ✗ / –), the message indented under a failure, and a summary."""
+    marks = {"passed": "ok", "failed": "FAIL", "skipped": "skip"} if ascii_only else \
+        {"passed": "✓", "failed": "✗", "skipped": "–"}
+    lines = []
+    for r in results:
+        lines.append(f"  {marks[r.status]} {r.title}" + (f" ({r.message})" if r.status == "skipped" and r.message else ""))
+        if r.status == "failed":
+            lines += [f"      {text}" for text in r.message.splitlines()]
+    count = {status: sum(r.status == status for r in results) for status in marks}
+    summary = f"{count['passed']} of {len(results)} checks pass"
+    summary += f", {count['skipped']} skipped" if count["skipped"] else ""
+    summary += f", {count['failed']} to fix" if count["failed"] else "; well done"
+    return lines + [summary]
+
+
+def pyplot():
+    """``matplotlib.pyplot``, drawing to PNG files (the Agg backend) when there is no display."""
+    import matplotlib
+    if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")) or os.environ.get("MPLBACKEND") == "Agg":
+        matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def save_figure(fig, out_dir: str | Path, name: str) -> Path:
+    """Save a figure as ``out_dir/name`` (PNG), close it, and return the path."""
+    path = Path(out_dir) / name
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    pyplot().close(fig)
+    return path
+
+
+def run_lab(lab: Lab, solution: bool = False, out_dir: str | Path | None = None) -> list[Path]:
+    """Run a lab file's ``main(out_dir)`` (default ``<lab>/out``); return the files it wrote."""
+    pyplot()
+    out = Path(out_dir) if out_dir is not None else lab.path / "out"
+    out.mkdir(parents=True, exist_ok=True)
+    module = load_module(lab.file(solution))
+    written = module.main(out)
+    return [Path(p) for p in written or []]

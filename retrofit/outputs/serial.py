@@ -1,0 +1,153 @@
+"""serial:// — a motion controller at the far end of the serial link; it takes commands, not frames.
+
+URL grammar: ``serial:///dev/ttyUSB0?baud=115200`` (a serial device: an Arduino Mega running
+``firmware/``, or the pty printed by ``retrofit mcu --pty``) or ``serial+socket://HOST:PORT``
+(the same bytes over TCP: ``retrofit mcu --listen``, or the firmware under QEMU). Options:
+``baud`` (int, 115200), ``timeout_ms`` (float, 100: resend when unanswered, docs/protocol.md §6),
+``tries`` (int, 10), ``init`` (bool, 1: send INIT first), ``wait_s`` (float, 0: how long to wait
+for the motion to end; 0 waits as long as it takes), ``poll_ms`` (float, 20: RDST interval).
+
+This is a *command-level* output (``takes_commands = True``). A bit-level output takes port
+frames through ``write``; here the controller at the far end makes its own port bytes, so
+``write`` refuses frames and the program goes through :meth:`SerialOutput.send_program`:
+
+1. open the port (pyserial, imported only now) and SYNC both channels;
+2. INIT, unless ``init=0``: position 0, default feeds, empty queue, as the local plan starts;
+3. every command in order on the queued channel (BUSY waited out, NAK and timeouts resent);
+4. RDST every ``poll_ms`` until nothing moves, dwells or waits; ERROR or STOPPED fail the run;
+5. RDPS: the final position.
+
+``observe()`` then returns ``{"remote": {...}}``: what the far end reported (``remote`` in
+docs/report.md). ``retrofit run`` hands command-level outputs the program's commands.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Iterable
+
+from ..commands import Command, Init, Rdps, Rdst
+from ..errors import LinkError, OutputError
+from ..frames import PortFrames
+from .base import Output
+
+#: flags that mean the far end gave up on the program
+_FAILED = ("ERROR", "STOPPED")
+#: flags that mean the far end still has work
+_BUSY = ("MOVING", "DWELLING")
+
+
+class SerialOutput(Output):
+    scheme = "serial"
+    grammar = "serial:///dev/ttyUSB0?baud=115200 or serial+socket://HOST:PORT"
+    summary = ("a motion controller on the serial link (firmware/ on an Arduino Mega, or "
+               "retrofit mcu): sends the program's commands, reads the final position (RDPS)")
+    options = {"baud": (int, 115200), "timeout_ms": (float, 100.0), "tries": (int, 10),
+               "init": (bool, True), "wait_s": (float, 0.0), "poll_ms": (float, 20.0)}
+    takes_commands = True
+
+    def __init__(self, url, machine):
+        super().__init__(url, machine)
+        if not self.url.target:
+            raise OutputError(f"{url.text}: no device or address; expected {self.grammar}")
+        if self.opts["timeout_ms"] <= 0 or self.opts["poll_ms"] <= 0 or self.opts["tries"] < 1:
+            raise OutputError(f"{url.text}: timeout_ms and poll_ms must be > 0 and tries >= 1")
+        self.link = None
+        self.remote: dict | None = None
+
+    @property
+    def port_url(self) -> str:
+        """What pyserial opens: the device path, or ``socket://HOST:PORT``."""
+        if self.url.scheme == "serial+socket":
+            return f"socket://{self.url.target}"
+        return self.url.target
+
+    def open(self) -> None:
+        if self.link is None:
+            from ..link import HostLink
+            try:
+                self.link = HostLink.open(self.port_url, self.machine, baudrate=self.opts["baud"],
+                                          timeout_s=self.opts["timeout_ms"] / 1000,
+                                          max_tries=self.opts["tries"])
+            except LinkError as exc:
+                raise OutputError(f"{self.url.text}: {exc}") from None
+        super().open()
+
+    def write(self, frames: PortFrames) -> None:
+        raise OutputError(f"{self.url.text}: a serial controller takes commands, not port frames; "
+                          "use send_program(commands) (retrofit run does)")
+
+    def send_program(self, commands: Iterable[Command]) -> dict:
+        """Run ``commands`` on the far end, wait for the motion to end, read the position.
+
+        Returns the ``remote`` part of the report; raises OutputError naming the command that
+        failed, or the status flags that stopped the program.
+        """
+        if self.link is None:
+            self.open()
+        started = time.monotonic()
+        program = ([Init()] if self.opts["init"] else []) + list(commands)
+        try:
+            sent = [self.link.submit(cmd, urgent=False) for cmd in program]
+            for t in sent:
+                self.link.wait(t)
+            status = self._wait_for_rest(started)
+            position = self.link.request(Rdps())
+        except LinkError as exc:
+            raise OutputError(f"{self.url.text}: {exc}") from None
+        self.remote = self._summary(len(program), status, position, time.monotonic() - started)
+        return self.remote
+
+    def _wait_for_rest(self, started: float):
+        """RDST until the far end has no move, dwell or queued command left; its last status."""
+        limit = self.opts["wait_s"]
+        while True:
+            status = self.link.request(Rdst())
+            names = flag_names(status.flags)
+            failed = [n for n in _FAILED if n in names]
+            if failed:
+                raise OutputError(f"{self.url.text}: the controller reports {' and '.join(failed)} "
+                                  f"(status {', '.join(names)}); the program did not finish")
+            if status.queued == 0 and not any(n in names for n in _BUSY):
+                return status
+            if limit and time.monotonic() - started > limit:
+                raise OutputError(f"{self.url.text}: still moving after wait_s={limit:g} s "
+                                  f"(status {', '.join(names)}, {status.queued} queued)")
+            time.sleep(self.opts["poll_ms"] / 1000)
+
+    def _summary(self, count: int, status, position, wall_s: float) -> dict:
+        stats = self.link.endpoint.stats
+        return {
+            "url": self.url.text,
+            "commands": count,
+            "position_steps": {name: int(steps) for name, steps in position.steps},
+            "position_mm": {name: round(mm, 6) for name, mm in position.mm(self.machine).items()},
+            "status": flag_names(status.flags),
+            "link": {"frames_sent": stats.frames_sent, "resends": stats.resends,
+                     "timeouts": stats.timeouts, "naks": stats.naks, "busy": stats.busy},
+            "wall_s": round(wall_s, 3),
+        }
+
+    def observe(self) -> dict | None:
+        return {"remote": self.remote} if self.remote is not None else None
+
+    def close(self) -> None:
+        if self.link is not None:
+            self.link.close()
+            self.link = None
+        super().close()
+
+
+class SerialSocketOutput(SerialOutput):
+    """``serial+socket://HOST:PORT``: the serial protocol over TCP (pyserial's socket://)."""
+
+    scheme = "serial+socket"
+    grammar = "serial+socket://HOST:PORT"
+    summary = ("the serial protocol over TCP: retrofit mcu --listen, or the firmware in QEMU "
+               "(-serial tcp:...)")
+
+
+def flag_names(flags) -> list[str]:
+    """Names of the set status flags, bit 0 first (``["MOVING", "HOMED"]``)."""
+    from ..link import StatusFlags
+    return [f.name for f in StatusFlags if f in flags and f.name]

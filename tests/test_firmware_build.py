@@ -1,0 +1,63 @@
+"""The firmware builds with avr-gcc, fits the ATmega2560, and compiles in the machine file's numbers."""
+
+import importlib.util
+import re
+import subprocess
+
+import pytest
+
+from tests.conformance.targets import FIRMWARE, build_firmware, missing_tools
+
+needs_avr = pytest.mark.skipif(bool(missing_tools()), reason="the firmware needs avr-gcc, make and "
+                               "qemu-system-avr: apt-get install gcc-avr avr-libc binutils-avr "
+                               "qemu-system-misc")
+
+
+def header_tool():
+    spec = importlib.util.spec_from_file_location("machine_header",
+                                                  FIRMWARE / "tools" / "machine_header.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_shipped_header_is_what_the_machine_file_gives():
+    from retrofit.config import load_machine
+    shipped = (FIRMWARE / "machines" / "mitic-lathe.h").read_text()
+    assert shipped == header_tool().header(load_machine("mitic-lathe")), (
+        "firmware/machines/mitic-lathe.h is out of date: run make -C firmware machine")
+
+
+def test_the_header_carries_steps_per_mm_switches_and_homing_of_the_lathe():
+    text = (FIRMWARE / "machines" / "mitic-lathe.h").read_text()
+    assert "#define STEPS_PER_MM        { 100.0f, 80.0f }" in text
+    assert "#define AXIS_BITS           { 0, 2 }" in text           # X and Z on the link
+    for name, connector, bit in (("NLSX", "XMIN", 2), ("PLSX", "XMAX", 3), ("PLSZ", "ZMAX", 4),
+                                 ("PPSX", "YMIN", 5), ("PPSZ", "YMAX", 6)):
+        assert re.search(rf"SWITCH\(\d, \d, [+-]1, SW_\w+, {connector}, {bit}\)\s+/\* {name} \*/",
+                         text), name
+    assert "#define HOME_STEPS          { 4000, 1600 }" in text      # X 40 mm, Z 20 mm
+    assert "#define ENCODER_COUNTS_PER_REV 400" in text
+
+
+@needs_avr
+def test_it_builds_without_warnings_and_fits_the_2560():
+    subprocess.run(["make", "-C", str(FIRMWARE), "clean"], check=True, capture_output=True)
+    out = subprocess.run(["make", "-C", str(FIRMWARE)], check=True, capture_output=True, text=True)
+    assert "warning" not in out.stderr.lower()
+    sizes = subprocess.run(["avr-size", str(build_firmware())], check=True, capture_output=True,
+                           text=True).stdout.splitlines()[1].split()
+    text, data, bss = (int(v) for v in sizes[:3])
+    flash, ram = text + data, data + bss
+    assert flash < 256 * 1024 - 8 * 1024            # the Mega's flash less its bootloader
+    assert ram < 8 * 1024 - 1024                    # SRAM, with room left for the stack
+    # It also fits the ATmega328P class (32 KB flash, 2 KB RAM); docs/firmware.md says so.
+    assert flash < 32 * 1024 and ram < 1536, (flash, ram)
+
+
+@needs_avr
+def test_make_flash_uploads_through_avrdude_to_the_given_port():
+    out = subprocess.run(["make", "-n", "-C", str(FIRMWARE), "flash", "PORT=/dev/ttyACM7"],
+                         check=True, capture_output=True, text=True).stdout
+    assert re.search(r"avrdude -p atmega2560 -c wiring -P /dev/ttyACM7 -b 115200 -D "
+                     r"-U flash:w:firmware.hex:i", out), out

@@ -1,0 +1,125 @@
+"""``retrofit mcu`` as a separate process, and ``retrofit run`` sending a program to it (serial://)."""
+
+import json
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from retrofit.cli import main
+from retrofit.config import load_machine
+from retrofit.errors import OutputError
+from retrofit.frames import PortFrames
+from retrofit.outputs import open_output
+from tests.conformance.targets import McuTarget, die_with_parent
+
+MACHINE = "mitic-lathe"
+
+
+def run(tmp_path, program: str, output: str, name: str) -> dict:
+    """``retrofit run`` with a JSON report; the report."""
+    report = tmp_path / f"{name}.json"
+    assert main(["run", program, "--machine", MACHINE, "--output", output, "--progress", "off",
+                 "--report", str(report)]) == 0
+    return json.loads(report.read_text())
+
+
+def end_steps(report: dict) -> dict[str, int]:
+    """Where a sim:// run's controller ended: its last commanded position, in steps."""
+    machine = load_machine(MACHINE)
+    return {name: machine.axis(name).to_steps(ax["target_mm"]) for name, ax in report["axes"].items()}
+
+
+def test_the_lathe_example_over_tcp_ends_where_it_ends_on_sim(tmp_path, capsys):
+    local = run(tmp_path, "lathe-profile.ngc", "sim://", "local")
+    with McuTarget() as mcu:
+        remote = run(tmp_path, "lathe-profile.ngc", mcu.output_url, "remote")
+    part = remote["remote"][0]
+    assert part["position_steps"] == end_steps(local)
+    assert part["status"] == ["SPINDLE_ON"] or "SPINDLE_ON" not in part["status"]
+    assert part["link"]["frames_sent"] >= part["commands"] + 2          # SYNC on both channels
+    assert set(remote) - set(local) == {"remote"}                       # the same report, plus
+    assert remote["axes"] == local["axes"]
+    out = capsys.readouterr().out
+    assert re.search(r"remote serial\+socket://127\.0\.0\.1:\d+: RDPS X 30\.000, Z 10\.000 mm", out)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="needs a Linux pty")
+def test_a_short_program_over_a_pty(tmp_path):
+    program = tmp_path / "short.ngc"
+    program.write_text("G21 G18 G90\nG0 X5 Z2\nG1 X4 Z-3 F200\nG2 X6 Z-5 R2\nG0 X8 Z1\nM30\n")
+    local = run(tmp_path, str(program), "sim://", "local")
+    proc = subprocess.Popen([sys.executable, "-m", "retrofit.cli", "mcu", "--machine", MACHINE,
+                             "--pty"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=die_with_parent)
+    try:
+        line = proc.stdout.readline()
+        pty = re.search(r"on (/dev/pts/\d+)", line)
+        assert pty, line
+        remote = run(tmp_path, str(program), f"serial://{pty.group(1)}?baud=115200", "remote")
+    finally:
+        proc.kill()
+        proc.wait(10)
+        proc.stdout.close()
+        proc.stderr.close()
+    assert remote["remote"][0]["position_steps"] == end_steps(local) == {"X": 800, "Z": 80}
+
+
+def test_serial_takes_commands_not_frames_and_names_what_is_wrong():
+    machine = load_machine(MACHINE)
+    out = open_output("serial+socket://127.0.0.1:9", machine)
+    with pytest.raises(OutputError, match=r"takes commands, not port frames; use send_program"):
+        out.write(PortFrames(np.array([0], dtype=np.int64), np.array([0], dtype=np.uint8), 1))
+    with pytest.raises(OutputError, match=r"unknown option 'speed'; expected serial:///dev/ttyUSB0"):
+        open_output("serial:///dev/ttyUSB0?speed=9600", machine)
+    with pytest.raises(OutputError, match=r"serial\+socket://127\.0\.0\.1:9: serial link "
+                                          r"'socket://127\.0\.0\.1:9': cannot open it"):
+        open_output("serial+socket://127.0.0.1:9", machine).open()
+
+
+def test_demo_refuses_a_command_level_output(capsys):
+    assert main(["demo", "circle", "--points", "4", "--output", "serial+socket://127.0.0.1:9"]) == 2
+    assert "runs a program's commands" in capsys.readouterr().err
+
+
+def test_retrofit_outputs_lists_the_serial_schemes(capsys):
+    assert main(["outputs"]) == 0
+    out = capsys.readouterr().out
+    assert "serial:///dev/ttyUSB0?baud=115200 or serial+socket://HOST:PORT" in out
+    assert "serial+socket://HOST:PORT" in out
+
+
+def test_mcu_needs_a_pty_or_an_address(capsys):
+    with pytest.raises(SystemExit):
+        main(["mcu", "--machine", MACHINE])
+    assert "one of the arguments --pty --listen is required" in capsys.readouterr().err
+
+
+def test_a_refused_command_fails_the_run_naming_it():
+    from retrofit.commands import parse_command
+    machine = load_machine(MACHINE)
+    with McuTarget() as mcu:
+        with open_output(mcu.output_url, machine) as out:
+            with pytest.raises(OutputError, match=r"FMOV X45 \(sequence \d+, sent 1 times\): the "
+                                                  r"device refused it: refused by the controller"):
+                out.send_program([parse_command("FMOV X1"), parse_command("FMOV X45")])
+            assert out.remote is None
+
+
+def test_with_a_simulated_machine_homing_and_a_thread_run(tmp_path):
+    from tests.conformance.rawlink import RawLink
+    from retrofit.link import Ack, StatusFlags as F
+    with McuTarget(MACHINE, "--sim") as mcu:
+        link = RawLink(mcu.url, load_machine(MACHINE))
+        try:
+            link.sync_both()
+            for text in ("ZMOV", "FMOV X10 Z5", "SPIN S600 D1", "ISTP", "PFDR F0.5",
+                         "PMOV X10 Z-10", "CSTP", "FMOV X20"):
+                assert link.send_until_accepted(text) == Ack()
+            st = link.wait_idle()
+            assert st.flags & F.HOMED and st.flags & F.INDEX_SEEN and not st.flags & F.ERROR
+            assert link.position() == {"X": 2000, "Z": -800}
+        finally:
+            link.close()
