@@ -16,12 +16,13 @@ from retrofit.labs import (CheckFailed, TARGET_ENV, check_lab, explain, find_lab
 ROOT = Path(__file__).resolve().parent.parent / "labs"
 LABS = list_labs(ROOT)
 IDS = [lab.path.name for lab in LABS]
-SIX = {"01_circle", "02_step_pulses", "03_bresenham_dda", "04_backlash", "05_acceleration", "07_position_loop"}
+EIGHT = {"01_circle", "02_step_pulses", "03_bresenham_dda", "04_backlash", "05_acceleration", "06_threading",
+         "07_position_loop", "08_tool_changer"}
 PNG = b"\x89PNG\r\n\x1a\n"
 
 
-def test_the_six_labs_are_there_with_their_four_files():
-    assert SIX <= set(IDS)
+def test_the_eight_labs_are_there_with_their_four_files():
+    assert EIGHT <= set(IDS)
     for lab in LABS:
         for name in ("README.md", "student.py", "solution.py", "checks.py"):
             assert (lab.path / name).is_file(), f"{lab.path.name} has no {name}"
@@ -116,7 +117,7 @@ def test_labs_folder_is_found_and_can_be_chosen(tmp_path, monkeypatch):
 def test_lab_list_on_the_command_line():
     proc = subprocess.run([sys.executable, "-m", "retrofit.cli", "lab", "list"], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
-    for name in ("01  circle", "05  acceleration", "07  position_loop"):
+    for name in ("01  circle", "05  acceleration", "06  threading", "07  position_loop", "08  tool_changer"):
         assert name in proc.stdout
 
 

@@ -1,0 +1,161 @@
+"""Checks of lab 06 (threading): run with `retrofit lab check 06`, or pytest on this file."""
+
+import numpy as np
+import pytest
+
+from retrofit.commands import IStp, Spin
+from retrofit.config import load_machine
+from retrofit.controller.program import run_commands
+from retrofit.gcode import compile_program
+from retrofit.labs import expect, load_target
+from retrofit.sim import SimMachine
+
+PITCH, Z_START, SKIP_MM = 1.5, 3.0, 2.5
+PROGRAM = "G18 G21 G90\nG0 X12 Z3\nS1200 M3\nG76 P1.5 Z-15 I-0.5 J0.3 K0.9 R1 H1\nG0 X20\n"
+SPEEDS = (300.0, 600.0, 1200.0)
+
+
+@pytest.fixture(scope="module")
+def lab():
+    """The file under check: student.py, or what RETROFIT_LAB_TARGET names."""
+    return load_target(__file__)
+
+
+@pytest.fixture(scope="module")
+def lathe():
+    return load_machine("mitic-lathe")
+
+
+@pytest.fixture(scope="module")
+def cut(lathe):
+    """The thread of the lab cut by the checks themselves: (simulated machine, number of passes)."""
+    commands, passes = [], 0
+    for cmd in compile_program(PROGRAM, lathe, "thread.ngc").commands:
+        if cmd == IStp():
+            commands.append(Spin(SPEEDS[passes % len(SPEEDS)], 1))
+            passes += 1
+        commands.append(cmd)
+    sim = SimMachine(lathe)
+    run_commands(commands, lathe, sim=sim)
+    return sim, passes
+
+
+def reference_passes(sim):
+    """Indices of the Z steps of each pass: runs of steps towards -Z."""
+    motor = np.asarray(sim.traces["Z"].motor_steps)
+    down = np.flatnonzero(np.diff(motor, prepend=0) < 0)
+    return [g.tolist() for g in np.split(down, np.flatnonzero(np.diff(down) > 1) + 1)]
+
+
+def beyond_lead_in(z, revs):
+    z, revs = np.asarray(z, float), np.asarray(revs, float)
+    keep = z < Z_START - SKIP_MM
+    return z[keep], revs[keep]
+
+
+def test_split_passes_on_a_short_list(lab):
+    """TODO 1: split_passes finds every run of steps towards -Z"""
+    cases = [(([1, 2, 3, 2, 1, 0, 1, 2, 1, 0, -1], 0), [[3, 4, 5], [8, 9, 10]]),
+             (([-1, -2, -1, 0, -1], 0), [[0, 1], [4]]),
+             (([5, 6, 7], 4), [])]
+    for (motor, start), want in cases:
+        got = [list(map(int, g)) for g in lab.split_passes(motor, start)]
+        expect(got == want, f"split_passes({motor}, start={start})", expected=want, got=got,
+               hint="a step is towards -Z when the motor's position is below the one before it (before the "
+                    "first: start); a new pass begins at each such step that follows a step the other way")
+
+
+def test_split_passes_finds_every_pass(lab, cut):
+    """TODO 1: on the lab's thread, one group of steps for every pass of the G76"""
+    sim, passes = cut
+    trace = sim.traces["Z"]
+    got = [list(map(int, g)) for g in lab.split_passes(trace.motor_steps, 0)]
+    want = reference_passes(sim)
+    expect(len(got) == passes, "split_passes on the Z motor of the lab's thread",
+           expected=f"{passes} passes (the G76 makes {passes})", got=f"{len(got)} groups",
+           hint="the rapids back to the start go towards +Z; only the cuts go towards -Z")
+    expect(got == want, "the steps of each pass", expected=f"{[len(g) for g in want]} steps",
+           got=f"{[len(g) for g in got]} steps", hint="keep every step towards -Z, the first one of a pass too")
+
+
+def test_pass_curves(lab, cut):
+    """TODO 2: pass_curves gives the carriage (mm) and the spindle angle (revolutions) of every step"""
+    sim, _ = cut
+    trace = sim.traces["Z"]
+    ticks, carriage = np.asarray(trace.ticks), np.asarray(trace.carriage_mm)
+    want = [(carriage[g], sim.spindle.revolutions_at(ticks[g])) for g in reference_passes(sim)]
+    got = lab.pass_curves(sim)
+    expect(len(got) == len(want), "pass_curves(sim): one (z_mm, revs) per pass", expected=f"{len(want)} passes",
+           got=f"{len(got)}")
+    for k, ((z, revs), (wz, wrevs)) in enumerate(zip(got, want)):
+        z, revs = np.asarray(z, float), np.asarray(revs, float)
+        ok_z = z.shape == wz.shape and np.allclose(z, wz, atol=1e-9)
+        expect(ok_z, f"pass {k + 1}: the Z carriage", expected=f"{len(wz)} values from {wz[0]:.4f} to {wz[-1]:.4f} mm",
+               got=f"{len(z)} values" + (f" from {z[0]:.4f} to {z[-1]:.4f}" if len(z) else ""),
+               hint="sim.traces['Z'].carriage_mm at the pass's indices (the carriage, not the motor steps)")
+        ok_r = revs.shape == wrevs.shape and np.allclose(revs, wrevs, atol=1e-9)
+        expect(ok_r, f"pass {k + 1}: the spindle angle", expected=f"revolutions from {wrevs[0]:.4f} to {wrevs[-1]:.4f}",
+               got=f"{len(revs)} values" + (f" from {revs[0]:.4f} to {revs[-1]:.4f}" if len(revs) else ""),
+               hint="sim.spindle.revolutions_at(the ticks of the pass's steps), in revolutions, not degrees")
+
+
+def test_sync_revolution(lab):
+    """TODO 3: sync_revolution finds the revolution at which the helix passes the start"""
+    revs = np.linspace(6.4, 12.0, 57)
+    z = 3.0 - 1.5 * (revs - 7)
+    z[:6] = 3.0                                    # the lead-in: still at the start
+    got = lab.sync_revolution(z, revs, 3.0, 1.5)
+    expect(got == 7, "sync_revolution on a helix z = 3 - 1.5 (revs - 7), at rest for its first samples",
+           expected=7, got=repr(got), hint="each sample gives revs + (z - z_start) / pitch; take the median, "
+                                            "then round it to a whole revolution")
+    got = lab.sync_revolution(-1.0 - 2.0 * (revs - 9), revs, -1.0, 2.0)
+    expect(got == 9, "sync_revolution(z, revs, z_start=-1.0, pitch=2.0) on the helix through -1 mm at turn 9",
+           expected=9, got=repr(got), hint="use the z_start and pitch you are given")
+
+
+def test_advance_per_rev(lab):
+    """TODO 4: advance_per_rev: the carriage's travel in each whole revolution"""
+    revs = np.array([0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.2])
+    z = -2.0 * revs
+    z[3] += 0.1                                    # at turn 2 the carriage is 0.1 mm behind
+    got = np.asarray(lab.advance_per_rev(z, revs), float)
+    want = np.array([1.9, 2.1])
+    ok = got.shape == want.shape and np.allclose(got, want, atol=1e-9)
+    expect(ok, "advance_per_rev(z, revs) with z at whole turns 1, 2, 3 = -2.0, -3.9, -6.0",
+           expected="[1.9, 2.1] (positive, one per whole revolution between the first and last sample)",
+           got=np.round(got, 6).tolist(), hint="np.interp the carriage at every whole revolution, then the "
+                                               "differences, sign turned so that the advance is positive")
+
+
+def test_passes_overlay_within_a_step(lab, lathe, cut):
+    """Your whole analysis: past the lead-in, every pass is on one helix, within one step"""
+    sim, passes = cut
+    step = lathe.axis("Z").step_mm
+    errors = []
+    for z, revs in lab.pass_curves(sim):
+        n = lab.sync_revolution(z, revs, Z_START, PITCH)
+        zs, rs = beyond_lead_in(z, revs)
+        errors.append(zs - (Z_START - PITCH * (rs - n)))
+    expect(len(errors) == passes, "passes found", expected=passes, got=len(errors))
+    every = np.concatenate(errors)
+    spread = every.max() - every.min()
+    expect(spread <= step + 1e-9, f"the spread of all {passes} passes about the helix, {SKIP_MM:g} mm past the start",
+           expected=f"at most one step ({step:g} mm)", got=f"{spread:.4f} mm ({spread / step:.2f} steps)",
+           hint="if a pass is a whole pitch off, its sync_revolution is one turn out")
+
+
+def test_mean_pitch(lab, lathe, cut):
+    """Your whole analysis: past the lead-in, the carriage advances the programmed pitch each turn"""
+    sim, _ = cut
+    step = lathe.axis("Z").step_mm
+    advances = np.concatenate([np.asarray(lab.advance_per_rev(*beyond_lead_in(z, revs)), float)
+                               for z, revs in lab.pass_curves(sim)])
+    expect(len(advances) >= 30, "whole revolutions measured past the lead-ins", expected="at least 30 (4 passes)",
+           got=len(advances))
+    mean = advances.mean()
+    expect(abs(mean - PITCH) <= 0.001, "the mean advance a revolution",
+           expected=f"{PITCH:g} mm within 0.001 mm", got=f"{mean:.5f} mm",
+           hint="mm a revolution, positive; measured only where the lead-in is over")
+    worst = np.abs(advances - PITCH).max()
+    expect(worst <= step + 1e-9, "the pitch error of every single revolution",
+           expected=f"at most one step ({step:g} mm)", got=f"{worst:.4f} mm")

@@ -1,0 +1,138 @@
+"""Checks of lab 08 (the tool changer): run with `retrofit lab check 08`, or pytest on this file."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from retrofit.atc.cell import SimCell
+from retrofit.atc.magazine import MagazineState
+from retrofit.atc.sequences import change_sequence
+from retrofit.atc.settings import atc_of
+from retrofit.config import load_machine
+from retrofit.labs import expect, load_target
+
+START_MM = {"X": 5.0, "Y": 5.0, "Z": 5.0, "E": 0.0}
+
+
+@pytest.fixture(scope="module")
+def lab():
+    """The file under check: student.py, or what RETROFIT_LAB_TARGET names."""
+    return load_target(__file__)
+
+
+@pytest.fixture(scope="module")
+def mill():
+    return load_machine("tul-mill")
+
+
+@pytest.fixture(scope="module")
+def atc(mill):
+    return atc_of(mill)
+
+
+@pytest.fixture(scope="module")
+def cell(mill, atc):
+    """The T3 -> T7 change run by the checks themselves, from X5 Y5 Z5 with the carousel at home."""
+    cell = SimCell(mill, MagazineState.loaded(mill, 3), start_mm=START_MM)
+    cell.run(change_sequence(atc, 3, 7, mill.name).commands())
+    return cell
+
+
+def test_pocket_angles(lab, atc):
+    """TODO 1: pocket n sits at 80 + 20 (n - 1) degrees on the disc"""
+    got = [float(lab.pocket_angle_deg(atc.sim, n)) for n in range(1, 13)]
+    want = [80.0 + 20.0 * (n - 1) for n in range(1, 13)]
+    expect(np.allclose(got, want), "pocket_angle_deg(atc.sim, n) for pockets 1..12", expected=want, got=got,
+           hint="first_pocket_deg for pocket 1, then pocket_pitch_deg more for each next pocket")
+    other = replace(atc.sim, first_pocket_deg=90.0, pocket_pitch_deg=30.0)
+    got = float(lab.pocket_angle_deg(other, 4))
+    expect(abs(got - 180.0) < 1e-9, "pocket_angle_deg of pocket 4 on a disc with pocket 1 at 90°, every 30°",
+           expected="180.0", got=f"{got:g}", hint="read the angles from the geometry you are given, not 80 and 20")
+
+
+def test_carousel_positions(lab, atc):
+    """TODO 2: the carousel position of pocket n is the machine's ATC_OFFSET + n (3.2 + n)"""
+    got = [float(lab.carousel_position(atc.sim, n)) for n in range(1, 13)]
+    want = [atc.pocket_position(n) for n in range(1, 13)]
+    expect(np.allclose(got, want, atol=1e-9), "carousel_position(atc.sim, n) for pockets 1..12",
+           expected=[round(w, 3) for w in want], got=[round(g, 3) for g in got],
+           hint="the disc turns by the pocket's angle plus station_deg; one carousel unit is degrees_per_unit "
+                "degrees")
+
+
+def test_over_time(lab, mill, atc, cell):
+    """TODO 3: over_time gives seconds and mm from the start, the carousel in degrees"""
+    for name in ("X", "Z", "E"):
+        trace = cell.sim.traces[name]
+        scale = atc.sim.degrees_per_unit if name == "E" else 1.0
+        want_t = np.concatenate([[0.0], np.asarray(trace.ticks) * mill.tick_s])
+        want_v = np.concatenate([[START_MM[name]], np.asarray(trace.carriage_mm)]) * scale
+        t, v = (np.asarray(a, float) for a in lab.over_time(cell, name, START_MM[name]))
+        expect(t.shape == want_t.shape and v.shape == want_v.shape,
+               f"over_time(cell, {name!r}, {START_MM[name]:g}): how many samples",
+               expected=f"{len(want_t)}: the start, then one after each of the {len(trace.ticks)} steps",
+               got=f"{len(t)} times, {len(v)} positions", hint="put (0.0, start) in front of the trace")
+        expect(np.allclose(t, want_t), f"over_time(cell, {name!r}, ...): the times",
+               expected=f"seconds, from 0 to {want_t[-1]:.4f}", got=f"from {t[0]:g} to {t[-1]:g}",
+               hint="ticks times cell.machine.tick_s")
+        unit = "degrees (units x degrees_per_unit)" if name == "E" else "mm (the carriage)"
+        expect(np.allclose(v, want_v), f"over_time(cell, {name!r}, ...): the positions",
+               expected=f"{unit}, from {want_v[0]:g} up to {want_v.max():g}",
+               got=f"from {v[0]:g} up to {v.max():g}", hint="trace.carriage_mm, not the motor steps; the "
+                                                             "carousel in degrees")
+
+
+def test_position_at(lab):
+    """TODO 4: position_at looks up the last value at or before a time"""
+    t, v = np.array([0.0, 1.0, 2.0, 3.0]), np.array([5.0, 6.0, 7.0, 8.0])
+    for when, want in ((0.0, 5.0), (0.5, 5.0), (1.0, 6.0), (2.9, 7.0), (10.0, 8.0)):
+        got = float(lab.position_at(t, v, when))
+        expect(got == want, f"position_at([0, 1, 2, 3], [5, 6, 7, 8], {when:g})", expected=want, got=got,
+               hint="np.searchsorted(t_s, t, side='right') - 1 is the index of the last sample at or before t")
+    got = np.asarray(lab.position_at(t, v, np.array([0.2, 2.0, 3.5])), float)
+    expect(got.tolist() == [5.0, 7.0, 8.0], "position_at with an array of times [0.2, 2.0, 3.5]",
+           expected=[5.0, 7.0, 8.0], got=got.tolist(), hint="np.searchsorted takes an array of times too")
+
+
+def test_unsafe_turns(lab, atc):
+    """TODO 5: unsafe_turns flags a carousel step only with the spindle down inside the magazine"""
+    traces = {"X": (np.array([0.0]), np.array([23.0])),
+              "Y": (np.array([0.0, 1.0, 3.0]), np.array([28.0, 44.0, 28.0])),
+              "Z": (np.array([0.0, 2.0]), np.array([45.0, 40.5])),
+              "E": (np.array([0.0, 0.5, 1.5, 2.5, 3.5]), np.array([0.0, 20.0, 40.0, 60.0, 80.0]))}
+    got = [round(float(t), 6) for t in lab.unsafe_turns(traces, atc)]
+    expect(got == [1.5], "unsafe_turns: carousel steps at 0.5 s (Y 28, outside), 1.5 s (Y 44, Z 45), "
+           "2.5 s (Y 44, Z 40.5) and 3.5 s (Y 28)", expected=[1.5], got=got,
+           hint="unsafe = Y beyond atc.sim.magazine_y_mm and Z below Z_POINT_1, i.e. Z > atc.z_point_1 (Z counts "
+                "down); Z exactly at Z_POINT_1 is safe; the first sample of E is the start, not a step")
+
+
+def test_carousel_turns_only_with_the_spindle_clear(lab, atc, cell):
+    """Your whole analysis: in the T3 -> T7 change the carousel reaches pockets 3 and 7 and turns only when safe"""
+    traces = {name: lab.over_time(cell, name, START_MM[name]) for name in ("X", "Y", "Z", "E")}
+    degrees = set(np.round(np.asarray(traces["E"][1], float), 6).tolist())
+    for pocket in (3, 7):
+        angle = round(float(lab.carousel_position(atc.sim, pocket)) * atc.sim.degrees_per_unit, 6)
+        expect(angle in degrees, f"the carousel reaches pocket {pocket}", expected=f"{angle:g}° among its positions",
+               got=f"up to {max(degrees, default=0.0):g}°",
+               hint="the carousel in degrees: its units times degrees_per_unit")
+    unsafe = lab.unsafe_turns(traces, atc)
+    expect(unsafe == [], "carousel steps with the spindle down in the magazine zone",
+           expected="none: outside the zone (Y <= 36) or at the safe height (Z <= Z_POINT_1 40.5)",
+           got=f"{len(unsafe)}, the first at {unsafe[0]:.3f} s" if unsafe else "none",
+           hint="look the spindle's Y and Z up at the time of each carousel step, with position_at")
+
+
+def test_change_ends_with_t7_in_the_spindle(lab, atc, cell):
+    """Your whole analysis: the change ends with T7 in the spindle, T3 in pocket 3, the axes at the magazine"""
+    state = cell.magazine.state
+    expect(state.spindle == 7 and state.pockets[3] == 3 and state.pockets[7] is None,
+           "what the simulated magazine holds after the change", expected="T7 in the spindle, T3 in pocket 3, "
+           "pocket 7 empty", got=f"T{state.spindle} in the spindle, pocket 3: {state.pockets[3]}, "
+           f"pocket 7: {state.pockets[7]}")
+    ends = {name: float(lab.over_time(cell, name, START_MM[name])[1][-1]) for name in ("X", "Y", "Z", "E")}
+    want = {"X": atc.x1, "Y": atc.y_point_a, "Z": atc.z_point_2, "E": 0.0}
+    expect(all(abs(ends[n] - want[n]) < 1e-6 for n in want), "where your traces end",
+           expected="X1 23, Y_POINT_A 28, Z_POINT_2 45 with T7, the carousel home at 0°",
+           got=", ".join(f"{n} {v:g}" for n, v in ends.items()), hint="the last sample of each trace")
