@@ -26,6 +26,17 @@ _NEVER = -(1 << 40)
 
 
 @kernel
+def _base_steps(start, end):
+    """Steps of the base axis of a move: the largest |end - start| over the axes."""
+    n = 0
+    for a in range(start.shape[0]):
+        d = abs(end[a] - start[a])
+        if d > n:
+            n = d
+    return n
+
+
+@kernel
 def _bresenham_requests(starts, ends, profiles, t0s, has_profile, rate, out_ticks, out_dirs, counts):
     """Per-axis requested ticks and directions of every move, cycle by cycle (002's execute)."""
     n_moves, n_axes = starts.shape
@@ -33,11 +44,7 @@ def _bresenham_requests(starts, ends, profiles, t0s, has_profile, rate, out_tick
     error = np.zeros(n_axes, dtype=np.int64)
     for m in range(n_moves):
         if has_profile[m]:
-            n = 0
-            for a in range(n_axes):
-                d = abs(ends[m, a] - starts[m, a])
-                if d > n:
-                    n = d
+            n = _base_steps(starts[m], ends[m])
             p = profiles[m]
             length = p[P_LEN]
             for a in range(n_axes):
@@ -66,11 +73,7 @@ def _dda_requests(starts, ends, profiles, t0s, has_profile, rate, out_ticks, out
     fill = np.zeros(n_axes, dtype=np.int64)
     for m in range(n_moves):
         if has_profile[m]:
-            n = 0
-            for a in range(n_axes):
-                d = abs(ends[m, a] - starts[m, a])
-                if d > n:
-                    n = d
+            n = _base_steps(starts[m], ends[m])
             p = profiles[m]
             length = p[P_LEN]
             for a in range(n_axes):
