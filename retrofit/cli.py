@@ -36,6 +36,10 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("retrofit: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:                # output piped into `head` and the reader went away
+        import os
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -153,15 +157,14 @@ def finish_run(args, log, title: str, commands=None) -> dict:
     report = build_report(log, sim)
     if remote:
         report["remote"] = remote
-    print(title)
-    for line in summary_lines(report) + remote_lines(remote):
-        print(line)
-    if args.plot:
+    lines = [title] + summary_lines(report) + remote_lines(remote)
+    if args.plot:                        # files first: a closed terminal must not lose them
         from .plot import plot_path
-        print(f"  plot: {plot_path(log, sim, args.plot, title)}")
+        lines.append(f"  plot: {plot_path(log, sim, args.plot, title)}")
     if args.report:
         write_json_atomic(args.report, report)
-        print(f"  report: {args.report}")
+        lines.append(f"  report: {args.report}")
+    print("\n".join(lines))
     return report
 
 
