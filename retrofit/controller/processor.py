@@ -22,7 +22,7 @@ from .indexrun import IndexRun
 from .overrides import FeedOverrides
 from .prepare import ActionEntry, DwellEntry, HomeEntry, IndexEntry, LineEntry, Walker
 from .profiles import MoveProfile, ramp_pieces
-from .pulses import PulseShaper
+from ..motion.pulses import PulseShaper
 from .record import RunRecord
 from .runs import ClockRun, DwellRun
 from .window import WindowPlanner

@@ -16,18 +16,16 @@ The fast path (``motion.fast``) must produce the very same port frames.
 from __future__ import annotations
 
 import math
-from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..frames import FrameRecorder, PinMap
 from ..runlog import RunLog, Waypoint
 from . import profile as prof
 from .bresenham import BresenhamExecutor, prepare_line
 from .dda import DdaExecutor, pulse_position
 from .planner import Plan
-from .stepgen import StepGenerator, StepTiming
+from .pulses import PulseShaper
 
 
 @dataclass
@@ -98,29 +96,19 @@ def _dda_steps(line):
 
 def shape_reference(plan: Plan, requests: StepRequests) -> tuple:
     """The tick loop of 003 over the requests: (port frames, rise ticks per axis)."""
-    machine = plan.machine
-    pins = PinMap(machine)
-    gens = [StepGenerator(StepTiming.of(a)) for a in machine.axes]
-    queues = [deque(zip(t.tolist(), d.tolist())) for t, d in zip(requests.ticks, requests.dirs)]
-    rises: list[list[int]] = [[] for _ in gens]
-    recorder = FrameRecorder()
+    shaper = PulseShaper(plan.machine)
+    for axis, (ticks, dirs) in enumerate(zip(requests.ticks, requests.dirs)):
+        for due, direction in zip(ticks.tolist(), dirs.tolist()):
+            shaper.request(axis, due, direction)
+    no_hint = lambda axis: 0                                      # noqa: E731 - every request is queued
     tick = 0
     while True:
-        bits = [gen.frame() for gen in gens]                       # 'PasAvans' for every axis
-        recorder.put(tick, pins.byte([b[0] for b in bits], [b[1] for b in bits]))   # once per tick
-        if tick >= requests.end_tick and not any(queues) and not any(g.busy for g in gens):
+        shaper.frame(tick)                                        # 'PasAvans', 'CalculByte', 'WritePort'
+        if tick >= requests.end_tick and not shaper.pending and not shaper.busy:
             break
-        for gen, queue, axis_rises in zip(gens, queues, rises):
-            if not queue:
-                continue
-            due, direction = queue[0]
-            if gen.direction != direction and not gen.set_direction(direction):
-                continue                                          # hold time: turn as soon as allowed
-            if due <= tick + 1 and gen.start_step():
-                queue.popleft()
-                axis_rises.append(tick + 1)
+        shaper.shape(tick, no_hint)                               # try each axis's next request
         tick += 1
-    return recorder.frames(tick + 1), [np.array(r, dtype=np.int64) for r in rises]
+    return shaper.recorder.frames(tick + 1), [np.array(r, dtype=np.int64) for r in shaper.rises]
 
 
 def run_log(plan: Plan, requests: StepRequests, frames, rises: list[np.ndarray],

@@ -1,10 +1,10 @@
-"""The controller's output stage: 003's tick loop turning step requests into pulses and port bytes.
+"""003's tick loop turning step requests into pulses and port bytes (the controller's output stage).
 
 Each axis has a :class:`~retrofit.motion.stepgen.StepGenerator` and a queue of requests (the tick a
 step is wanted on and its direction). Each tick the generators give their bits, the port byte is
 computed once and recorded once ('CalculByte', 'WritePort'); then each axis's next request is
 tried: a step asked for during a pulse waits, and the direction turns as soon as its hold time
-allows -- the very rules of ``motion.execute.shape_reference``, so the frames are the same.
+allows. The reference path (``motion.execute.shape_reference``) and the controller both use it.
 
 A simulated machine attached here sees every byte that changes, as it happens, so the switches
 the controller reads next are those of a carriage that really took the steps.
@@ -18,7 +18,7 @@ import numpy as np
 
 from ..config import Machine
 from ..frames import FrameRecorder, PinMap
-from ..motion.stepgen import StepGenerator, StepTiming
+from .stepgen import StepGenerator, StepTiming
 
 
 class PulseShaper:
