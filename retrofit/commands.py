@@ -39,6 +39,7 @@ class Command:
     mnemonic: ClassVar[str] = ""
     immediate: ClassVar[bool] = False      # STOP, RDPS, RDST: run at once, ahead of the queue
     motion: ClassVar[bool] = False         # goes through prepare/execute
+    host: ClassVar[bool] = False           # TOOL, PAUS: handled by the run on the host, never sent to a device
 
     def __str__(self) -> str:
         return self.mnemonic
@@ -185,9 +186,47 @@ class Cool(Command):
         return f"{self.mnemonic} M{self.mode}"
 
 
+@dataclass(frozen=True)
+class Tool(Command):
+    """Put tool ``number`` in the spindle (T<n> M6; T0 empties it). Not one of 002's 14.
+
+    Front ends emit it; the run hands it to the machine's tool changer, whose sequence of
+    commands takes its place, or, on a machine without one, pauses for a manual change.
+    """
+    mnemonic: ClassVar[str] = "TOOL"
+    host: ClassVar[bool] = True
+    number: int = 0
+
+    def __str__(self) -> str:
+        return f"{self.mnemonic} T{self.number}"
+
+
+#: why a program pauses: PAUS M0 (program pause), M1 (optional stop), M60 (pallet shuttle), M6 (manual tool change)
+PAUSE_REASONS = {0: "program pause (M0)", 1: "optional stop (M1)", 60: "pallet change pause (M60)",
+                 6: "manual tool change (M6)"}
+
+
+@dataclass(frozen=True)
+class Paus(Command):
+    """Stop after the moves before it and wait for the operator to resume. Not one of 002's 14.
+
+    ``reason`` is the M code that asked for it (:data:`PAUSE_REASONS`); on ``sim://`` the pause
+    is recorded in the report and the run goes on.
+    """
+    mnemonic: ClassVar[str] = "PAUS"
+    host: ClassVar[bool] = True
+    reason: int = 0
+
+    def __str__(self) -> str:
+        return f"{self.mnemonic} M{self.reason}"
+
+
 #: every command class by mnemonic
 COMMANDS: dict[str, type[Command]] = {c.mnemonic: c for c in (
-    Init, FMov, ZMov, PMov, Stop, FFdr, MFdr, PFdr, Dely, CStp, IStp, Pstn, Rdps, Rdst, Spin, Cool)}
+    Init, FMov, ZMov, PMov, Stop, FFdr, MFdr, PFdr, Dely, CStp, IStp, Pstn, Rdps, Rdst, Spin, Cool,
+    Tool, Paus)}
+#: the commands a device executes (what the serial link carries): all but the host's own
+DEVICE_COMMANDS: dict[str, type[Command]] = {m: c for m, c in COMMANDS.items() if not c.host}
 
 _WORD = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)$")
 
@@ -209,7 +248,8 @@ def parse_command(text: str) -> Command:
             raise CommandError(f"ZMOV {bad[0]!r}: expected axis letters only, e.g. ZMOV X Z")
         return ZMov(tuple(words))
     values = dict(_words(head, words))
-    expected = {FFdr: "F", MFdr: "F", PFdr: "F", Dely: "P", Spin: "SD", Cool: "M"}.get(cls, "")
+    expected = {FFdr: "F", MFdr: "F", PFdr: "F", Dely: "P", Spin: "SD", Cool: "M", Tool: "T",
+                Paus: "M"}.get(cls, "")
     extra = set(values) - set(expected)
     missing = set(expected) - set(values)
     if extra or missing:
@@ -228,6 +268,16 @@ def parse_command(text: str) -> Command:
         if values["M"] not in (0.0, 7.0, 8.0):
             raise CommandError(f"COOL M{_num(values['M'])}: mode must be 0, 7 or 8")
         return Cool(int(values["M"]))
+    if cls is Tool:
+        number = values["T"]
+        if not number.is_integer() or not 0 <= number <= 99999:
+            raise CommandError(f"TOOL T{_num(number)}: tool number must be a whole number from 0 to 99999")
+        return Tool(int(number))
+    if cls is Paus:
+        if values["M"] not in PAUSE_REASONS:
+            raise CommandError(f"PAUS M{_num(values['M'])}: reason must be one of "
+                               f"{', '.join(str(k) for k in PAUSE_REASONS)}")
+        return Paus(int(values["M"]))
     return cls()
 
 
