@@ -38,22 +38,47 @@ def bresenham_steps(dx: int, dy: int) -> list[tuple[int, int]]:
     return steps
 
 
-def dda_short_pulses(n: int, d: int) -> list[float]:
-    """004's digital integration: where the ``d`` short-axis pulses of a line of ``n`` base pulses fall.
+class DigitalIntegrator:
+    """004's counters for a line of ``n`` base pulses and ``d`` short-axis pulses.
 
-    Positions are in base intervals from the start of the move (base pulse k is at k), with the
-    counters COUNT = n / d, LONG (base pulses sent) and SHORT (where the next short pulse is due).
+    ``count`` is COUNT = n / d (base pulses per short pulse), ``long`` is LONG (base pulses sent),
+    ``short`` is SHORT (where the next short pulse is due, in base intervals from the start; it
+    starts at COUNT) and ``sent`` the short pulses sent so far.
     """
-    if d == 0:
-        return []
-    count = n / d                            # COUNT
-    short = count                            # SHORT starts at COUNT
+
+    def __init__(self, n: int, d: int):
+        self.n, self.d = n, d
+        self.count = n / d if d else float(n + 1)     # COUNT (no short pulse at all when d == 0)
+        self.long = 0                                  # LONG
+        self.short = self.count                        # SHORT
+        self.sent = 0
+
+    def base_pulse(self) -> float | None:
+        """One base pulse: count it, and decide whether a short pulse follows it.
+
+        Returns the delay of the short pulse after this base pulse, in base intervals (the
+        engraver times it with its clock), or None when no short pulse is due in this interval.
+        """
+        self.long += 1                                 # LONG: this base pulse is sent
+        if self.sent < self.d and int(self.short) == self.long:
+            delay = self.short - self.long             # 004: the short pulse comes (SHORT - LONG) / f later
+            self.short += self.count                   # SHORT: where the next one is due
+            self.sent += 1
+            return delay
+        return None
+
+
+def dda_short_pulses(n: int, d: int) -> list[float]:
+    """Where the ``d`` short-axis pulses of a line of ``n`` base pulses fall, in base intervals.
+
+    Base pulse k is at k; a short pulse decided after base pulse LONG with delay t is at LONG + t.
+    """
+    integrator = DigitalIntegrator(n, d)
     pulses = []
-    for long in range(1, n + 1):             # LONG: one base pulse per interval
-        if len(pulses) < d and int(short) == long:
-            delay = short - long             # 004: the short pulse comes (SHORT - LONG) / f later
-            pulses.append(long + delay)
-            short += count
+    for _ in range(n):
+        delay = integrator.base_pulse()
+        if delay is not None:
+            pulses.append(integrator.long + delay)
     return pulses
 
 

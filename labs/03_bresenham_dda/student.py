@@ -29,18 +29,44 @@ def bresenham_steps(dx: int, dy: int) -> list[tuple[int, int]]:
     raise NotImplementedError("TODO 1: write bresenham_steps(dx, dy): the steps of every cycle")
 
 
-def dda_short_pulses(n: int, d: int) -> list[float]:
-    """004's digital integration: where the ``d`` short-axis pulses of a line of ``n`` base pulses fall.
+class DigitalIntegrator:
+    """004's counters for a line of ``n`` base pulses and ``d`` short-axis pulses.
 
-    Positions are in base intervals from the start of the move (base pulse k is at k), with the
-    counters COUNT = n / d, LONG (base pulses sent) and SHORT (where the next short pulse is due).
+    ``count`` is COUNT = n / d (base pulses per short pulse), ``long`` is LONG (base pulses sent),
+    ``short`` is SHORT (where the next short pulse is due, in base intervals from the start; it
+    starts at COUNT) and ``sent`` the short pulses sent so far.
     """
-    # TODO 2 (README, task 2; do this one or TODO 1, or both):
-    #   COUNT = n / d, SHORT starts at COUNT; for LONG = 1, 2, ..., n (one base pulse each):
-    #   when the integer part of SHORT equals LONG (and fewer than d pulses were sent), a short
-    #   pulse comes SHORT - LONG intervals after base pulse LONG, i.e. at position SHORT; then
-    #   SHORT grows by COUNT. Return the positions of the d short pulses. (d == 0: none.)
-    raise NotImplementedError("TODO 2: write dda_short_pulses(n, d): where the short pulses fall")
+
+    def __init__(self, n: int, d: int):
+        self.n, self.d = n, d
+        self.count = n / d if d else float(n + 1)     # COUNT (no short pulse at all when d == 0)
+        self.long = 0                                  # LONG
+        self.short = self.count                        # SHORT
+        self.sent = 0
+
+    def base_pulse(self) -> float | None:
+        """One base pulse: count it, and decide whether a short pulse follows it.
+
+        Returns the delay of the short pulse after this base pulse, in base intervals (the
+        engraver times it with its clock), or None when no short pulse is due in this interval.
+        """
+        # TODO 2 (README, task 2; do this one or TODO 1, or both): one base pulse of 004's flow
+        # chart, with the counters of this object. The README's hints open one at a time.
+        raise NotImplementedError("TODO 2: write DigitalIntegrator.base_pulse(): count a base pulse, decide a short one")
+
+
+def dda_short_pulses(n: int, d: int) -> list[float]:
+    """Where the ``d`` short-axis pulses of a line of ``n`` base pulses fall, in base intervals.
+
+    Base pulse k is at k; a short pulse decided after base pulse LONG with delay t is at LONG + t.
+    """
+    integrator = DigitalIntegrator(n, d)
+    pulses = []
+    for _ in range(n):
+        delay = integrator.base_pulse()
+        if delay is not None:
+            pulses.append(integrator.long + delay)
+    return pulses
 
 
 def lattice_path(steps) -> list[tuple[int, int]]:
