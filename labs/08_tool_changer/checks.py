@@ -101,6 +101,11 @@ def test_unsafe_turns(lab, atc):
               "Y": (np.array([0.0, 1.0, 3.0]), np.array([28.0, 44.0, 28.0])),
               "Z": (np.array([0.0, 2.0]), np.array([45.0, 40.5])),
               "E": (np.array([0.0, 0.5, 1.5, 2.5, 3.5]), np.array([0.0, 20.0, 40.0, 60.0, 80.0]))}
+    start_inside = dict(traces, Y=(np.array([0.0]), np.array([44.0])), Z=(np.array([0.0, 1.0]), np.array([45.0, 40.0])))
+    got = [round(float(t), 6) for t in lab.unsafe_turns(start_inside, atc)]
+    expect(got == [0.5], "unsafe_turns with the spindle down at Y 44 from the start, raised at 1 s: the carousel "
+           "at 0 s (its start), steps at 0.5, 1.5, 2.5 and 3.5 s", expected=[0.5], got=got,
+           hint="the first sample of E is where the carousel starts, not a step: leave it out")
     got = [round(float(t), 6) for t in lab.unsafe_turns(traces, atc)]
     expect(got == [1.5], "unsafe_turns: carousel steps at 0.5 s (Y 28, outside), 1.5 s (Y 44, Z 45), "
            "2.5 s (Y 44, Z 40.5) and 3.5 s (Y 28)", expected=[1.5], got=got,
