@@ -158,7 +158,7 @@ def plot_spacing(out_dir) -> Path:
     ax.set_xlabel("short-axis pulse number")
     ax.set_ylabel("gap to the next pulse [base intervals]")
     ax.set_title(f"random line ({dx}, {dy}): spacing of the short-axis pulses")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=3)
     ax.grid(True, lw=0.3)
     return save_figure(fig, out_dir, "short_axis_spacing.png")
 
