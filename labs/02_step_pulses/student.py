@@ -29,17 +29,12 @@ class PulseCounters:
 
     def pas_avans(self) -> int:
         """One timer tick: the step bit for this tick (PasAvans)."""
-        # TODO 1: the paper's PasAvansLongitudinal (README, task 1):
-        #   if dunu > 0: the bit is 1, and dunu and perioada both count down by one;
-        #   else if perioada > 0: the bit is 0 and perioada counts down by one;
-        #   else: the bit is 0 and nothing changes.
+        # TODO 1 (README, task 1): the hints there open one at a time.
         raise NotImplementedError("TODO 1: write PulseCounters.pas_avans(): one tick of the counters")
 
     def set_pas_avans(self) -> bool:
         """Ask for a step (SetPasAvans): start a pulse if none is in progress; True if started."""
-        # TODO 2: the paper's SetPasAvansLongitudinal (README, task 2): a new pulse may start only
-        # when perioada is 0; then dunu := pulse_high and perioada := dunu + pulse_low, and the
-        # answer is True. Otherwise change nothing and answer False.
+        # TODO 2 (README, task 2): the hints there open one at a time.
         raise NotImplementedError("TODO 2: write PulseCounters.set_pas_avans(): start a pulse if none is running")
 
 
@@ -51,9 +46,7 @@ def timer_ticks(counters: PulseCounters, requests: list[bool]) -> list[int]:
     one; a step refused because a pulse is in progress is asked for again next tick, as
     EvaluateEroare does while the position error is not zero. No wanted step is ever lost.
     """
-    # TODO 3: the timer tick (README, task 3). Keep a count of the steps still wanted; for each
-    # tick: first the bit of this tick (pas_avans) into the list, then add this tick's request,
-    # then, if steps are wanted, ask set_pas_avans() for one and count it off when it says True.
+    # TODO 3 (README, task 3): the hints there open one at a time.
     raise NotImplementedError("TODO 3: write timer_ticks(counters, requests): the step bit of every tick")
 
 

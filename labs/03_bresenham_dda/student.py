@@ -20,12 +20,7 @@ def bresenham_steps(dx: int, dy: int) -> list[tuple[int, int]]:
     The base axis (the longer one) steps every cycle; the other steps when the ideal line is
     more than half a step ahead of it. Each entry is (x step, y step), each -1, 0 or +1.
     """
-    # TODO 1 (README, task 1; do this one or TODO 2, or both):
-    #   prepare: n = the larger of |dx| and |dy| (the number of cycles), the sign of each axis,
-    #            an error term per axis starting at 0;
-    #   execute, n times: each error term grows by 2|d| of its axis; when it is above n (the
-    #            ideal line is more than half a step ahead) the axis steps in its direction
-    #            and its error term drops by 2n. Collect (x step, y step) of every cycle.
+    # TODO 1 (README, task 1; do this one or TODO 2, or both): the hints there open one at a time.
     raise NotImplementedError("TODO 1: write bresenham_steps(dx, dy): the steps of every cycle")
 
 
@@ -50,8 +45,7 @@ class DigitalIntegrator:
         Returns the delay of the short pulse after this base pulse, in base intervals (the
         engraver times it with its clock), or None when no short pulse is due in this interval.
         """
-        # TODO 2 (README, task 2; do this one or TODO 1, or both): one base pulse of 004's flow
-        # chart, with the counters of this object. The README's hints open one at a time.
+        # TODO 2 (README, task 2; do this one or TODO 1, or both): the hints there open one at a time.
         raise NotImplementedError("TODO 2: write DigitalIntegrator.base_pulse(): count a base pulse, decide a short one")
 
 

@@ -21,17 +21,13 @@ MAX_OVERSHOOT = 5.0      # per cent, for the best gain
 
 def with_gains(machine, kp: float, ki: float = 0.0):
     """The machine with the loop gains of its ``[servo]`` section replaced."""
-    # TODO 1 (README, task 1): the gains live in machine.parts["servo"], a frozen dataclass.
-    # dataclasses.replace it with kp= and ki=, then replace the machine with a new parts dict
-    # ({**machine.parts, "servo": ...}). Do not change the machine you were given.
+    # TODO 1 (README, task 1): the hints there open one at a time.
     raise NotImplementedError("TODO 1: write with_gains(machine, kp, ki): a machine with other loop gains")
 
 
 def overshoot_percent(setpoint, position) -> float:
     """How far the response went past a step from 0, in per cent of the step (0 if never past)."""
-    # TODO 2 (README, task 2): the step is the last set-point (setpoint[-1]); the peak is the
-    # largest position (for a step down: the most negative). Overshoot = (peak - step) / step,
-    # in per cent, and 0 when the response never went past the step.
+    # TODO 2 (README, task 2): the hints there open one at a time.
     raise NotImplementedError("TODO 2: write overshoot_percent(setpoint, position)")
 
 
@@ -40,9 +36,7 @@ def settling_time_ms(t_s, setpoint, position, band: float = BAND) -> float:
 
     ``math.inf`` when it is still outside the band at the last sample.
     """
-    # TODO 3 (README, task 3): find the last sample where |setpoint - position| is more than
-    # band * |step|. The response has settled from the next sample on: return its time t_s[i + 1]
-    # in ms. Never outside: 0.0. Still outside at the last sample: math.inf.
+    # TODO 3 (README, task 3): the hints there open one at a time.
     raise NotImplementedError("TODO 3: write settling_time_ms(t_s, setpoint, position, band)")
 
 
@@ -51,8 +45,7 @@ def best_gain(metrics: dict[float, tuple[float, float]], max_overshoot: float = 
 
     ``metrics`` maps kp to (overshoot %, settling time ms).
     """
-    # TODO 4 (README, task 4): keep the gains whose overshoot is at most max_overshoot; of
-    # those, return the kp with the shortest settling time (the smaller kp on a tie).
+    # TODO 4 (README, task 4): the hints there open one at a time.
     raise NotImplementedError("TODO 4: write best_gain(metrics): the gain to use")
 
 
