@@ -53,6 +53,11 @@ def test_with_ramp(lab, machine):
            hint="dataclasses.replace makes a new object; do not assign to the old one")
     expect(new.sim == machine.sim and new.axis("X").steps_per_mm == 80.0, "everything else (motor, steps/mm)",
            expected="unchanged", got="changed")
+    lathe = load_machine("chivu-lathe")
+    new = lab.with_ramp(lathe, 300.0)
+    got = {a.name: a.max_accel_mm_s2 for a in new.axes}
+    expect(got == {a.name: 300.0 for a in lathe.axes}, "with_ramp(a lathe with axes X and Z, 300)",
+           expected="every axis at 300 mm/s²", got=f"{got}", hint="replace every axis of machine.axes, not only the first")
 
 
 @pytest.mark.parametrize("which", ["engraver", "fine"])

@@ -106,6 +106,11 @@ def test_unsafe_turns(lab, atc):
     expect(got == [0.5], "unsafe_turns with the spindle down at Y 44 from the start, raised at 1 s: the carousel "
            "at 0 s (its start), steps at 0.5, 1.5, 2.5 and 3.5 s", expected=[0.5], got=got,
            hint="the first sample of E is where the carousel starts, not a step: leave it out")
+    edge = dict(traces, Y=(np.array([0.0]), np.array([atc.sim.magazine_y_mm])), Z=(np.array([0.0]), np.array([45.0])))
+    got = [round(float(t), 6) for t in lab.unsafe_turns(edge, atc)]
+    expect(got == [], f"unsafe_turns with the spindle down (Z 45) at Y {atc.sim.magazine_y_mm:g}, the edge of the "
+           "magazine zone", expected=[], got=got, hint="inside the magazine is Y beyond atc.sim.magazine_y_mm; "
+                                                  "exactly at it is outside")
     got = [round(float(t), 6) for t in lab.unsafe_turns(traces, atc)]
     expect(got == [1.5], "unsafe_turns: carousel steps at 0.5 s (Y 28, outside), 1.5 s (Y 44, Z 45), "
            "2.5 s (Y 44, Z 40.5) and 3.5 s (Y 28)", expected=[1.5], got=got,
