@@ -2,6 +2,8 @@
 
 import pytest
 
+from dataclasses import replace
+
 from retrofit.config import load_machine
 from retrofit.labs import expect, load_target
 from retrofit.motion.errorloop import PositionErrorLoop
@@ -17,6 +19,14 @@ def lab():
 @pytest.fixture(scope="module")
 def lathe():
     return load_machine("chivu-lathe")
+
+
+@pytest.fixture(scope="module")
+def finer(lathe):
+    """A second lathe: finer screws (64 steps/mm on X, 80 on Z) and more play (0.15 and 0.13 mm)."""
+    spm = {"X": 64.0, "Z": 80.0}
+    axes = tuple(replace(a, steps_per_mm=spm[a.name]) for a in lathe.axes)
+    return replace(lathe, axes=axes, sim=replace(lathe.sim, dead_band_mm={"X": 0.15, "Z": 0.13}))
 
 
 def reference_readings(machine, axis, approach=20, reverse=12):
@@ -53,15 +63,17 @@ def test_dial_readings(lab, lathe, axis):
 
 
 @pytest.mark.parametrize("axis", ["X", "Z"])
-def test_dead_band_from_readings(lab, lathe, axis):
+@pytest.mark.parametrize("which", ["chivu", "finer"])
+def test_dead_band_from_readings(lab, lathe, finer, which, axis):
     """TODO 3: the dead band from the readings: motor travel minus carriage travel, in mm"""
-    step = lathe.axis(axis).step_mm
+    machine = lathe if which == "chivu" else finer
+    step = machine.axis(axis).step_mm
     for approach, reverse in ((20, 12), (30, 9), (15, 14)):
-        _, readings = reference_readings(lathe, axis, approach, reverse)
+        _, readings = reference_readings(machine, axis, approach, reverse)
         (m0, c0), (m1, c1) = readings[0], readings[-1]
         want = abs(m1 - m0) * step - abs(c1 - c0)
-        got = float(lab.dead_band_mm(lathe, axis, readings))
-        expect(abs(got - want) <= 1e-9, f"dead_band_mm(lathe, {axis!r}, readings) after {approach} steps out and "
+        got = float(lab.dead_band_mm(machine, axis, readings))
+        expect(abs(got - want) <= 1e-9, f"dead_band_mm({which} lathe, {axis!r}, readings) after {approach} steps out and "
                f"{reverse} back: motor {m0} -> {m1} steps, carriage {c0:.4f} -> {c1:.4f} mm",
                expected=f"{want:.4f} mm = {abs(m1 - m0)} steps x {step:g} mm - {abs(c1 - c0):.4f} mm",
                got=f"{got:.4f} mm" + (f" ({(want - got) / step:+.2f} steps off)" if step else ""),

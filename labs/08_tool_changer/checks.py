@@ -59,6 +59,11 @@ def test_carousel_positions(lab, atc):
            expected=[round(w, 3) for w in want], got=[round(g, 3) for g in got],
            hint="the disc turns by the pocket's angle plus station_deg; one carousel unit is degrees_per_unit "
                 "degrees")
+    other = replace(atc.sim, first_pocket_deg=90.0, pocket_pitch_deg=30.0, station_deg=-45.0, degrees_per_unit=15.0)
+    got = float(lab.carousel_position(other, 4))
+    expect(abs(got - 9.0) < 1e-9, "carousel_position of pocket 4 on a disc with pocket 1 at 90°, every 30°, the "
+           "station at -45° and 15° a unit", expected="9.0 = (180 - 45) / 15", got=f"{got:g}",
+           hint="read station_deg and degrees_per_unit from the geometry you are given")
 
 
 def test_over_time(lab, mill, atc, cell):
