@@ -39,7 +39,7 @@ def test_overshoot(lab, mill):
     """TODO 2: overshoot in per cent of the step, 0 when the response never passes it"""
     cases = [([100] * 4, [0, 60, 117, 100], 17.0), ([100] * 4, [0, 40, 80, 95], 0.0),
              ([-50] * 3, [0, -60, -50], 20.0), ([0, 200, 200, 200, 200], [0, 0, 150, 230, 200], 15.0),
-             ([0, -20, -20, -20], [0, -8, -21, -20], 5.0)]
+             ([0, -20, -20, -20], [0, -8, -21, -20], 5.0), ([100] * 5, [0, 80, 112, 106, 104], 12.0)]
     for setpoint, position, want in cases:
         got = float(lab.overshoot_percent(setpoint, position))
         expect(abs(got - want) < 1e-9, f"overshoot_percent({setpoint}, {position})", expected=f"{want:g} %",
