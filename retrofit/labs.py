@@ -33,6 +33,9 @@ from .errors import ConfigError
 
 LABS_ENV = "RETROFIT_LABS"
 TARGET_ENV = "RETROFIT_LAB_TARGET"
+SECONDS_ENV = "RETROFIT_LAB_CHECK_SECONDS"
+#: how long one check may run (seconds of the check's own process) before it fails as a hang
+CHECK_SECONDS = 20.0
 _LAB_DIR = re.compile(r"^(\d\d)_([A-Za-z0-9_]+)$")
 
 
@@ -147,6 +150,53 @@ def expect(ok: bool, what: str, *, expected, got, hint: str = "") -> None:
         raise CheckFailed(what, expected, got, hint)
 
 
+class CheckTimedOut(Exception):
+    """A check that ran past its time limit: most often a loop in the student's file that never ends."""
+
+
+def check_seconds() -> float:
+    """The per-check time limit: ``RETROFIT_LAB_CHECK_SECONDS`` if set, else :data:`CHECK_SECONDS`."""
+    text = os.environ.get(SECONDS_ENV, "")
+    try:
+        return float(text) if text else CHECK_SECONDS
+    except ValueError:
+        raise ConfigError(f"{SECONDS_ENV}={text}: not a number; give the seconds a check may run, e.g. 20") from None
+
+
+def _time_limit(seconds: float, title: str):
+    """A context manager: raise :class:`CheckTimedOut` in this (main) thread after ``seconds``.
+
+    The limit counts the processor time of this process (so a loaded machine does not fail a
+    check that is merely waiting its turn), with ten times as much wall time as a backstop for
+    code that hangs without computing.
+    """
+    import contextlib
+    import signal
+    import threading
+
+    @contextlib.contextmanager
+    def limit():
+        if seconds <= 0 or not hasattr(signal, "setitimer") or threading.current_thread() is not threading.main_thread():
+            yield
+            return
+
+        def stop(signum, frame):
+            todo = re.match(r"(TODOs? [\d, -]+)", title)
+            raise CheckTimedOut(f"{todo[1].rstrip(', ') if todo else 'this check'}: your code did not finish "
+                                f"within {seconds:g} s; look for a loop that never ends")
+        timers = ((signal.ITIMER_PROF, signal.SIGPROF, seconds), (signal.ITIMER_REAL, signal.SIGALRM, 10 * seconds))
+        previous = [signal.signal(number, stop) for _, number, _ in timers]
+        for timer, _, after in timers:
+            signal.setitimer(timer, after)
+        try:
+            yield
+        finally:
+            for (timer, number, _), handler in zip(timers, previous):
+                signal.setitimer(timer, 0)
+                signal.signal(number, handler)
+    return limit()
+
+
 def explain(exc: BaseException, target: Path) -> str:
     """A failure in words a student can act on, never a traceback.
 
@@ -159,6 +209,8 @@ def explain(exc: BaseException, target: Path) -> str:
         return (f"{target.name} line {exc.lineno} does not read as Python: {exc.msg}; "
                 "fix that line, then check again")
     where = _where(exc, target)
+    if isinstance(exc, CheckTimedOut):
+        return f"{exc}" + (f" (it was in {where})" if where else "")
     if isinstance(exc, NotImplementedError):
         return f"not written yet: {exc or 'a TODO'}" + (f" ({where})" if where else "")
     if type(exc) is AssertionError:
@@ -196,14 +248,20 @@ def _collector(target: Path):
             self.results: list[CheckResult] = []
 
         @pytest.hookimpl(wrapper=True)
+        def pytest_runtest_setup(self, item):
+            with _time_limit(check_seconds(), _title_of(item)):
+                return (yield)
+
+        @pytest.hookimpl(wrapper=True)
+        def pytest_runtest_call(self, item):
+            with _time_limit(check_seconds(), _title_of(item)):
+                return (yield)
+
+        @pytest.hookimpl(wrapper=True)
         def pytest_runtest_makereport(self, item, call):
             report = yield
             if report.when == "call" or not report.passed:
-                function = getattr(item, "function", None)
-                doc = (function.__doc__ or "").strip() if function is not None else ""
-                title = doc.splitlines()[0] if doc else item.name.removeprefix("test_").replace("_", " ")
-                if getattr(item, "callspec", None) is not None:
-                    title += f" [{item.callspec.id}]"
+                title = _title_of(item)
                 if report.skipped:
                     reason = report.longrepr[2] if isinstance(report.longrepr, tuple) else ""
                     self.results.append(CheckResult(title, "skipped", reason.removeprefix("Skipped: ")))
@@ -221,14 +279,28 @@ def _collector(target: Path):
     return Collector()
 
 
+def _title_of(item) -> str:
+    """A check's title: the first line of its docstring, and its parameters."""
+    function = getattr(item, "function", None)
+    doc = (function.__doc__ or "").strip() if function is not None else ""
+    title = doc.splitlines()[0] if doc else item.name.removeprefix("test_").replace("_", " ")
+    if getattr(item, "callspec", None) is not None:
+        title += f" [{item.callspec.id}]"
+    return title
+
+
 #: pytest plugins a lab check does without: its own report replaces the terminal's, nothing is
 #: cached in the labs folder, and no garbage collection after every check (slow in a big process)
 _QUIET = ("-p", "no:terminal", "-p", "no:cacheprovider", "-p", "no:unraisableexception",
           "-p", "no:threadexception")
 
 
-def check_lab(lab: Lab, solution: bool = False, target: str | Path | None = None) -> list[CheckResult]:
-    """Run a lab's checks against the student's file, the solution, or ``target``; one result per check."""
+def check_lab(lab: Lab, solution: bool = False, target: str | Path | None = None,
+              first_failure: bool = False) -> list[CheckResult]:
+    """Run a lab's checks against the student's file, the solution, or ``target``; one result per check.
+
+    Each check may run :func:`check_seconds` seconds; ``first_failure`` stops at the first failed check.
+    """
     try:
         import pytest
     except ImportError:
@@ -240,7 +312,8 @@ def check_lab(lab: Lab, solution: bool = False, target: str | Path | None = None
     _forget_checks()
     try:
         code = pytest.main([str(lab.checks), "--import-mode=importlib", "--rootdir", str(lab.path.parent),
-                            "-W", "ignore::DeprecationWarning", *_QUIET], plugins=[collector])
+                            "-W", "ignore::DeprecationWarning", *_QUIET, *(["-x"] if first_failure else [])],
+                           plugins=[collector])
     finally:
         if saved is None:
             os.environ.pop(TARGET_ENV, None)

@@ -2,6 +2,7 @@
 untouched student file fails a check with a message a student can act on; the lab commands work."""
 
 import ast
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -10,8 +11,8 @@ import pytest
 
 from retrofit.cli import main
 from retrofit.errors import ConfigError
-from retrofit.labs import (CheckFailed, TARGET_ENV, check_lab, explain, find_lab, labs_dir, list_labs,
-                           result_lines, run_lab)
+from retrofit.labs import (CheckFailed, TARGET_ENV, check_lab, explain, find_lab, labs_dir, list_labs, load_module,
+                           pyplot, result_lines)
 
 ROOT = Path(__file__).resolve().parent.parent / "labs"
 LABS = list_labs(ROOT)
@@ -29,17 +30,82 @@ def test_the_eight_labs_are_there_with_their_four_files():
         assert lab.title and not lab.title.startswith(lab.number)
 
 
+def figure_defects(fig) -> list[str]:
+    """What a reader would miss on a figure: a title, the axes' labels."""
+    defects = []
+    suptitle = fig._suptitle.get_text() if fig._suptitle is not None else ""
+    panels = [ax for ax in fig.axes if ax.get_visible() and ax.get_label() != "<colorbar>"]
+    for k, ax in enumerate(panels):
+        if not (ax.get_title() or suptitle):
+            defects.append(f"panel {k} has no title")
+        if ax.name == "polar":
+            continue
+        named_ticks = any(t.get_text() and not t.get_text().lstrip("−-").replace(".", "").isdigit()
+                          for t in ax.get_yticklabels())
+        if not (ax.get_ylabel() or named_ticks):
+            defects.append(f"panel {k} has no y label")
+    if not any(ax.get_xlabel() for ax in panels if ax.name != "polar") and any(ax.name != "polar" for ax in panels):
+        defects.append("no x label")
+    return defects
+
+
 @pytest.mark.parametrize("lab", LABS, ids=IDS)
 def test_solution_runs_headless_and_writes_its_plots(lab, tmp_path, monkeypatch):
+    """Every plot is saved as a PNG, headless, with a title and labelled axes."""
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
-    written = run_lab(lab, solution=True, out_dir=tmp_path)
+    pyplot()
+    module = load_module(lab.file(True))
+    save, defects = module.save_figure, []
+
+    def checked_save(fig, out_dir, name):
+        defects.extend(f"{name}: {d}" for d in figure_defects(fig))
+        return save(fig, out_dir, name)
+    monkeypatch.setattr(module, "save_figure", checked_save)
+    written = [Path(p) for p in module.main(tmp_path)]
     import matplotlib
     assert matplotlib.get_backend().lower() == "agg"
     pngs = [p for p in written if p.suffix == ".png"]
     assert len(pngs) >= 2, f"{lab.path.name}: main() should save its plots, wrote {written}"
     for path in pngs:
         assert path.parent == tmp_path and path.read_bytes()[:8] == PNG and path.stat().st_size > 15_000
+    assert not defects, defects
+
+
+def test_lathe_timing_title_counts_the_pulses_drawn_and_names_the_take_up(tmp_path, monkeypatch):
+    module = load_module(find_lab(ROOT, "02").file(True))
+    titles = []
+
+    def keep(fig, out_dir, name):
+        titles.append(fig.axes[0].get_title())
+        return tmp_path / name
+    monkeypatch.setattr(module, "save_figure", keep)
+    machine = module.load_machine(module.MACHINE)
+    signals, _ = module.lathe_signals(machine, [(3, 2), (0, 0)])
+    module.plot_lathe_timing(signals, machine, tmp_path)
+    rises = {axis: sum(1 for a, b in zip(signals[f"{axis}.step"], signals[f"{axis}.step"][1:]) if b and not a)
+             for axis in ("X", "Z")}
+    # X: 3 steps each way plus 4 steps (0.10 mm at 0.025 mm) of take-up; Z: 2 plus 4 (0.08 mm at 0.02 mm)
+    assert rises == {"X": 14, "Z": 12}
+    assert "X: 7 pulses out, 7 back" in titles[0] and "Z: 6 pulses out, 6 back" in titles[0]
+    assert "backlash" in titles[0] and "X 4 (0.1 mm)" in titles[0]
+
+
+def test_never_settling_gain_is_not_drawn_as_a_settling_time(tmp_path, monkeypatch):
+    module = load_module(find_lab(ROOT, "07").file(True))
+    figures = []
+    monkeypatch.setattr(module, "save_figure", lambda fig, out_dir, name: figures.append(fig) or tmp_path / name)
+    model = {0.1: (0.0, 161.0), 0.2: (1.8, 59.0)}
+    sim = {0.1: (0.0, math.inf), 0.2: (0.0, 64.0)}
+    module.plot_metrics(model, sim, 0.2, tmp_path)
+    settle_ax = figures[0].axes[1]
+    drawn = {(line.get_label(), float(x), float(y)) for line in settle_ax.get_lines()
+             for x, y in zip(line.get_xdata(), line.get_ydata())}
+    assert ("simulation", 0.2, 64.0) in drawn and ("model", 0.1, 161.0) in drawn
+    assert not any(label == "simulation" and x == 0.1 for label, x, _ in drawn)
+    arrow = [line for line in settle_ax.get_lines() if "not settled" in line.get_label()]
+    assert arrow and list(arrow[0].get_xdata()) == [0.1] and "300 ms" in arrow[0].get_label()
+    pyplot().close(figures[0])
 
 
 @pytest.mark.parametrize("lab", LABS, ids=IDS)

@@ -1,6 +1,7 @@
 """Checks of lab 01 (the circle): run with `retrofit lab check 01`, or pytest on this file."""
 
 import math
+from dataclasses import replace
 
 import pytest
 
@@ -20,9 +21,17 @@ def lathe():
     return load_machine("chivu-lathe")
 
 
-def _paper_point(n, kt=40.0, kl=50.0):
-    angle = n * 2 * math.pi / 100
-    return math.trunc(15 * math.sin(angle) * kt), math.trunc(15 * math.cos(angle) * kl)
+@pytest.fixture(scope="module")
+def finer():
+    """A second lathe: the chivu lathe with finer screws, 64 steps/mm on X and 80 on Z."""
+    machine = load_machine("chivu-lathe")
+    spm = {"X": 64.0, "Z": 80.0}
+    return replace(machine, axes=tuple(replace(a, steps_per_mm=spm[a.name]) for a in machine.axes))
+
+
+def _paper_point(n, kt=40.0, kl=50.0, radius=15.0, points=100):
+    angle = n * 2 * math.pi / points
+    return math.trunc(radius * math.sin(angle) * kt), math.trunc(radius * math.cos(angle) * kl)
 
 
 def test_point_zero_is_on_the_z_axis(lab):
@@ -52,6 +61,18 @@ def test_truncated_to_steps_like_the_paper(lab):
                expected=f"{want} (exact values {exact[0]:.3f}, {exact[1]:.3f} steps)", got=repr(got), hint=hint)
 
 
+OTHER_CIRCLES = [(12, 64.0, 80.0, 7.5, 50), (37, 25.0, 125.0, 40.0, 60), (3, 50.0, 40.0, 2.0, 8)]
+
+
+def test_other_circles(lab):
+    """TODO 1: other radii, point counts and steps per mm: the ones you are given, none written in"""
+    for n, kt, kl, radius, points in OTHER_CIRCLES:
+        got, want = tuple(lab.calc_next_input(n, kt, kl, radius, points)), _paper_point(n, kt, kl, radius, points)
+        expect(got == want, f"calc_next_input({n}, kt={kt:g}, kl={kl:g}, radius_mm={radius:g}, points={points})",
+               expected=repr(want), got=repr(got),
+               hint="use the arguments radius_mm, points, kt and kl; 15, 100, 40 and 50 are only the defaults")
+
+
 def test_101_targets_visited_in_turn(lab, lathe):
     """TODO 2: the circle has 101 targets, points 0..100, the last one back at the start"""
     targets = [tuple(t) for t in lab.circle_targets(lathe)]
@@ -76,6 +97,22 @@ def test_targets_equal_the_papers_circle(lab, lathe):
                 "KT = machine.axis('X').steps_per_mm and KL = machine.axis('Z').steps_per_mm")
         expect(False, f"target {n} of circle_targets(lathe)", expected=repr(w), got=repr(g), hint=hint)
     expect(len(got) == len(want), "the number of targets", expected=len(want), got=len(got))
+
+
+def test_targets_on_another_lathe_and_circle(lab, finer):
+    """TODO 2: on a lathe with other screws, and for another circle, the targets follow the machine and the arguments"""
+    for args in ((), (7.5, 50), (40.0, 12)):
+        got = [tuple(t) for t in lab.circle_targets(finer, *args)]
+        want = list(library_targets(finer, *args))
+        first = next((k for k, (g, w) in enumerate(zip(got, want)) if g != w), None)
+        if first is None and len(got) == len(want):
+            continue
+        call = f"circle_targets(lathe with 64 steps/mm on X and 80 on Z{''.join(f', {a:g}' for a in args)})"
+        expect(False, call + (f", target {first}" if first is not None else ", how many targets"),
+               expected=repr(want[first]) if first is not None else f"{len(want)} targets",
+               got=repr(got[first]) if first is not None else f"{len(got)} targets",
+               hint="KT and KL from machine.axis('X').steps_per_mm and machine.axis('Z').steps_per_mm, not 40 and "
+                    "50; pass radius_mm and points on to calc_next_input")
 
 
 def test_carriage_errors_are_measured_at_reached_targets(lab, lathe):

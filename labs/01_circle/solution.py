@@ -90,7 +90,7 @@ def plot_errors(machine, errors: dict, out_dir) -> Path:
         ax.grid(True, lw=0.3)
         ax.legend(fontsize=8)
     axes[-1].set_xlabel("target number")
-    axes[0].set_title("carriage error at each reached target")
+    fig.suptitle(f"{machine.name}: carriage error at each reached target of the circle, per axis")
     return save_figure(fig, out_dir, "circle_errors.png")
 
 

@@ -22,18 +22,13 @@ def calc_next_input(n: int, kt: float, kl: float, radius_mm: float = RADIUS_MM,
 
     ``kt`` and ``kl`` are the steps per mm of the transversal and longitudinal axes (KT, KL).
     """
-    # TODO 1: the paper's CalcNextInput (README, task 1):
-    #   PozDoritaTransv := trunc(15 * sin(NrPunct * 2 * PI / 100) * KT)
-    #   PozDoritaLong   := trunc(15 * cos(NrPunct * 2 * PI / 100) * KL)
-    # with radius_mm for 15 and points for 100. Delphi's trunc cuts towards zero.
+    # TODO 1 (README, task 1): the hints there open one at a time.
     raise NotImplementedError("TODO 1: write calc_next_input(n, kt, kl): point n of the circle in steps")
 
 
 def circle_targets(machine, radius_mm: float = RADIUS_MM, points: int = POINTS) -> list[tuple[int, int]]:
     """Every target of the circle in turn, as (X steps, Z steps): points 0, 1, ..., ``points``."""
-    # TODO 2: the list of every target, point 0 first (README, task 2). KT and KL are the
-    # steps per mm of the machine's axes: machine.axis("X").steps_per_mm and machine.axis("Z")...
-    # The paper visits NrPunct = 0, 1, ..., 100: how many targets is that?
+    # TODO 2 (README, task 2): the hints there open one at a time.
     raise NotImplementedError("TODO 2: write circle_targets(machine): the list of targets in steps")
 
 
@@ -47,10 +42,7 @@ def drive(machine, targets, backlash_comp: bool = True):
 
 def carriage_errors(machine, log, sim) -> dict[str, list[float]]:
     """Per axis, how far (mm) the carriage is from the commanded target when each target is reached."""
-    # TODO 3: for every waypoint of log.waypoints (its .steps are the target per axis, its
-    # .reached_tick when the loop found every error zero), read the simulated machine at that
-    # tick: sim.state_at(tick) gives {axis name: (motor steps, carriage mm)}. The error of an
-    # axis is |carriage mm - target mm|; axis.to_mm(steps) converts. Return {"X": [...], "Z": [...]}.
+    # TODO 3 (README, task 3): the hints there open one at a time.
     raise NotImplementedError("TODO 3: write carriage_errors(machine, log, sim): error per axis at each reached target")
 
 
@@ -90,7 +82,7 @@ def plot_errors(machine, errors: dict, out_dir) -> Path:
         ax.grid(True, lw=0.3)
         ax.legend(fontsize=8)
     axes[-1].set_xlabel("target number")
-    axes[0].set_title("carriage error at each reached target")
+    fig.suptitle(f"{machine.name}: carriage error at each reached target of the circle, per axis")
     return save_figure(fig, out_dir, "circle_errors.png")
 
 

@@ -112,6 +112,38 @@ def test_counters_equal_the_step_generator_tick_by_tick(lab, high, low):
                hint=COUNTER_RULE + "; a new pulse only when perioada == 0")
 
 
+def paper_counters(high, low, requests):
+    """(dunu, perioada) after every tick of the paper's PasAvans and SetPasAvans, worked by the checks."""
+    dunu = perioada = pending = 0
+    states = []
+    for wanted in requests:
+        if dunu > 0:
+            dunu, perioada = dunu - 1, perioada - 1
+        elif perioada > 0:
+            perioada -= 1
+        pending += int(wanted)
+        if pending and perioada == 0:
+            dunu, perioada, pending = high, high + low, pending - 1
+        states.append((dunu, perioada))
+    return states
+
+
+@pytest.mark.parametrize("high,low", TIMINGS[1:3], ids=[f"high{h}-low{lo}" for h, lo in TIMINGS[1:3]])
+def test_counter_values_tick_by_tick(lab, high, low):
+    """TODO 1, 2: after every tick, dunu and perioada hold the paper's values"""
+    requests = PATTERNS["bursts of wanted steps"]
+    counters, pending = lab.PulseCounters(high, low), 0
+    for t, want in enumerate(paper_counters(high, low, requests)):
+        counters.pas_avans()
+        pending += int(requests[t])
+        if pending and counters.set_pas_avans():
+            pending -= 1
+        got = (counters.dunu, counters.perioada)
+        expect(got == want, f"dunu and perioada after tick {t}, pulse_high={high}, pulse_low={low}, bursts of wanted steps",
+               expected=f"dunu {want[0]}, perioada {want[1]}", got=f"dunu {got[0]}, perioada {got[1]}",
+               hint=COUNTER_RULE + "; a pulse starts with dunu = pulse_high, perioada = dunu + pulse_low")
+
+
 def test_shortest_step_period_is_high_plus_low(lab):
     """TODO 1, 2: with a step wanted every tick, rising edges come every pulse_high + pulse_low ticks"""
     for high, low in TIMINGS:

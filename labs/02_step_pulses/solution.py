@@ -79,10 +79,11 @@ def lathe_signals(machine, targets) -> dict[str, list[int]]:
 def plot_counters(out_dir) -> Path:
     """Step bits of the counters for three request patterns: every tick, every 3rd tick, in bursts."""
     plt = pyplot()
-    patterns = {"a step wanted every tick": [True] * 24,
-                "every 3rd tick": [t % 3 == 0 for t in range(24)],
-                "bursts": [t in (0, 1, 2, 9, 10, 16) for t in range(24)]}
-    fig, axes = plt.subplots(len(patterns), 1, sharex=True, figsize=(10, 6))
+    patterns = {"a step wanted every tick: the counters set the pace, one pulse every 4 ticks": [True] * 24,
+                "a step wanted every 6th tick: each pulse starts the tick after it is wanted":
+                    [t % 6 == 0 for t in range(24)],
+                "bursts: wanted steps wait their turn and none is lost": [t in (0, 1, 2, 13, 14, 20) for t in range(24)]}
+    fig, axes = plt.subplots(len(patterns), 1, sharex=True, figsize=(10, 6.5))
     for ax, (label, requests) in zip(axes, patterns.items()):
         bits = timer_ticks(PulseCounters(2, 2), requests)
         ax.step(range(len(bits) + 1), bits + bits[-1:], where="post", lw=1.5, label="step bit")
@@ -90,10 +91,13 @@ def plot_counters(out_dir) -> Path:
         ax.plot(asks, [1.25] * len(asks), "v", ms=5, color="tab:red", label="one more step wanted")
         ax.set_ylim(-0.2, 1.5)
         ax.set_yticks([0, 1])
-        ax.set_title(f"pulse_high = 2, pulse_low = 2: {label}", fontsize=9)
+        ax.set_title(label, fontsize=9)
+        ax.set_ylabel("step bit")
         ax.grid(True, axis="x", lw=0.3)
-    axes[-1].legend(loc="upper right", fontsize=8)
-    axes[-1].set_xlabel("tick")
+    fig.suptitle("PulseCounters(pulse_high = 2, pulse_low = 2): the step bit for three patterns of wanted steps")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=8, bbox_to_anchor=(0.5, -0.04))
+    axes[-1].set_xlabel("tick (one timer period each)")
     return save_figure(fig, out_dir, "counters.png")
 
 
@@ -108,7 +112,17 @@ def plot_lathe_timing(signals: dict, machine, out_dir) -> Path:
     ax.set_yticks([row * 1.5 + 0.5 for row in range(len(names))])
     ax.set_yticklabels(list(reversed(names)))
     ax.set_xlabel(f"tick ({machine.tick_us:g} µs)")
-    ax.set_title(f"{machine.name}: step and direction pins, X out 3 steps and back, Z out 2 steps and back")
+    ax.set_ylabel("pin (0 low, 1 high)")
+    counts = []
+    for axis in machine.axes:
+        step, direction = signals[f"{axis.name}.step"], signals[f"{axis.name}.dir"]
+        rises = [t for t in range(1, len(step)) if step[t] and not step[t - 1]]
+        out = sum(direction[t] for t in rises)
+        counts.append(f"{axis.name}: {out} pulses out, {len(rises) - out} back")
+    take_up = ", ".join(f"{a.name} {a.backlash_steps} ({a.backlash_mm:g} mm)" for a in machine.axes)
+    ax.set_title(f"{machine.name}: X commanded 3 steps out and back, Z 2 steps — {'; '.join(counts)}\n"
+                 f"the extra pulses are backlash compensation: whenever an axis changes direction (its first "
+                 f"move too) the controller first takes up the clearance, {take_up} steps", fontsize=10)
     ax.grid(True, axis="x", lw=0.3)
     return save_figure(fig, out_dir, "lathe_timing.png")
 

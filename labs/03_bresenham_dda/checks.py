@@ -101,6 +101,38 @@ def test_bresenham_random_lines(lab):
         check_bresenham(lab, *line)
 
 
+def reference_counters(n, d):
+    """004's counters after every base pulse: (LONG, SHORT, delay or None), worked by the checks."""
+    count = n / d if d else None
+    short, sent, rows = count, 0, []
+    for long in range(1, n + 1):
+        delay = None
+        if sent < d and int(short) == long:
+            delay, short, sent = short - long, short + count, sent + 1
+        rows.append((long, short, delay))
+    return rows
+
+
+@pytest.mark.parametrize("line", [(3, 2), (8, 4), (10, 3), (7, 5), (13, 13)], ids=lambda l: f"{l[0]}-{l[1]}")
+def test_dda_counters_pulse_by_pulse(lab, line):
+    """TODO 2: after every base pulse, LONG and SHORT hold 004's values and the short pulse is decided then"""
+    _only_if_chosen(lab, "dda_short_pulses", "bresenham_steps", "TODO 2 (digital integration)")
+    n, d = line
+    integrator = lab.DigitalIntegrator(n, d)
+    for long, short, delay in reference_counters(n, d):
+        got = integrator.base_pulse()
+        same = (got is None) == (delay is None) and (got is None or abs(float(got) - delay) <= 1e-9)
+        state = (integrator.long, integrator.short)
+        expect(same and state[0] == long and abs(float(state[1]) - short) <= 1e-9,
+               f"DigitalIntegrator({n}, {d}), base pulse {long}: the delay returned and the counters after it",
+               expected=f"{'no short pulse' if delay is None else f'a short pulse {delay:.4f} intervals later'}, "
+                        f"LONG {long}, SHORT {short:.4f}",
+               got=f"{'no short pulse' if got is None else f'a short pulse {float(got):.4f} intervals later'}, "
+                   f"LONG {state[0]}, SHORT {float(state[1]):.4f}",
+               hint="count the base pulse in LONG first; a short pulse is due when int(SHORT) == LONG; its "
+                    "delay is SHORT - LONG; then SHORT grows by COUNT")
+
+
 def test_dda_two_to_one(lab):
     """TODO 2: digital integration at 2:1 — one short pulse every 2 base pulses"""
     _only_if_chosen(lab, "dda_short_pulses", "bresenham_steps", "TODO 2 (digital integration)")

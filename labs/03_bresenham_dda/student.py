@@ -20,27 +20,47 @@ def bresenham_steps(dx: int, dy: int) -> list[tuple[int, int]]:
     The base axis (the longer one) steps every cycle; the other steps when the ideal line is
     more than half a step ahead of it. Each entry is (x step, y step), each -1, 0 or +1.
     """
-    # TODO 1 (README, task 1; do this one or TODO 2, or both):
-    #   prepare: n = the larger of |dx| and |dy| (the number of cycles), the sign of each axis,
-    #            an error term per axis starting at 0;
-    #   execute, n times: each error term grows by 2|d| of its axis; when it is above n (the
-    #            ideal line is more than half a step ahead) the axis steps in its direction
-    #            and its error term drops by 2n. Collect (x step, y step) of every cycle.
+    # TODO 1 (README, task 1; do this one or TODO 2, or both): the hints there open one at a time.
     raise NotImplementedError("TODO 1: write bresenham_steps(dx, dy): the steps of every cycle")
 
 
-def dda_short_pulses(n: int, d: int) -> list[float]:
-    """004's digital integration: where the ``d`` short-axis pulses of a line of ``n`` base pulses fall.
+class DigitalIntegrator:
+    """004's counters for a line of ``n`` base pulses and ``d`` short-axis pulses.
 
-    Positions are in base intervals from the start of the move (base pulse k is at k), with the
-    counters COUNT = n / d, LONG (base pulses sent) and SHORT (where the next short pulse is due).
+    ``count`` is COUNT = n / d (base pulses per short pulse), ``long`` is LONG (base pulses sent),
+    ``short`` is SHORT (where the next short pulse is due, in base intervals from the start; it
+    starts at COUNT) and ``sent`` the short pulses sent so far.
     """
-    # TODO 2 (README, task 2; do this one or TODO 1, or both):
-    #   COUNT = n / d, SHORT starts at COUNT; for LONG = 1, 2, ..., n (one base pulse each):
-    #   when the integer part of SHORT equals LONG (and fewer than d pulses were sent), a short
-    #   pulse comes SHORT - LONG intervals after base pulse LONG, i.e. at position SHORT; then
-    #   SHORT grows by COUNT. Return the positions of the d short pulses. (d == 0: none.)
-    raise NotImplementedError("TODO 2: write dda_short_pulses(n, d): where the short pulses fall")
+
+    def __init__(self, n: int, d: int):
+        self.n, self.d = n, d
+        self.count = n / d if d else float(n + 1)     # COUNT (no short pulse at all when d == 0)
+        self.long = 0                                  # LONG
+        self.short = self.count                        # SHORT
+        self.sent = 0
+
+    def base_pulse(self) -> float | None:
+        """One base pulse: count it, and decide whether a short pulse follows it.
+
+        Returns the delay of the short pulse after this base pulse, in base intervals (the
+        engraver times it with its clock), or None when no short pulse is due in this interval.
+        """
+        # TODO 2 (README, task 2; do this one or TODO 1, or both): the hints there open one at a time.
+        raise NotImplementedError("TODO 2: write DigitalIntegrator.base_pulse(): count a base pulse, decide a short one")
+
+
+def dda_short_pulses(n: int, d: int) -> list[float]:
+    """Where the ``d`` short-axis pulses of a line of ``n`` base pulses fall, in base intervals.
+
+    Base pulse k is at k; a short pulse decided after base pulse LONG with delay t is at LONG + t.
+    """
+    integrator = DigitalIntegrator(n, d)
+    pulses = []
+    for _ in range(n):
+        delay = integrator.base_pulse()
+        if delay is not None:
+            pulses.append(integrator.long + delay)
+    return pulses
 
 
 def lattice_path(steps) -> list[tuple[int, int]]:
@@ -76,7 +96,7 @@ def plot_lines(out_dir) -> Path:
     """Per line: the lattice path against the ideal line, and the two methods' pulse trains."""
     plt = pyplot()
     fig, rows = plt.subplots(len(LINES), 2, figsize=(13, 3.4 * len(LINES)),
-                             gridspec_kw={"width_ratios": [1, 1.6]})
+                             gridspec_kw={"width_ratios": [1, 1.6], "hspace": 0.5, "wspace": 0.4})
     for (label, (dx, dy)), (path_ax, pulse_ax) in zip(LINES.items(), rows):
         steps, who_b = _bresenham(dx, dy)
         short, who_d = _dda(dx, dy)
@@ -84,9 +104,11 @@ def plot_lines(out_dir) -> Path:
         path_ax.plot([0, dx], [0, dy], "k--", lw=0.8, label="ideal line")
         path_ax.plot(*zip(*points), "o-", ms=3, lw=1.0, label=f"Bresenham ({who_b})")
         path_ax.set_aspect("equal")
-        path_ax.set_title(f"{label}: line to ({dx}, {dy})", fontsize=9)
+        path_ax.set_title(f"{label}: lattice path to ({dx}, {dy})", fontsize=9)
+        path_ax.set_xlabel("x [steps]", fontsize=8)
+        path_ax.set_ylabel("y [steps]", fontsize=8)
         path_ax.grid(True, lw=0.3)
-        path_ax.legend(fontsize=7, loc="upper left")
+        path_ax.legend(fontsize=7, loc="lower right")
         base = list(range(1, dx + 1))
         bres_short = [k for k, (_, sy) in enumerate(steps, 1) if sy]
         pulse_ax.vlines(base, 2.1, 2.9, color="black", lw=1.2)
@@ -96,7 +118,8 @@ def plot_lines(out_dir) -> Path:
         pulse_ax.set_yticklabels(["base axis", f"short: Bresenham\n({who_b})", f"short: digital integr.\n({who_d})"],
                                  fontsize=7)
         pulse_ax.set_xlim(0, dx + 0.5)
-        pulse_ax.set_xlabel("base intervals from the start of the move")
+        pulse_ax.set_title(f"{label}: pulse trains, {dx} base pulses and {dy} short-axis pulses", fontsize=9)
+        pulse_ax.set_xlabel("time [base intervals from the start of the move]", fontsize=8)
         pulse_ax.grid(True, axis="x", lw=0.3)
     fig.suptitle("Where the short axis steps: on base cycles (Bresenham) or evenly spaced (digital integration)")
     return save_figure(fig, out_dir, "step_patterns.png")
@@ -113,10 +136,10 @@ def plot_spacing(out_dir) -> Path:
     ax.plot([b - a for a, b in zip(bres, bres[1:])], "o-", label=f"Bresenham ({who_b})")
     ax.plot([b - a for a, b in zip(short, short[1:])], "s-", label=f"digital integration ({who_d})")
     ax.axhline(dx / dy, color="gray", ls="--", lw=0.8, label=f"ideal: {dx}/{dy} = {dx / dy:.3f}")
-    ax.set_xlabel("short-axis pulse")
-    ax.set_ylabel("base intervals to the next pulse")
+    ax.set_xlabel("short-axis pulse number")
+    ax.set_ylabel("gap to the next pulse [base intervals]")
     ax.set_title(f"random line ({dx}, {dy}): spacing of the short-axis pulses")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=3)
     ax.grid(True, lw=0.3)
     return save_figure(fig, out_dir, "short_axis_spacing.png")
 

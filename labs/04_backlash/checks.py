@@ -2,6 +2,8 @@
 
 import pytest
 
+from dataclasses import replace
+
 from retrofit.config import load_machine
 from retrofit.labs import expect, load_target
 from retrofit.motion.errorloop import PositionErrorLoop
@@ -19,6 +21,14 @@ def lathe():
     return load_machine("chivu-lathe")
 
 
+@pytest.fixture(scope="module")
+def finer(lathe):
+    """A second lathe: finer screws (64 steps/mm on X, 80 on Z) and more play (0.15 and 0.13 mm)."""
+    spm = {"X": 64.0, "Z": 80.0}
+    axes = tuple(replace(a, steps_per_mm=spm[a.name]) for a in lathe.axes)
+    return replace(lathe, axes=axes, sim=replace(lathe.sim, dead_band_mm={"X": 0.15, "Z": 0.13}))
+
+
 def reference_readings(machine, axis, approach=20, reverse=12):
     """The experiment done by the checks themselves, to test dead_band_mm on its own."""
     i = machine.axis_names.index(axis)
@@ -32,11 +42,12 @@ def reference_readings(machine, axis, approach=20, reverse=12):
 @pytest.mark.parametrize("axis", ["X", "Z"])
 def test_dial_targets(lab, lathe, axis):
     """TODO 1: out to +approach on one axis, then back one step at a time"""
-    want, _ = reference_readings(lathe, axis, 20, 5)
-    got = [tuple(t) for t in lab.dial_targets(lathe, axis, 20, 5)]
-    expect(got == want, f"dial_targets(lathe, {axis!r}, approach=20, reverse=5)", expected=want, got=got,
-           hint="6 targets: the approach point, then one step less each time; 0 on the other axis; "
-                "(X steps, Z steps) in that order")
+    for approach, reverse in ((20, 5), (9, 3)):
+        want = [tuple(approach - k if name == axis else 0 for name in lathe.axis_names) for k in range(reverse + 1)]
+        got = [tuple(t) for t in lab.dial_targets(lathe, axis, approach, reverse)]
+        expect(got == want, f"dial_targets(lathe, {axis!r}, approach={approach}, reverse={reverse})", expected=want,
+               got=got, hint=f"{reverse + 1} targets: the approach point, then one step less each time; 0 on the "
+                             "other axis; (X steps, Z steps) in that order")
 
 
 @pytest.mark.parametrize("axis", ["X", "Z"])
@@ -52,14 +63,22 @@ def test_dial_readings(lab, lathe, axis):
 
 
 @pytest.mark.parametrize("axis", ["X", "Z"])
-def test_dead_band_from_readings(lab, lathe, axis):
+@pytest.mark.parametrize("which", ["chivu", "finer"])
+def test_dead_band_from_readings(lab, lathe, finer, which, axis):
     """TODO 3: the dead band from the readings: motor travel minus carriage travel, in mm"""
-    _, readings = reference_readings(lathe, axis)
-    got = float(lab.dead_band_mm(lathe, axis, readings))
-    want = lathe.sim.dead_band_mm[axis]
-    expect(abs(got - want) <= lathe.axis(axis).step_mm, f"dead_band_mm(lathe, {axis!r}, readings of the experiment)",
-           expected=f"{want:.3f} mm within one step ({lathe.axis(axis).step_mm:g} mm)", got=f"{got:.4f}",
-           hint="in mm, not steps: motor steps times step_mm, minus the carriage's travel (already mm)")
+    machine = lathe if which == "chivu" else finer
+    step = machine.axis(axis).step_mm
+    for approach, reverse in ((20, 12), (30, 9), (15, 14)):
+        _, readings = reference_readings(machine, axis, approach, reverse)
+        (m0, c0), (m1, c1) = readings[0], readings[-1]
+        want = abs(m1 - m0) * step - abs(c1 - c0)
+        got = float(lab.dead_band_mm(machine, axis, readings))
+        expect(abs(got - want) <= 1e-9, f"dead_band_mm({which} lathe, {axis!r}, readings) after {approach} steps out and "
+               f"{reverse} back: motor {m0} -> {m1} steps, carriage {c0:.4f} -> {c1:.4f} mm",
+               expected=f"{want:.4f} mm = {abs(m1 - m0)} steps x {step:g} mm - {abs(c1 - c0):.4f} mm",
+               got=f"{got:.4f} mm" + (f" ({(want - got) / step:+.2f} steps off)" if step else ""),
+               hint="from the first reading (at the reversal) to the last; in mm, not steps: motor steps times "
+                    "this axis's step_mm, minus the carriage's travel (already mm)")
 
 
 @pytest.mark.parametrize("axis", ["X", "Z"])

@@ -27,34 +27,25 @@ def drive(machine, targets, backlash_comp: bool = True):
 def dial_targets(machine, axis: str, approach: int = APPROACH_STEPS,
                  reverse: int = REVERSE_STEPS) -> list[tuple[int, ...]]:
     """The experiment's targets: ``axis`` out to +approach steps, then back one step at a time."""
-    # TODO 1 (README, task 1): a target is a tuple of steps in the machine's axis order
-    # (machine.axis_names, ("X", "Z") on the lathe), 0 on every other axis. First the approach
-    # point (+approach steps on ``axis``), then approach - 1, approach - 2, ..., approach - reverse:
-    # reverse + 1 targets in all.
+    # TODO 1 (README, task 1): the hints there open one at a time.
     raise NotImplementedError("TODO 1: write dial_targets(machine, axis): out, then back step by step")
 
 
 def dial_readings(machine, axis: str, targets) -> list[tuple[int, float]]:
     """Drive the targets without compensation; (motor steps, carriage mm) of ``axis`` at each one."""
-    # TODO 2 (README, task 2): drive(machine, targets, backlash_comp=False) gives (log, sim).
-    # The dial indicator: at each waypoint's reached_tick, sim.state_at(tick)[axis] is the
-    # (motor steps, carriage mm) of the axis. One reading per target, in order.
+    # TODO 2 (README, task 2): the hints there open one at a time.
     raise NotImplementedError("TODO 2: write dial_readings(machine, axis, targets): one reading per target")
 
 
 def dead_band_mm(machine, axis: str, readings) -> float:
     """The dead band from the readings: how much further the motor went back than the carriage, mm."""
-    # TODO 3 (README, task 3): readings[0] is at the reversal, readings[-1] after the last step
-    # back. The motor went back |motor_1 - motor_0| steps (machine.axis(axis).step_mm mm each);
-    # the carriage only |carriage_1 - carriage_0| mm. The difference, in mm, is the dead band.
+    # TODO 3 (README, task 3): the hints there open one at a time.
     raise NotImplementedError("TODO 3: write dead_band_mm(machine, axis, readings): the play in mm")
 
 
 def with_clearance(machine, clearances: dict[str, float]):
     """The same machine with the compensation clearance (``backlash_mm``) of some axes replaced."""
-    # TODO 4 (README, task 4): machines and axes are frozen dataclasses, so make new ones with
-    # dataclasses.replace: replace(axis, backlash_mm=...) for each axis named in ``clearances``
-    # (keep the others), then replace(machine, axes=the new tuple). Do not change ``machine``.
+    # TODO 4 (README, task 4): the hints there open one at a time.
     raise NotImplementedError("TODO 4: write with_clearance(machine, clearances): a machine with new backlash_mm")
 
 

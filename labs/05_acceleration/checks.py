@@ -23,6 +23,13 @@ def machine():
     return load_machine(MACHINE_FILE)
 
 
+@pytest.fixture(scope="module")
+def fine(machine):
+    """A second engraver axis: the same motor on a 10 mm/rev screw, 160 steps/mm, 75 mm/s at most."""
+    axes = tuple(replace(a, steps_per_mm=160.0, max_velocity_mm_s=75.0) for a in machine.axes)
+    return replace(machine, axes=axes)
+
+
 def library_ramp(machine, accel, profile="trapezoid"):
     axes = tuple(replace(a, max_accel_mm_s2=accel) for a in machine.axes)
     return replace(machine, axes=axes, motion=replace(machine.motion, profile=profile))
@@ -46,26 +53,36 @@ def test_with_ramp(lab, machine):
            hint="dataclasses.replace makes a new object; do not assign to the old one")
     expect(new.sim == machine.sim and new.axis("X").steps_per_mm == 80.0, "everything else (motor, steps/mm)",
            expected="unchanged", got="changed")
+    lathe = load_machine("chivu-lathe")
+    new = lab.with_ramp(lathe, 300.0)
+    got = {a.name: a.max_accel_mm_s2 for a in new.axes}
+    expect(got == {a.name: 300.0 for a in lathe.axes}, "with_ramp(a lathe with axes X and Z, 300)",
+           expected="every axis at 300 mm/s²", got=f"{got}", hint="replace every axis of machine.axes, not only the first")
 
 
-def test_position_error(lab, machine):
+@pytest.mark.parametrize("which", ["engraver", "fine"])
+def test_position_error(lab, machine, fine, which):
     """TODO 2: position_error_mm is how far the motor ended behind the steps sent, in mm"""
-    steep = library_ramp(machine, 8000.0)
+    chosen = machine if which == "engraver" else fine
+    spm = chosen.axis("X").steps_per_mm
+    steep = library_ramp(chosen, 8000.0)
     log, sim = lab.run_move(steep)
     got = float(lab.position_error_mm(steep, log, sim))
-    want = lost(steep, log, sim) / 80.0
-    expect(abs(got - want) < 1e-9, "position_error_mm after a 40 mm move with an 8000 mm/s² ramp",
-           expected=f"{want:.4f} mm ({lost(steep, log, sim)} steps sent but not turned, / 80 steps/mm)",
-           got=f"{got:.4f} mm", hint="(log.steps_emitted['X'] - sim.motor_steps[0]) / steps_per_mm")
+    want = lost(steep, log, sim) / spm
+    expect(abs(got - want) < 1e-9, f"position_error_mm after a 40 mm move with an 8000 mm/s² ramp, {spm:g} steps/mm",
+           expected=f"{want:.4f} mm ({lost(steep, log, sim)} steps sent but not turned, / {spm:g} steps/mm)",
+           got=f"{got:.4f} mm", hint="(log.steps_emitted['X'] - sim.motor_steps[0]) / machine.axis('X').steps_per_mm")
 
 
-@pytest.mark.parametrize("speed", [0.0, 75.0, 150.0, 300.0, 500.0])
-def test_motor_ramp_limit(lab, machine, speed):
+@pytest.mark.parametrize("which,speed", [("engraver", v) for v in (0.0, 75.0, 150.0, 300.0, 500.0)]
+                         + [("fine", v) for v in (0.0, 40.0, 200.0)])
+def test_motor_ramp_limit(lab, machine, fine, which, speed):
     """TODO 3: the steepest ramp the motor can follow, from its torque curve"""
-    motor, spm = machine.sim.motors["X"], 80.0
+    chosen = machine if which == "engraver" else fine
+    motor, spm = chosen.sim.motors["X"], chosen.axis("X").steps_per_mm
     want = motor.max_accel_steps_s2(speed * spm) / spm
-    got = float(lab.motor_ramp_limit(machine, speed))
-    expect(abs(got - want) <= 1e-6 * max(want, 1.0), f"motor_ramp_limit(machine, {speed:g} mm/s)",
+    got = float(lab.motor_ramp_limit(chosen, speed))
+    expect(abs(got - want) <= 1e-6 * max(want, 1.0), f"motor_ramp_limit(machine, {speed:g} mm/s), {spm:g} steps/mm",
            expected=f"{want:.1f} mm/s² (torque {motor.torque_nm(speed * spm):.3f} N·m at "
                     f"{speed * spm:.0f} steps/s, load {motor.load_torque_nm} N·m)",
            got=f"{got:.1f} mm/s²",

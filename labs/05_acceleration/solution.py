@@ -92,7 +92,9 @@ def plot_runs(machine, ramps, out_dir) -> Path:
     rate_ax.axhline(machine.sim.motors["X"].max_rate_steps_s() / spm, color="gray", ls="--",
                     label="the motor's top speed (torque = load)")
     rate_ax.set_ylabel("speed of the pulses [mm/s]")
-    rate_ax.legend(fontsize=8)
+    rate_ax.set_title(f"{machine.name}: a {DISTANCE_MM:g} mm move with a gentle and a steep ramp")
+    rate_ax.legend(fontsize=8, loc="center")
+    lag_ax.set_title("how far the motor falls behind the pulses sent")
     lag_ax.set_ylabel("steps sent - motor [mm]")
     lag_ax.set_xlabel("time [ms]")
     for ax in (rate_ax, lag_ax):

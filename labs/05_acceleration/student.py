@@ -20,9 +20,7 @@ RAMPS_MM_S2 = [500, 1000, 2000, 4000, 6000, 8000, 12000, 20000, 40000]
 
 def with_ramp(machine, accel_mm_s2: float, profile: str = "trapezoid"):
     """The machine with every axis's ``max_accel_mm_s2`` set to the ramp, and the planner's profile."""
-    # TODO 1 (README, task 1): machines are frozen dataclasses; make a new one with
-    # dataclasses.replace: every axis with max_accel_mm_s2=accel_mm_s2, and machine.motion with
-    # profile=profile. Do not change the machine you were given.
+    # TODO 1 (README, task 1): the hints there open one at a time.
     raise NotImplementedError("TODO 1: write with_ramp(machine, accel_mm_s2, profile): a machine with that ramp")
 
 
@@ -37,19 +35,13 @@ def run_move(machine, distance_mm: float = DISTANCE_MM):
 
 def position_error_mm(machine, log, sim) -> float:
     """How far the X motor ended behind the steps sent to it, in mm (0 when no step was lost)."""
-    # TODO 2 (README, task 2): log.steps_emitted["X"] is how many step pulses went out (the move
-    # goes in +); sim.motor_steps[0] is where the simulated X motor is, in steps. The difference,
-    # in mm (machine.axis("X").steps_per_mm), is what the motor lost.
+    # TODO 2 (README, task 2): the hints there open one at a time.
     raise NotImplementedError("TODO 2: write position_error_mm(machine, log, sim): how far the motor is behind")
 
 
 def motor_ramp_limit(machine, speed_mm_s: float) -> float:
     """The steepest ramp (mm/s²) the X motor can follow at this speed: (T(speed) - T_load) / J."""
-    # TODO 3 (README, task 3): motor = machine.sim.motors["X"] is the [sim.motor.x] table.
-    #   the step rate at this speed: speed_mm_s * steps_per_mm; motor.torque_nm(rate) reads the
-    #   pull-out curve there; the torque left to accelerate is that minus motor.load_torque_nm
-    #   (never below 0); divided by motor.inertia_kg_m2 it is rad/s²; one revolution
-    #   (2 pi rad) moves the axis motor.steps_per_rev / steps_per_mm mm.
+    # TODO 3 (README, task 3): the hints there open one at a time.
     raise NotImplementedError("TODO 3: write motor_ramp_limit(machine, speed_mm_s): from the torque curve")
 
 
@@ -94,7 +86,9 @@ def plot_runs(machine, ramps, out_dir) -> Path:
     rate_ax.axhline(machine.sim.motors["X"].max_rate_steps_s() / spm, color="gray", ls="--",
                     label="the motor's top speed (torque = load)")
     rate_ax.set_ylabel("speed of the pulses [mm/s]")
-    rate_ax.legend(fontsize=8)
+    rate_ax.set_title(f"{machine.name}: a {DISTANCE_MM:g} mm move with a gentle and a steep ramp")
+    rate_ax.legend(fontsize=8, loc="center")
+    lag_ax.set_title("how far the motor falls behind the pulses sent")
     lag_ax.set_ylabel("steps sent - motor [mm]")
     lag_ax.set_xlabel("time [ms]")
     for ax in (rate_ax, lag_ax):

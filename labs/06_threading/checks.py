@@ -65,6 +65,48 @@ def test_split_passes_on_a_short_list(lab):
                     "first: start); a new pass begins at each such step that follows a step the other way")
 
 
+def synthetic_pass(n, z_start, pitch, offset, lead_in, samples=60):
+    """A pass on the helix z = z_start - pitch (revs - n), ``offset`` of a turn late, still at the start
+    for its first ``lead_in`` samples (the lead-in, off the helix)."""
+    revs = np.linspace(n - 0.6, n + 6.0, samples)
+    z = z_start - pitch * (revs - n - offset)
+    z[:lead_in] = z_start
+    return z, revs
+
+
+SYNC_CASES = [(7, 3.0, 1.5, 0.0, 6), (7, 3.0, 1.5, 0.3, 6), (12, 3.0, 1.5, -0.4, 10), (9, -1.0, 2.0, 0.2, 8),
+              (5, 0.5, 1.0, 0.45, 25), (20, 3.0, 1.5, -0.45, 5)]
+
+
+def test_sync_revolution(lab):
+    """TODO 3: sync_revolution finds the revolution at which the helix passes the start"""
+    for n, z_start, pitch, offset, lead_in in SYNC_CASES:
+        z, revs = synthetic_pass(n, z_start, pitch, offset, lead_in)
+        median = float(np.median(revs + (z - z_start) / pitch))
+        got = lab.sync_revolution(z, revs, z_start, pitch)
+        expect(got == n and isinstance(got, (int, np.integer)),
+               f"sync_revolution on a helix through {z_start:g} mm at turn {n + offset:g} (pitch {pitch:g} mm), "
+               f"at rest for its first {lead_in} samples",
+               expected=f"{n} (an int: the median estimate {median:.3f} rounded to the nearest turn)", got=repr(got),
+               hint="each sample gives revs + (z - z_start) / pitch; take the median (the lead-in pulls a mean "
+                    "away), then round it to the nearest whole revolution, not down or up; use the z_start and "
+                    "pitch you are given")
+
+
+def test_advance_per_rev(lab):
+    """TODO 4: advance_per_rev: the carriage's travel in each whole revolution"""
+    revs = np.array([0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.2])
+    z = -2.0 * revs
+    z[3] += 0.1                                    # at turn 2 the carriage is 0.1 mm behind
+    got = np.asarray(lab.advance_per_rev(z, revs), float)
+    want = np.array([1.9, 2.1])
+    ok = got.shape == want.shape and np.allclose(got, want, atol=1e-9)
+    expect(ok, "advance_per_rev(z, revs) with z at whole turns 1, 2, 3 = -2.0, -3.9, -6.0",
+           expected="[1.9, 2.1] (positive, one per whole revolution between the first and last sample)",
+           got=np.round(got, 6).tolist(), hint="np.interp the carriage at every whole revolution, then the "
+                                               "differences, sign turned so that the advance is positive")
+
+
 def test_split_passes_finds_every_pass(lab, cut):
     """TODO 1: on the lab's thread, one group of steps for every pass of the G76"""
     sim, passes = cut
@@ -99,49 +141,22 @@ def test_pass_curves(lab, cut):
                hint="sim.spindle.revolutions_at(the ticks of the pass's steps), in revolutions, not degrees")
 
 
-def test_sync_revolution(lab):
-    """TODO 3: sync_revolution finds the revolution at which the helix passes the start"""
-    revs = np.linspace(6.4, 12.0, 57)
-    z = 3.0 - 1.5 * (revs - 7)
-    z[:6] = 3.0                                    # the lead-in: still at the start
-    got = lab.sync_revolution(z, revs, 3.0, 1.5)
-    expect(got == 7, "sync_revolution on a helix z = 3 - 1.5 (revs - 7), at rest for its first samples",
-           expected=7, got=repr(got), hint="each sample gives revs + (z - z_start) / pitch; take the median, "
-                                            "then round it to a whole revolution")
-    got = lab.sync_revolution(-1.0 - 2.0 * (revs - 9), revs, -1.0, 2.0)
-    expect(got == 9, "sync_revolution(z, revs, z_start=-1.0, pitch=2.0) on the helix through -1 mm at turn 9",
-           expected=9, got=repr(got), hint="use the z_start and pitch you are given")
-
-
-def test_advance_per_rev(lab):
-    """TODO 4: advance_per_rev: the carriage's travel in each whole revolution"""
-    revs = np.array([0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.2])
-    z = -2.0 * revs
-    z[3] += 0.1                                    # at turn 2 the carriage is 0.1 mm behind
-    got = np.asarray(lab.advance_per_rev(z, revs), float)
-    want = np.array([1.9, 2.1])
-    ok = got.shape == want.shape and np.allclose(got, want, atol=1e-9)
-    expect(ok, "advance_per_rev(z, revs) with z at whole turns 1, 2, 3 = -2.0, -3.9, -6.0",
-           expected="[1.9, 2.1] (positive, one per whole revolution between the first and last sample)",
-           got=np.round(got, 6).tolist(), hint="np.interp the carriage at every whole revolution, then the "
-                                               "differences, sign turned so that the advance is positive")
-
-
 def test_passes_overlay_within_a_step(lab, lathe, cut):
     """Your whole analysis: past the lead-in, every pass is on one helix, within one step"""
     sim, passes = cut
     step = lathe.axis("Z").step_mm
     errors = []
-    for z, revs in lab.pass_curves(sim):
+    for k, (z, revs) in enumerate(lab.pass_curves(sim), 1):
         n = lab.sync_revolution(z, revs, Z_START, PITCH)
         zs, rs = beyond_lead_in(z, revs)
-        errors.append(zs - (Z_START - PITCH * (rs - n)))
+        error = zs - (Z_START - PITCH * (rs - n))
+        worst = float(np.abs(error).max()) if len(error) else 0.0
+        expect(worst <= step + 1e-9, f"pass {k}: the carriage about the helix through {Z_START:g} mm at its "
+               f"turn {n}, {SKIP_MM:g} mm past the start",
+               expected=f"within one step ({step:g} mm) everywhere", got=f"{worst:.4f} mm ({worst / PITCH:.2f} pitches) off",
+               hint="if a pass is a whole pitch off, its sync_revolution is one turn out: round, do not truncate")
+        errors.append(error)
     expect(len(errors) == passes, "passes found", expected=passes, got=len(errors))
-    every = np.concatenate(errors)
-    spread = every.max() - every.min()
-    expect(spread <= step + 1e-9, f"the spread of all {passes} passes about the helix, {SKIP_MM:g} mm past the start",
-           expected=f"at most one step ({step:g} mm)", got=f"{spread:.4f} mm ({spread / step:.2f} steps)",
-           hint="if a pass is a whole pitch off, its sync_revolution is one turn out")
 
 
 def test_mean_pitch(lab, lathe, cut):

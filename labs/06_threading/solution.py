@@ -124,12 +124,15 @@ def plot_passes(machine, curves, out_dir) -> Path:
     path_ax.set_title(f"{MACHINE}: G76 P{PITCH:g}, every pass against the spindle's angle")
     err_ax.axvspan(Z_START - SKIP_MM, Z_START, color="0.9", label="lead-in zone")
     err_ax.set_ylim(-3, 1.5)
+    err_ax.set_title("each pass's distance from the helix, along the thread (the tool moves right to left)")
     err_ax.set_xlabel("Z carriage [mm]")
     err_ax.set_ylabel("off the helix [steps]")
     err_ax.invert_xaxis()
     for ax in (path_ax, err_ax):
         ax.grid(True, lw=0.3)
-        ax.legend(fontsize=8)
+    path_ax.legend(fontsize=8, loc="upper right")
+    err_ax.legend(fontsize=8, loc="lower right", ncol=2)
+    fig.tight_layout()
     return save_figure(fig, out_dir, "passes.png")
 
 

@@ -55,20 +55,13 @@ def split_passes(motor_steps, start: int = 0) -> list[list[int]]:
     ``motor_steps`` is the Z motor's position after each of its steps; ``start`` where it was before
     the first one.
     """
-    # TODO 1 (README, task 1): walk through motor_steps keeping the position before each step
-    # (before the first one: start). A step is towards -Z when its position is below the one
-    # before it. Each run of such steps, one after another, is a pass: return the list of the
-    # index lists, e.g. [[3, 4, 5], [8, 9, 10]] for [1, 2, 3, 2, 1, 0, 1, 2, 1, 0, -1] from 0.
+    # TODO 1 (README, task 1): the hints there open one at a time.
     raise NotImplementedError("TODO 1: write split_passes(motor_steps, start): the step indices of each pass")
 
 
 def pass_curves(sim) -> list[tuple[np.ndarray, np.ndarray]]:
     """Per pass: (Z carriage in mm, spindle angle in revolutions) after each of its Z steps."""
-    # TODO 2 (README, task 2): trace = sim.traces["Z"] has, after each Z step, its tick
-    # (trace.ticks), the motor (trace.motor_steps) and the carriage (trace.carriage_mm). Split the
-    # steps with split_passes(trace.motor_steps, 0) (the lathe starts at Z 0); for each pass, take
-    # the carriage at its indices and sim.spindle.revolutions_at(ticks at its indices). Numpy
-    # arrays index with a list: np.asarray(trace.ticks)[idx].
+    # TODO 2 (README, task 2): the hints there open one at a time.
     raise NotImplementedError("TODO 2: write pass_curves(sim): (Z carriage mm, spindle revolutions) of each pass")
 
 
@@ -77,18 +70,13 @@ def sync_revolution(z_mm, revs, z_start: float = Z_START, pitch: float = PITCH) 
 
     On the helix, ``z = z_start - pitch * (revs - N)``; each sample gives an estimate of N.
     """
-    # TODO 3 (README, task 3): solve the helix for N at every sample:
-    # N = revs + (z_mm - z_start) / pitch. The lead-in's samples are off the helix, so take the
-    # median of the estimates, not the mean, and round it to a whole revolution (an int).
+    # TODO 3 (README, task 3): the hints there open one at a time.
     raise NotImplementedError("TODO 3: write sync_revolution(z_mm, revs, z_start, pitch): the pass's index revolution")
 
 
 def advance_per_rev(z_mm, revs) -> np.ndarray:
     """How far the carriage travelled in each whole revolution of the spindle, mm (positive)."""
-    # TODO 4 (README, task 4): the whole revolutions within the samples run from
-    # math.ceil(revs[0]) to math.floor(revs[-1]). np.interp(whole, revs, z_mm) gives the carriage
-    # at each of them; np.diff of that is the travel of each turn. The carriage goes towards -Z,
-    # so turn the sign: the advance is positive (1.5 mm for this thread).
+    # TODO 4 (README, task 4): the hints there open one at a time.
     raise NotImplementedError("TODO 4: write advance_per_rev(z_mm, revs): the carriage's travel in each turn")
 
 
@@ -121,12 +109,15 @@ def plot_passes(machine, curves, out_dir) -> Path:
     path_ax.set_title(f"{MACHINE}: G76 P{PITCH:g}, every pass against the spindle's angle")
     err_ax.axvspan(Z_START - SKIP_MM, Z_START, color="0.9", label="lead-in zone")
     err_ax.set_ylim(-3, 1.5)
+    err_ax.set_title("each pass's distance from the helix, along the thread (the tool moves right to left)")
     err_ax.set_xlabel("Z carriage [mm]")
     err_ax.set_ylabel("off the helix [steps]")
     err_ax.invert_xaxis()
     for ax in (path_ax, err_ax):
         ax.grid(True, lw=0.3)
-        ax.legend(fontsize=8)
+    path_ax.legend(fontsize=8, loc="upper right")
+    err_ax.legend(fontsize=8, loc="lower right", ncol=2)
+    fig.tight_layout()
     return save_figure(fig, out_dir, "passes.png")
 
 

@@ -38,11 +38,13 @@ def test_with_gains(lab, mill):
 def test_overshoot(lab, mill):
     """TODO 2: overshoot in per cent of the step, 0 when the response never passes it"""
     cases = [([100] * 4, [0, 60, 117, 100], 17.0), ([100] * 4, [0, 40, 80, 95], 0.0),
-             ([-50] * 3, [0, -60, -50], 20.0)]
+             ([-50] * 3, [0, -60, -50], 20.0), ([0, 200, 200, 200, 200], [0, 0, 150, 230, 200], 15.0),
+             ([0, -20, -20, -20], [0, -8, -21, -20], 5.0), ([100] * 5, [0, 80, 112, 106, 104], 12.0)]
     for setpoint, position, want in cases:
         got = float(lab.overshoot_percent(setpoint, position))
         expect(abs(got - want) < 1e-9, f"overshoot_percent({setpoint}, {position})", expected=f"{want:g} %",
-               got=f"{got:g}", hint="100 * (peak - step) / step; never below 0; a step down peaks at its minimum")
+               got=f"{got:g}", hint="100 * (peak - step) / step, the step being the last set-point; never below "
+                                    "0; a step down peaks at its minimum")
     c = step_comparison(mill, "X", 0.2, 200)
     got = float(lab.overshoot_percent(c.setpoint, c.sim))
     expect(abs(got - 100 * c.overshoot("sim")) < 1e-9, "overshoot_percent on the simulated 0.2 mm step, kp 0.5",
@@ -65,12 +67,26 @@ def test_settling_time(lab):
                     "the last sample is outside; 0 if none is")
 
 
+BEST_GAIN_CASES = [
+    ({0.1: (0.0, 160.0), 0.2: (1.8, 59.0), 0.3: (7.5, 40.0), 0.5: (17.7, 83.0)}, 5.0, 0.2,
+     "0.3 settles sooner but overshoots 7.5 %"),
+    ({0.1: (0.0, 160.0), 0.2: (0.6, 48.0), 0.3: (3.9, 70.0), 0.5: (17.7, 83.0)}, 5.0, 0.2,
+     "0.3 is also within 5 % but settles later"),
+    ({0.1: (0.0, 160.0), 0.2: (1.8, 59.0), 0.3: (7.5, 40.0), 0.5: (17.7, 83.0)}, 10.0, 0.3,
+     "with 10 % allowed, 0.3 is within it and settles soonest"),
+    ({0.2: (1.0, 50.0), 0.4: (2.0, 50.0), 0.6: (9.0, 20.0)}, 5.0, 0.2, "0.2 and 0.4 settle alike: the smaller"),
+    ({0.2: (0.5, 90.0), 0.3: (5.0, 45.0), 0.5: (12.0, 30.0)}, 5.0, 0.3, "0.3 overshoots exactly 5 %, which is allowed"),
+]
+
+
 def test_best_gain(lab):
     """TODO 4: the best gain settles soonest without more overshoot than allowed"""
-    metrics = {0.1: (0.0, 160.0), 0.2: (1.8, 59.0), 0.3: (7.5, 40.0), 0.5: (17.7, 83.0)}
-    got = lab.best_gain(metrics, 5.0)
-    expect(got == 0.2, "best_gain of {0.1: (0 %, 160 ms), 0.2: (1.8 %, 59 ms), 0.3: (7.5 %, 40 ms), ...}, 5 % allowed",
-           expected="0.2 (0.3 settles sooner but overshoots 7.5 %)", got=repr(got))
+    for metrics, allowed, want, why in BEST_GAIN_CASES:
+        got = lab.best_gain(metrics, allowed)
+        table = ", ".join(f"{kp}: ({o:g} %, {t:g} ms)" for kp, (o, t) in metrics.items())
+        expect(got == want, f"best_gain({{{table}}}, max_overshoot={allowed:g})", expected=f"{want} ({why})",
+               got=repr(got), hint="keep the gains whose overshoot is at most max_overshoot; of those, the one that "
+                                   "settles soonest (the smaller gain on a tie) — not simply the largest one kept")
 
 
 def test_chosen_gain_is_good_in_the_simulation(lab, mill):

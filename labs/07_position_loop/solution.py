@@ -88,16 +88,26 @@ def plot_metrics(model: dict, sim: dict, best: float, out_dir) -> Path:
     fig, (over_ax, settle_ax) = plt.subplots(1, 2, figsize=(11, 4))
     for label, values, style in (("model", model, "o-"), ("simulation", sim, "s--")):
         gains = list(values)
-        over_ax.plot(gains, [values[k][0] for k in gains], style, label=label)
-        settle_ax.plot(gains, [min(values[k][1], PERIODS) for k in gains], style, label=label)
+        line, = over_ax.plot(gains, [values[k][0] for k in gains], style, label=label)
+        settled = [k for k in gains if math.isfinite(values[k][1])]
+        settle_ax.plot(settled, [values[k][1] for k in settled], style, color=line.get_color(), label=label)
+        never = [k for k in gains if not math.isfinite(values[k][1])]
+        if never:                  # not a time: drawn as an arrow above the others, off the scale
+            settle_ax.plot(never, [0.95] * len(never), "^", ms=9, color=line.get_color(), mfc="none",
+                           transform=settle_ax.get_xaxis_transform(), clip_on=False,
+                           label=f"{label}: not settled within {PERIODS} ms")
     over_ax.axhline(MAX_OVERSHOOT, color="gray", lw=0.8, ls=":", label=f"{MAX_OVERSHOOT:g} % allowed")
+    over_ax.set_title("overshoot against the gain")
+    settle_ax.set_title(f"settling time against the gain (run of {PERIODS} ms)")
     for ax, name in ((over_ax, "overshoot [%]"), (settle_ax, f"settling time to {100 * BAND:g} % [ms]")):
         ax.axvline(best, color="tab:green", lw=0.8, label=f"best kp = {best:g}")
         ax.set_xscale("log")
         ax.set_xlabel("kp [feed units per pulse of error]")
         ax.set_ylabel(name)
         ax.grid(True, which="both", lw=0.3)
-        ax.legend(fontsize=8)
+    over_ax.legend(fontsize=8, loc="upper left")
+    settle_ax.legend(fontsize=8, loc="upper right")
+    fig.suptitle(f"{MACHINE} {AXIS}: tuning kp on a {STEP_MM:g} mm step, model and simulation", y=1.02)
     return save_figure(fig, out_dir, "tuning.png")
 
 
@@ -117,8 +127,8 @@ def plot_poles(machine, out_dir) -> Path:
     reach = max(abs(p.imag) for p in every) + 0.02
     ax.set_xlim(min(p.real for p in every) - 0.02, 1.02)
     ax.set_ylim(-reach, reach)
-    ax.set_xlabel("real")
-    ax.set_ylabel("imaginary")
+    ax.set_xlabel("Re z (z-plane, 1 ms sampling)")
+    ax.set_ylabel("Im z")
     ax.set_title("closed-loop poles near z = 1 (unit circle dotted)")
     ax.grid(True, lw=0.3)
     ax.legend(fontsize=8)

@@ -21,17 +21,13 @@ MAX_OVERSHOOT = 5.0      # per cent, for the best gain
 
 def with_gains(machine, kp: float, ki: float = 0.0):
     """The machine with the loop gains of its ``[servo]`` section replaced."""
-    # TODO 1 (README, task 1): the gains live in machine.parts["servo"], a frozen dataclass.
-    # dataclasses.replace it with kp= and ki=, then replace the machine with a new parts dict
-    # ({**machine.parts, "servo": ...}). Do not change the machine you were given.
+    # TODO 1 (README, task 1): the hints there open one at a time.
     raise NotImplementedError("TODO 1: write with_gains(machine, kp, ki): a machine with other loop gains")
 
 
 def overshoot_percent(setpoint, position) -> float:
     """How far the response went past a step from 0, in per cent of the step (0 if never past)."""
-    # TODO 2 (README, task 2): the step is the last set-point (setpoint[-1]); the peak is the
-    # largest position (for a step down: the most negative). Overshoot = (peak - step) / step,
-    # in per cent, and 0 when the response never went past the step.
+    # TODO 2 (README, task 2): the hints there open one at a time.
     raise NotImplementedError("TODO 2: write overshoot_percent(setpoint, position)")
 
 
@@ -40,9 +36,7 @@ def settling_time_ms(t_s, setpoint, position, band: float = BAND) -> float:
 
     ``math.inf`` when it is still outside the band at the last sample.
     """
-    # TODO 3 (README, task 3): find the last sample where |setpoint - position| is more than
-    # band * |step|. The response has settled from the next sample on: return its time t_s[i + 1]
-    # in ms. Never outside: 0.0. Still outside at the last sample: math.inf.
+    # TODO 3 (README, task 3): the hints there open one at a time.
     raise NotImplementedError("TODO 3: write settling_time_ms(t_s, setpoint, position, band)")
 
 
@@ -51,8 +45,7 @@ def best_gain(metrics: dict[float, tuple[float, float]], max_overshoot: float = 
 
     ``metrics`` maps kp to (overshoot %, settling time ms).
     """
-    # TODO 4 (README, task 4): keep the gains whose overshoot is at most max_overshoot; of
-    # those, return the kp with the shortest settling time (the smaller kp on a tie).
+    # TODO 4 (README, task 4): the hints there open one at a time.
     raise NotImplementedError("TODO 4: write best_gain(metrics): the gain to use")
 
 
@@ -90,16 +83,26 @@ def plot_metrics(model: dict, sim: dict, best: float, out_dir) -> Path:
     fig, (over_ax, settle_ax) = plt.subplots(1, 2, figsize=(11, 4))
     for label, values, style in (("model", model, "o-"), ("simulation", sim, "s--")):
         gains = list(values)
-        over_ax.plot(gains, [values[k][0] for k in gains], style, label=label)
-        settle_ax.plot(gains, [min(values[k][1], PERIODS) for k in gains], style, label=label)
+        line, = over_ax.plot(gains, [values[k][0] for k in gains], style, label=label)
+        settled = [k for k in gains if math.isfinite(values[k][1])]
+        settle_ax.plot(settled, [values[k][1] for k in settled], style, color=line.get_color(), label=label)
+        never = [k for k in gains if not math.isfinite(values[k][1])]
+        if never:                  # not a time: drawn as an arrow above the others, off the scale
+            settle_ax.plot(never, [0.95] * len(never), "^", ms=9, color=line.get_color(), mfc="none",
+                           transform=settle_ax.get_xaxis_transform(), clip_on=False,
+                           label=f"{label}: not settled within {PERIODS} ms")
     over_ax.axhline(MAX_OVERSHOOT, color="gray", lw=0.8, ls=":", label=f"{MAX_OVERSHOOT:g} % allowed")
+    over_ax.set_title("overshoot against the gain")
+    settle_ax.set_title(f"settling time against the gain (run of {PERIODS} ms)")
     for ax, name in ((over_ax, "overshoot [%]"), (settle_ax, f"settling time to {100 * BAND:g} % [ms]")):
         ax.axvline(best, color="tab:green", lw=0.8, label=f"best kp = {best:g}")
         ax.set_xscale("log")
         ax.set_xlabel("kp [feed units per pulse of error]")
         ax.set_ylabel(name)
         ax.grid(True, which="both", lw=0.3)
-        ax.legend(fontsize=8)
+    over_ax.legend(fontsize=8, loc="upper left")
+    settle_ax.legend(fontsize=8, loc="upper right")
+    fig.suptitle(f"{MACHINE} {AXIS}: tuning kp on a {STEP_MM:g} mm step, model and simulation", y=1.02)
     return save_figure(fig, out_dir, "tuning.png")
 
 
@@ -119,8 +122,8 @@ def plot_poles(machine, out_dir) -> Path:
     reach = max(abs(p.imag) for p in every) + 0.02
     ax.set_xlim(min(p.real for p in every) - 0.02, 1.02)
     ax.set_ylim(-reach, reach)
-    ax.set_xlabel("real")
-    ax.set_ylabel("imaginary")
+    ax.set_xlabel("Re z (z-plane, 1 ms sampling)")
+    ax.set_ylabel("Im z")
     ax.set_title("closed-loop poles near z = 1 (unit circle dotted)")
     ax.grid(True, lw=0.3)
     ax.legend(fontsize=8)

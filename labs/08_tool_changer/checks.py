@@ -59,6 +59,11 @@ def test_carousel_positions(lab, atc):
            expected=[round(w, 3) for w in want], got=[round(g, 3) for g in got],
            hint="the disc turns by the pocket's angle plus station_deg; one carousel unit is degrees_per_unit "
                 "degrees")
+    other = replace(atc.sim, first_pocket_deg=90.0, pocket_pitch_deg=30.0, station_deg=-45.0, degrees_per_unit=15.0)
+    got = float(lab.carousel_position(other, 4))
+    expect(abs(got - 9.0) < 1e-9, "carousel_position of pocket 4 on a disc with pocket 1 at 90°, every 30°, the "
+           "station at -45° and 15° a unit", expected="9.0 = (180 - 45) / 15", got=f"{got:g}",
+           hint="read station_deg and degrees_per_unit from the geometry you are given")
 
 
 def test_over_time(lab, mill, atc, cell):
@@ -101,6 +106,16 @@ def test_unsafe_turns(lab, atc):
               "Y": (np.array([0.0, 1.0, 3.0]), np.array([28.0, 44.0, 28.0])),
               "Z": (np.array([0.0, 2.0]), np.array([45.0, 40.5])),
               "E": (np.array([0.0, 0.5, 1.5, 2.5, 3.5]), np.array([0.0, 20.0, 40.0, 60.0, 80.0]))}
+    start_inside = dict(traces, Y=(np.array([0.0]), np.array([44.0])), Z=(np.array([0.0, 1.0]), np.array([45.0, 40.0])))
+    got = [round(float(t), 6) for t in lab.unsafe_turns(start_inside, atc)]
+    expect(got == [0.5], "unsafe_turns with the spindle down at Y 44 from the start, raised at 1 s: the carousel "
+           "at 0 s (its start), steps at 0.5, 1.5, 2.5 and 3.5 s", expected=[0.5], got=got,
+           hint="the first sample of E is where the carousel starts, not a step: leave it out")
+    edge = dict(traces, Y=(np.array([0.0]), np.array([atc.sim.magazine_y_mm])), Z=(np.array([0.0]), np.array([45.0])))
+    got = [round(float(t), 6) for t in lab.unsafe_turns(edge, atc)]
+    expect(got == [], f"unsafe_turns with the spindle down (Z 45) at Y {atc.sim.magazine_y_mm:g}, the edge of the "
+           "magazine zone", expected=[], got=got, hint="inside the magazine is Y beyond atc.sim.magazine_y_mm; "
+                                                  "exactly at it is outside")
     got = [round(float(t), 6) for t in lab.unsafe_turns(traces, atc)]
     expect(got == [1.5], "unsafe_turns: carousel steps at 0.5 s (Y 28, outside), 1.5 s (Y 44, Z 45), "
            "2.5 s (Y 44, Z 40.5) and 3.5 s (Y 28)", expected=[1.5], got=got,

@@ -31,9 +31,7 @@ def run_change(machine, current: int = FROM_TOOL, new: int = TO_TOOL) -> SimCell
 
 def pocket_angle_deg(geometry, pocket: int) -> float:
     """Where ``pocket`` sits on the disc, degrees from its 0° mark (pocket 1 at 80°, then every 20°)."""
-    # TODO 1 (README, task 1): geometry is the [atc.sim] section (atc_of(machine).sim): pocket 1
-    # sits at geometry.first_pocket_deg, and each next pocket geometry.pocket_pitch_deg further.
-    # Read the numbers from geometry; do not write 80 and 20 here.
+    # TODO 1 (README, task 1): the hints there open one at a time.
     raise NotImplementedError("TODO 1: write pocket_angle_deg(geometry, pocket): where the pocket sits on the disc")
 
 
@@ -43,9 +41,7 @@ def carousel_position(geometry, pocket: int) -> float:
     The disc must turn by the pocket's angle plus the station's (where the spindle meets the disc);
     one unit turns it ``degrees_per_unit``.
     """
-    # TODO 2 (README, task 2): the turn in degrees is pocket_angle_deg(geometry, pocket) plus
-    # geometry.station_deg; divide by geometry.degrees_per_unit to get carousel units. Pocket 3
-    # gives 6.2, the machine file's ATC_OFFSET + 3.
+    # TODO 2 (README, task 2): the hints there open one at a time.
     raise NotImplementedError("TODO 2: write carousel_position(geometry, pocket): the carousel units for a pocket")
 
 
@@ -54,29 +50,20 @@ def over_time(cell, axis: str, start: float) -> tuple[np.ndarray, np.ndarray]:
 
     The carousel (axis E) in degrees of the disc, not in its units.
     """
-    # TODO 3 (README, task 3): trace = cell.sim.traces[axis] has, after each step of the axis,
-    # its tick (trace.ticks) and where the carriage is (trace.carriage_mm). Times in seconds are
-    # ticks * cell.machine.tick_s. Put the start in front: (0.0, start). The carousel's axis is
-    # atc_of(cell.machine).axis ("E"): multiply its values by atc_of(cell.machine).sim.degrees_per_unit.
-    # Return two numpy arrays of the same length.
+    # TODO 3 (README, task 3): the hints there open one at a time.
     raise NotImplementedError("TODO 3: write over_time(cell, axis, start): (seconds, position) of one axis")
 
 
 def position_at(t_s, values, t):
     """The position at time ``t`` (a number or an array): the last value at or before it."""
-    # TODO 4 (README, task 4): an axis stays where its last step left it, so the position at t is
-    # the value of the last sample at or before t. np.searchsorted(t_s, t, side="right") - 1 is
-    # that sample's index (for one time or an array of times); index np.asarray(values) with it.
+    # TODO 4 (README, task 4): the hints there open one at a time.
     raise NotImplementedError("TODO 4: write position_at(t_s, values, t): the position at a time")
 
 
 def unsafe_turns(traces: dict, atc) -> list[float]:
     """The times (s) of every carousel step taken while the spindle was inside the magazine zone
     (Y beyond ``atc.sim.magazine_y_mm``) below the safe height Z_POINT_1 (Z counts downward)."""
-    # TODO 5 (README, task 5): traces maps "X", "Y", "Z", "E" to (t_s, values) from over_time.
-    # The carousel's steps are its times after the first sample (that one is the start). At each,
-    # look up Y and Z with position_at. Unsafe: Y > atc.sim.magazine_y_mm (inside the magazine) and
-    # Z > atc.z_point_1 + EPS_MM (below the safe height: Z counts downward). Return those times.
+    # TODO 5 (README, task 5): the hints there open one at a time.
     raise NotImplementedError("TODO 5: write unsafe_turns(traces, atc): the carousel steps taken while unsafe")
 
 
