@@ -159,8 +159,8 @@ def finish_run(args, log, title: str, commands=None) -> dict:
         report["remote"] = remote
     lines = [title] + summary_lines(report) + remote_lines(remote)
     if args.plot:                        # files first: a closed terminal must not lose them
-        from .plot import plot_path
-        lines.append(f"  plot: {plot_path(log, sim, args.plot, title)}")
+        from .plot import plot_run
+        lines.append(f"  plot: {plot_run(args, log, sim, commands)}")
     if args.report:
         write_json_atomic(args.report, report)
         lines.append(f"  report: {args.report}")
