@@ -1,0 +1,121 @@
+"""What the console and the HTML report draw, computed from a run's port frames and its program.
+
+Nothing here keeps a copy per tick: a window of a run (the ticks a view shows) is cut from the
+run-length port frames with a binary search, so a 10 M-step run answers a zoom as fast as a
+short one. Positions are integer steps until the last line, where they become mm.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..config import Machine
+from ..frames import PortFrames
+from ..plot import is_lathe, stock_and_part, toolpath
+
+#: at most this many points per trace of a timeline window
+TIMELINE_POINTS = 1500
+#: at most this many port frames in a pulse window before it is drawn as activity bands
+PULSE_FRAMES = 6000
+
+
+@dataclass
+class AxisSteps:
+    """Every step one axis took: the tick of each rising edge and the position after it (steps)."""
+
+    ticks: np.ndarray        # int64, increasing
+    position: np.ndarray     # int64, position after each step
+    start: int               # position before the first step
+
+    def at(self, ticks: np.ndarray) -> np.ndarray:
+        """Positions (steps) at the end of each of ``ticks``."""
+        i = np.searchsorted(self.ticks, ticks, side="right")
+        return np.concatenate(([self.start], self.position))[i]
+
+
+def axis_steps(frames: PortFrames, machine: Machine, start_steps=None) -> list[AxisSteps]:
+    """Step edges of every axis, decoded from the port frames as a driver decodes them
+    (a rising step edge, the direction line sampled at it)."""
+    start_steps = start_steps or (0,) * len(machine.axes)
+    invert = 0
+    for a in machine.axes:
+        invert |= (a.invert_step << a.step_bit) | (a.invert_dir << a.dir_bit)
+    logical = frames.values ^ np.uint8(invert)
+    out = []
+    for a, start in zip(machine.axes, start_steps):
+        step = (logical >> a.step_bit) & 1
+        prev = np.concatenate(([0], step[:-1]))
+        rise = np.flatnonzero((step == 1) & (prev == 0))
+        sign = np.where((logical[rise] >> a.dir_bit) & 1, 1, -1).astype(np.int64)
+        out.append(AxisSteps(frames.ticks[rise], start + np.cumsum(sign), int(start)))
+    return out
+
+
+def preview(program, machine: Machine, source_text: str = "") -> dict:
+    """The preview of a program: its segments (rapid or cut, with their program line), the
+    work envelope (soft limits) and, on a lathe, the stock and the part the cuts leave."""
+    segs = toolpath(program.commands, machine)
+    lines = program.lines
+    out = {
+        "lathe": is_lathe(machine),
+        "axes": [{"name": a.name, "label": a.label, "min": a.min_mm, "max": a.max_mm} for a in machine.axes],
+        "segments": [{"kind": s.kind, "start": s.start, "end": s.end, "line": lines[s.index]} for s in segs],
+        "rapids": sum(1 for s in segs if s.kind == "rapid"),
+        "cuts": sum(1 for s in segs if s.kind == "cut"),
+        "cut_lines": len({lines[s.index] for s in segs if s.kind == "cut"}),
+    }
+    lathe = stock_and_part(segs, machine, source_text)
+    if lathe is not None:
+        out["stock"] = {"radius": lathe["radius_mm"], "z": list(lathe["z_mm"])}
+        out["part"] = {"z": np.round(lathe["part_z"], 4).tolist(), "x": np.round(lathe["part_x"], 4).tolist()}
+    return out
+
+
+def timeline(steps: list[AxisSteps], machine: Machine, t0: int, t1: int, carriage=None,
+             points: int = TIMELINE_POINTS) -> dict:
+    """Per axis position, velocity, acceleration (and carriage error when ``carriage`` is given:
+    a function (axis index, ticks) -> carriage mm) on ``points`` ticks evenly spread in [t0, t1)."""
+    t0, t1 = int(max(t0, 0)), int(max(t1, t0 + 2))
+    ticks = np.unique(np.linspace(t0, t1 - 1, points).round().astype(np.int64))
+    dt = machine.tick_s * max(int(ticks[1] - ticks[0]) if len(ticks) > 1 else 1, 1)
+    out = {"t": (ticks * machine.tick_s).round(9).tolist(), "axes": {}}
+    for i, (a, s) in enumerate(zip(machine.axes, steps)):
+        pos = s.at(ticks) / a.steps_per_mm
+        vel = np.gradient(pos, dt) * 60.0 if len(pos) > 1 else np.zeros(len(pos))
+        acc = np.gradient(vel / 60.0, dt) if len(pos) > 1 else np.zeros(len(pos))
+        axis = {"position_mm": pos.round(6).tolist(), "velocity_mm_min": vel.round(3).tolist(),
+                "accel_mm_s2": acc.round(3).tolist()}
+        if carriage is not None:
+            axis["error_mm"] = (carriage(i, ticks) - pos).round(6).tolist()
+        out["axes"][a.name] = axis
+    return out
+
+
+def pulses(frames: PortFrames, machine: Machine, t0: int, t1: int, limit: int = PULSE_FRAMES) -> dict:
+    """The step and direction lines of every axis in [t0, t1): the port frames there, or, when
+    more than ``limit`` frames fall in the window, for each line the ticks where it is busy
+    (``bands``: the window cut into ``limit // 2`` slots and each slot's edge count)."""
+    t0, t1 = int(max(t0, 0)), int(max(t1, t0 + 1))
+    lo = max(int(np.searchsorted(frames.ticks, t0, side="right")) - 1, 0)
+    hi = int(np.searchsorted(frames.ticks, t1, side="left"))
+    lines = []
+    for a in machine.axes:
+        lines += [(f"{a.name} step", a.step_bit, a.invert_step), (f"{a.name} dir", a.dir_bit, a.invert_dir)]
+    out = {"t0": t0, "t1": t1, "tick_us": machine.tick_us, "lines": [n for n, _, _ in lines]}
+    if hi - lo <= limit:
+        ticks = np.clip(frames.ticks[lo:hi], t0, None)
+        values = frames.values[lo:hi]
+        out["ticks"] = ticks.tolist()
+        out["levels"] = [(((values >> bit) & 1) ^ inv).tolist() for _, bit, inv in lines]
+        return out
+    slots = limit // 2
+    edges = np.linspace(t0, t1, slots + 1)
+    ticks, values = frames.ticks[lo:hi], frames.values[lo:hi]
+    slot = np.clip(np.searchsorted(edges, ticks, side="right") - 1, 0, slots - 1)
+    out["bands"] = {"edges": edges.round().astype(np.int64).tolist(), "counts": []}
+    for _, bit, _ in lines:
+        toggles = np.flatnonzero(np.diff((values >> bit) & 1) != 0) + 1
+        out["bands"]["counts"].append(np.bincount(slot[toggles], minlength=slots).tolist())
+    return out
