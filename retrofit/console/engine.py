@@ -60,6 +60,7 @@ class SteeredRun:
         self.tool = 0
         self._actions: deque = deque()
         self._wake = threading.Event()
+        self._lock = threading.Lock()
         self._sent_tick = 0
         self._thread: threading.Thread | None = None
         record = self.ctl.processor.record
@@ -76,6 +77,16 @@ class SteeredRun:
         self.state = "running"
         self._thread = threading.Thread(target=self._loop, name="retrofit-console-run", daemon=True)
         self._thread.start()
+
+    def extend(self, commands: list[Command], lines: list[int]) -> None:
+        """More commands after the program (jog, home, MDI); the run goes on, or starts again."""
+        with self._lock:
+            self.commands += list(commands)
+            self.lines += list(lines)
+            self.feeds = programmed_feeds(self.commands, self.default_feed)
+            if self._thread is None or self.state == "done":
+                self.join()
+                self.start()
 
     def act(self, kind: str, **args) -> None:
         """Queue an operator's action: stop, hold, resume, feed (pct), rapid (pct), answer,
@@ -95,7 +106,7 @@ class SteeredRun:
     def _loop(self) -> None:
         ctl = self.ctl
         ctl.stream(self._device_commands())
-        wall0, tick0 = time.perf_counter(), 0
+        wall0, tick0 = time.perf_counter(), ctl.ticks
         while True:
             if self._apply_actions():
                 wall0, tick0 = time.perf_counter(), ctl.ticks
@@ -115,16 +126,17 @@ class SteeredRun:
                 self._event("error", ctl.fault)
                 self.state = "error"
                 break
-            if idle and not self._after_idle():
-                break
+            if idle:
+                with self._lock:
+                    if not self._after_idle():
+                        self.state = "done"
+                        break
             if self.paced and self.speed > 0:
                 ahead = (ctl.ticks - tick0) * self.machine.tick_s / self.speed - (time.perf_counter() - wall0)
                 if ahead > 0:
                     self._wake.wait(ahead)
                     self._wake.clear()
         self._send_frames()
-        if self.state == "running":
-            self.state = "done"
         self._publish()
 
     def _run_chunk(self) -> bool:
@@ -140,6 +152,9 @@ class SteeredRun:
         if self.next >= len(self.commands):
             return False
         cmd = self.commands[self.next]
+        if not cmd.host:                       # commands added since (jog, MDI)
+            self.ctl.stream(self._device_commands())
+            return True
         line = self.lines[self.next]
         self.next += 1
         if isinstance(cmd, Tool):

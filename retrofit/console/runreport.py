@@ -21,9 +21,19 @@ def console_report(run) -> dict:
     report = build_report(log, run.sim)
     report["events"] = list(run.events)
     report["moves"] = moves(run, log.frames)
+    for v in report["violations"]:
+        v["line"] = line_at(report["moves"], v["tick"])
     last_rise = [int(s.ticks[-1]) for s in axis_steps(log.frames, run.machine) if len(s.ticks)]
     report["last_step_tick"] = max(last_rise, default=None)
     return report
+
+
+def line_at(moves: list[dict], tick: int) -> int | None:
+    """The program line of the move running at ``tick`` (None outside every move)."""
+    for mv in moves:
+        if mv["start_tick"] <= tick < mv["end_tick"]:
+            return mv["line"]
+    return None
 
 
 def moves(run, frames) -> list[dict]:
