@@ -49,14 +49,19 @@ class Console:
     # -- program ------------------------------------------------------------------------------------
     def open(self, path: str | None = None, name: str | None = None, text: str | None = None) -> dict:
         """Compile a program (a path, a shipped name, or the text of a picked file); its listing
-        and preview."""
+        and preview. A ``.cmds`` file is a command list: one command a line in the text form
+        (``FMOV X5 Z1``, ``TOOL T2``, ``PAUS M0``), ``#`` starting a comment."""
         from ..gcode.program import compile_program
         from ..runprogram import resolve_program
         from .views import preview
         if text is None:
             file = resolve_program(path or name or "")
             text, name = file.read_text(errors="replace"), file.name
-        self.program = compile_program(text, self.machine, name or "program.ngc")
+        name = name or "program.ngc"
+        if name.endswith(".cmds"):
+            self.program = command_list(text, name)
+        else:
+            self.program = compile_program(text, self.machine, name)
         self.source = text
         return {"name": self.program.file, "listing": text.splitlines(),
                 "preview": preview(self.program, self.machine, text)}
@@ -159,6 +164,23 @@ class Console:
         from .views import pulses
         self.steps()
         return pulses(self.run.ctl.frames(), self.machine, t0, t1)
+
+
+def command_list(text: str, file: str):
+    """A program from a command list; a CommandError naming ``file:line`` for a line that is not one."""
+    from ..commands import CommandError, parse_command
+    from ..gcode.program import Program
+    commands, lines = [], []
+    for number, raw in enumerate(text.splitlines(), 1):
+        body = raw.split("#", 1)[0].strip()
+        if not body:
+            continue
+        try:
+            commands.append(parse_command(body))
+        except CommandError as exc:
+            raise CommandError(f"{file}:{number}: {exc}") from None
+        lines.append(number)
+    return Program(commands, lines, file)
 
 
 def create_app(console: Console):

@@ -35,6 +35,8 @@ function bind() {
   };
   $("run").onclick = async () => {
     C.trail = 0; C.shownRun = false;
+    delete document.body.dataset.views;
+    window.retrofitReport = null;
     $("timeline").innerHTML = ""; $("pulses").innerHTML = ""; $("violations").innerHTML = "";
     if (C.preview) RV.drawPreview($("preview"), C.preview, $("program-name").textContent);
     await api("/api/run", {speed: parseFloat($("speed").value)});
@@ -52,7 +54,13 @@ function bind() {
   $("jog-minus").onclick = () => jog(-1);
   $("home").onclick = () => act("home");
   $("mdi-go").onclick = () => act("mdi", {text: $("mdi").value});
-  $("dialog-ok").onclick = () => { $("dialog").close(); act("answer"); };
+  $("dialog-ok").onclick = () => {
+    const dlg = $("dialog");
+    C.answered = dlg.dataset.key;
+    dlg.dataset.key = "";
+    dlg.close();
+    act("answer");
+  };
 }
 
 function act(kind, args) { return api("/api/action", Object.assign({kind: kind}, args || {})); }
@@ -103,7 +111,13 @@ function show(s) {
   if (C.preview && s.trail && s.trail.length) RV.extendBackplot($("preview"), C.preview, s.trail);
   C.trail = s.trail_len || 0;
   const dlg = $("dialog");
-  if (s.dialog && !dlg.open) { $("dialog-text").textContent = s.dialog.text; dlg.dataset.kind = s.dialog.kind; dlg.showModal(); }
+  const key = s.dialog ? s.dialog.kind + ":" + s.dialog.line + ":" + s.events : null;
+  if (s.dialog && key !== C.answered && dlg.dataset.key !== key) {
+    $("dialog-text").textContent = s.dialog.text;
+    dlg.dataset.kind = s.dialog.kind;
+    dlg.dataset.key = key;
+    if (!dlg.open) dlg.showModal();
+  }
   if (!s.dialog && dlg.open) dlg.close();
   if (["done", "stopped", "error"].includes(s.state) && !C.shownRun) { C.shownRun = true; showRun(); }
 }
