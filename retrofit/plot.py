@@ -163,6 +163,17 @@ def plot_path(log: RunLog, sim: SimMachine, path: str | Path, title: str = "", c
     is the controller's waypoints, drawn solid. ``source_text`` (the G-code) may name the stock.
     """
     plt = _pyplot()
+    fig = run_figure(log, sim, title, commands, source_text)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def run_figure(log: RunLog, sim: SimMachine, title: str = "", commands=None, source_text: str = ""):
+    """The matplotlib figure :func:`plot_path` saves (its first axes the path, an inset the error)."""
+    plt = _pyplot()
     machine = log.machine
     h, v = plane_axes(machine)
     ah, av = machine.axes[h], machine.axes[v]
@@ -190,11 +201,7 @@ def plot_path(log: RunLog, sim: SimMachine, path: str | Path, title: str = "", c
     if worst is not None and worst[2] > 0:
         _inset(ax, segments, log, carriage, h, v, worst)
     ax.legend(loc="upper left", fontsize=8, framealpha=0.9)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120, bbox_inches="tight")
-    plt.close(fig)
-    return path
+    return fig
 
 
 def _pyplot():

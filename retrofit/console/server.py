@@ -44,7 +44,8 @@ class Console:
         self.source = ""
         self.run = None
         self._report = None
-        self._steps = None
+        self._steps = self._frames = self._pulses = None
+        self._recorded = None                  # (frames, sim or None) of a run made elsewhere
 
     # -- program ------------------------------------------------------------------------------------
     def open(self, path: str | None = None, name: str | None = None, text: str | None = None) -> dict:
@@ -74,7 +75,7 @@ class Console:
             raise RetrofitError("no program open; open one first (a path or a shipped example)")
         if self.run is not None and not self.run.finished:
             raise RetrofitError("a run is under way; STOP it or wait for its end")
-        self._report = self._steps = None
+        self._report = self._steps = self._frames = self._pulses = self._recorded = None
         self.run = SteeredRun(self.machine, self.program.commands, self.program.lines,
                               backlash_comp=self.backlash_comp, paced=speed > 0, speed=speed or 1.0,
                               outputs=self._open_outputs())
@@ -115,7 +116,7 @@ class Console:
                 raise RetrofitError("jog, home and MDI wait until the program has ended")
         if self.run is None or self.run.state in ("stopped", "error"):
             self.run = SteeredRun(self.machine, [], [], backlash_comp=self.backlash_comp)
-        self._report = self._steps = None
+        self._report = self._steps = self._frames = self._pulses = None
         return self.run
 
     def _mdi(self, run, text: str):
@@ -124,9 +125,17 @@ class Console:
         prog = compile_program(text, self.machine, "MDI", start_mm=here)
         return prog.commands, [0] * len(prog.commands)
 
+    def show_run(self, log, sim=None, report: dict | None = None) -> None:
+        """Show a run made elsewhere (``retrofit run``'s fast path, a recording) in the after-run
+        views: its port frames, and the carriage error when ``sim`` saw them."""
+        self.run = self._steps = self._frames = self._pulses = None
+        self._recorded = (log.frames, sim)
+        self._report = report or {"machine": self.machine.name, "tick_us": self.machine.tick_us,
+                                  "ticks": int(log.frames.end_tick), "violations": [], "events": [], "moves": []}
+
     def state(self, since: int = 0) -> dict:
         if self.run is None:
-            return {"state": "ready", "trail": [], "trail_len": 0}
+            return {"state": "done" if self._recorded else "ready", "trail": [], "trail_len": 0}
         snap = dict(self.run.snapshot())
         trail = self.run.trail
         snap["trail"], snap["trail_len"] = trail[since:], len(trail)
@@ -135,6 +144,8 @@ class Console:
     # -- after the run -----------------------------------------------------------------------------------
     def report(self) -> dict:
         from .runreport import console_report
+        if self._recorded is not None:
+            return self._report
         if self.run is None or not self.run.finished:
             raise RetrofitError("the report is there once the run has ended")
         if self._report is None:
@@ -145,12 +156,21 @@ class Console:
         from .views import axis_steps
         if self._steps is None:
             self.report()
-            self._steps = axis_steps(self.run.ctl.frames(), self.machine)
+            self._steps = axis_steps(self.frames(), self.machine)
         return self._steps
+
+    def frames(self):
+        """The port frames of the run the views show."""
+        if self._recorded is not None:
+            return self._recorded[0]
+        if self._frames is None:
+            self._frames = self.run.ctl.frames()
+        return self._frames
 
     def timeline(self, t0: int, t1: int) -> dict:
         from .views import timeline
-        sim, machine = self.run.sim, self.machine
+        sim = self._recorded[1] if self._recorded is not None else self.run.sim
+        machine = self.machine
         steps = self.steps()
 
         def carriage(i, ticks):
@@ -158,12 +178,14 @@ class Console:
             trace = sim.traces[machine.axes[i].name]
             values = np.concatenate(([0.0], np.asarray(trace.carriage_mm, float)))
             return values[np.searchsorted(np.asarray(trace.ticks, np.int64), ticks, side="right")]
-        return timeline(steps, machine, t0, t1, carriage)
+        return timeline(steps, machine, t0, t1, carriage if sim is not None else None)
 
     def pulses(self, t0: int, t1: int) -> dict:
-        from .views import pulses
-        self.steps()
-        return pulses(self.run.ctl.frames(), self.machine, t0, t1)
+        from .views import PulseIndex
+        if self._pulses is None:
+            self.steps()
+            self._pulses = PulseIndex(self.frames(), self.machine)
+        return self._pulses.window(t0, t1)
 
 
 def command_list(text: str, file: str):

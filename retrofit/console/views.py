@@ -29,10 +29,12 @@ class AxisSteps:
     position: np.ndarray     # int64, position after each step
     start: int               # position before the first step
 
+    def __post_init__(self):
+        self._after = np.concatenate(([self.start], self.position))
+
     def at(self, ticks: np.ndarray) -> np.ndarray:
         """Positions (steps) at the end of each of ``ticks``."""
-        i = np.searchsorted(self.ticks, ticks, side="right")
-        return np.concatenate(([self.start], self.position))[i]
+        return self._after[np.searchsorted(self.ticks, ticks, side="right")]
 
 
 def axis_steps(frames: PortFrames, machine: Machine, start_steps=None) -> list[AxisSteps]:
@@ -93,29 +95,39 @@ def timeline(steps: list[AxisSteps], machine: Machine, t0: int, t1: int, carriag
     return out
 
 
-def pulses(frames: PortFrames, machine: Machine, t0: int, t1: int, limit: int = PULSE_FRAMES) -> dict:
-    """The step and direction lines of every axis in [t0, t1): the port frames there, or, when
-    more than ``limit`` frames fall in the window, for each line the ticks where it is busy
-    (``bands``: the window cut into ``limit // 2`` slots and each slot's edge count)."""
-    t0, t1 = int(max(t0, 0)), int(max(t1, t0 + 1))
-    lo = max(int(np.searchsorted(frames.ticks, t0, side="right")) - 1, 0)
-    hi = int(np.searchsorted(frames.ticks, t1, side="left"))
-    lines = []
-    for a in machine.axes:
-        lines += [(f"{a.name} step", a.step_bit, a.invert_step), (f"{a.name} dir", a.dir_bit, a.invert_dir)]
-    out = {"t0": t0, "t1": t1, "tick_us": machine.tick_us, "lines": [n for n, _, _ in lines]}
-    if hi - lo <= limit:
-        ticks = np.clip(frames.ticks[lo:hi], t0, None)
-        values = frames.values[lo:hi]
-        out["ticks"] = ticks.tolist()
-        out["levels"] = [(((values >> bit) & 1) ^ inv).tolist() for _, bit, inv in lines]
+class PulseIndex:
+    """The step and direction lines of a run, indexed once so that any window is cut at once.
+
+    ``window(t0, t1)`` gives the port frames in [t0, t1) when at most ``limit`` fall there;
+    otherwise, for each line, how often it toggles in each of ``limit // 2`` slots of the window
+    (``bands``), counted by binary search in the line's own edge ticks.
+    """
+
+    def __init__(self, frames: PortFrames, machine: Machine):
+        self.frames, self.machine = frames, machine
+        self.lines = []
+        for a in machine.axes:
+            self.lines += [(f"{a.name} step", a.step_bit, a.invert_step), (f"{a.name} dir", a.dir_bit, a.invert_dir)]
+        values = frames.values
+        self.edges = [frames.ticks[np.flatnonzero(np.diff((values >> bit) & 1) != 0) + 1] for _, bit, _ in self.lines]
+
+    def window(self, t0: int, t1: int, limit: int = PULSE_FRAMES) -> dict:
+        frames = self.frames
+        t0, t1 = int(max(t0, 0)), int(max(t1, t0 + 1))
+        lo = max(int(np.searchsorted(frames.ticks, t0, side="right")) - 1, 0)
+        hi = int(np.searchsorted(frames.ticks, t1, side="left"))
+        out = {"t0": t0, "t1": t1, "tick_us": self.machine.tick_us, "lines": [n for n, _, _ in self.lines]}
+        if hi - lo <= limit:
+            values = frames.values[lo:hi]
+            out["ticks"] = np.clip(frames.ticks[lo:hi], t0, None).tolist()
+            out["levels"] = [(((values >> bit) & 1) ^ inv).tolist() for _, bit, inv in self.lines]
+            return out
+        edges = np.linspace(t0, t1, limit // 2 + 1).round().astype(np.int64)
+        out["bands"] = {"edges": edges.tolist(),
+                        "counts": [np.diff(np.searchsorted(e, edges)).tolist() for e in self.edges]}
         return out
-    slots = limit // 2
-    edges = np.linspace(t0, t1, slots + 1)
-    ticks, values = frames.ticks[lo:hi], frames.values[lo:hi]
-    slot = np.clip(np.searchsorted(edges, ticks, side="right") - 1, 0, slots - 1)
-    out["bands"] = {"edges": edges.round().astype(np.int64).tolist(), "counts": []}
-    for _, bit, _ in lines:
-        toggles = np.flatnonzero(np.diff((values >> bit) & 1) != 0) + 1
-        out["bands"]["counts"].append(np.bincount(slot[toggles], minlength=slots).tolist())
-    return out
+
+
+def pulses(frames: PortFrames, machine: Machine, t0: int, t1: int, limit: int = PULSE_FRAMES) -> dict:
+    """The step and direction lines of every axis in [t0, t1) (see :class:`PulseIndex`)."""
+    return PulseIndex(frames, machine).window(t0, t1, limit)
