@@ -172,7 +172,7 @@ def plot_path(log: RunLog, sim: SimMachine, path: str | Path, title: str = "", c
 
 
 def run_figure(log: RunLog, sim: SimMachine, title: str = "", commands=None, source_text: str = ""):
-    """The matplotlib figure :func:`plot_path` saves (its first axes the path, an inset the error)."""
+    """The matplotlib figure :func:`plot_path` saves (its axes the path; a child axes, the inset)."""
     plt = _pyplot()
     machine = log.machine
     h, v = plane_axes(machine)
@@ -198,7 +198,7 @@ def run_figure(log: RunLog, sim: SimMachine, title: str = "", commands=None, sou
     ax.set_title(title or user_title(machine, ""), fontsize=10)
     ax.grid(True, lw=0.3)
     worst = worst_error_point(log, sim, h, v)
-    if worst is not None and worst[2] > 0:
+    if worst is not None:
         _inset(ax, segments, log, carriage, h, v, worst)
     ax.legend(loc="upper left", fontsize=8, framealpha=0.9)
     return fig
