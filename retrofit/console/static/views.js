@@ -48,9 +48,16 @@ RV.drawPreview = function (div, pv, title) {
     const [cx, cy] = RV.segmentsXY(pv.segments, "cut", h, v);
     traces.push({x: rx, y: ry, mode: "lines", line: {color: "#777", dash: "dash", width: 1.2}, name: "rapid (G0)"});
     traces.push({x: cx, y: cy, mode: "lines", line: {color: "#1f77b4", width: 1.8}, name: "cut (G1/G2/G3)"});
-    traces.push({x: [], y: [], mode: "lines", line: {color: "#d62728", width: 2}, name: "carriage (backplot)"});
+    traces.push({x: [], y: [], mode: "lines", line: {color: "rgba(214,39,40,0.7)", width: 1.2}, name: "carriage (backplot)"});
+    const xs = rx.concat(cx).filter(v => v !== null), ys = ry.concat(cy).filter(v => v !== null).concat([0]);
+    const span = (a, lo, hi) => {
+      if (!a.length) return [lo, hi];
+      const mn = Math.min(...a), mx = Math.max(...a), m = 0.08 * (mx - mn || 1);
+      return [Math.max(lo, mn - m), Math.min(hi, mx + m)];
+    };
     Plotly.newPlot(div, traces, {title: {text: title || "", font: {size: 14}}, margin: {t: 40, l: 60, r: 10, b: 50},
-      xaxis: {title: {text: RV.axisTitle(ah)}}, yaxis: {title: {text: RV.axisTitle(av)}, scaleanchor: "x"},
+      xaxis: {title: {text: RV.axisTitle(ah)}, range: span(xs.concat(pv.stock ? pv.stock.z : []), ah.min, ah.max)},
+      yaxis: {title: {text: RV.axisTitle(av)}, scaleanchor: "x", range: span(ys, av.min, av.max)},
       legend: {orientation: "h", y: -0.2}}, {responsive: true, displaylogo: false});
   } else {
     const seg3 = (kind) => {
@@ -67,7 +74,7 @@ RV.drawPreview = function (div, pv, title) {
     const r = seg3("rapid"), c = seg3("cut");
     traces.push({type: "scatter3d", x: r[0], y: r[1], z: r[2], mode: "lines", line: {color: "#777", dash: "dash", width: 2}, name: "rapid (G0)"});
     traces.push({type: "scatter3d", x: c[0], y: c[1], z: c[2], mode: "lines", line: {color: "#1f77b4", width: 3}, name: "cut (G1/G2/G3)"});
-    traces.push({type: "scatter3d", x: [], y: [], z: [], mode: "lines", line: {color: "#d62728", width: 3}, name: "carriage (backplot)"});
+    traces.push({type: "scatter3d", x: [], y: [], z: [], mode: "lines", line: {color: "rgba(214,39,40,0.7)", width: 2}, name: "carriage (backplot)"});
     const t = (i) => ({title: {text: pv.axes[i] ? RV.axisTitle(pv.axes[i]) : ""}});
     Plotly.newPlot(div, traces, {title: {text: title || "", font: {size: 14}}, margin: {t: 40, l: 0, r: 0, b: 0},
       scene: {xaxis: t(0), yaxis: t(1), zaxis: t(2), aspectmode: "data"}, legend: {orientation: "h"}},
