@@ -231,3 +231,57 @@ def test_jog_and_mdi_move_the_machine_after_a_run(browser, console):
     browser.find_element("id", "mdi-go").click()
     wait_for(browser, "return document.getElementById('cmd-X').textContent === '2.000' && "
                       "document.getElementById('cmd-Z').textContent === '-1.000'")
+
+
+def ten_million_step_run(machine):
+    """Back and forth across the lathe's travel at rapid feed until 10 M steps are taken (fast path)."""
+    from retrofit.gcode.program import compile_program
+    from retrofit.runprogram import execute, plan_compiled
+    passes = 810
+    text = "G21 G90\n" + "".join(f"G0 X{30 if i % 2 else -30} Z{-190 if i % 2 == 0 else 10}\n" for i in range(passes))
+    _, plan = plan_compiled(compile_program(text, machine, "ten-million.ngc"), machine)
+    return execute(plan)
+
+
+@pytest.mark.slow
+def test_ten_million_step_run_zooms_within_a_second_per_step(browser, tmp_path):
+    from retrofit.console.server import Console, create_app
+    machine = load_machine("chivu-lathe")
+    log = ten_million_step_run(machine)
+    assert sum(log.steps_emitted.values()) >= 10_000_000
+    con = Console(machine)
+    con.show_run(log)
+    base, server, thread = start_server(create_app(con))
+    try:
+        browser.get(base + "/")
+        wait_for(browser, "return document.body.dataset.views === 'ready'", timeout=120)
+        end = log.frames.end_tick
+        centre = int(axis_steps_mid(log))
+        steps = []
+        for view in ("timeline", "pulses"):
+            span = end
+            while span > 400:
+                span = max(span // 10, 400)
+                t0 = max(centre - span // 2, 0)
+                if view == "timeline":                    # as a user's zoom does: relayout, then a fetch
+                    browser.execute_script("Plotly.relayout('timeline', {'xaxis.range': [arguments[0], arguments[1]]})",
+                                           t0 * machine.tick_s, (t0 + span) * machine.tick_s)
+                    wait_for(browser, f"return document.getElementById('timeline').dataset.window === '{t0}:{t0 + span}'")
+                else:
+                    browser.execute_script("return window.retrofitViews.zoom('pulses', arguments[0], arguments[1])",
+                                           t0, t0 + span)
+                steps.append(browser.execute_script("return window.retrofitZoomMs[window.retrofitZoomMs.length - 1]"))
+        browser.save_screenshot(str(tmp_path / "ten-million-pulses.png"))
+        print("zoom steps (view, window ticks, ms):", [(s["view"], s["t1"] - s["t0"], round(s["ms"])) for s in steps])
+        assert len(steps) >= 10
+        assert max(s["ms"] for s in steps) < 1000
+        single = browser.execute_script("return document.getElementById('pulses').data[0].name")
+        assert not single.endswith("(busy)")              # the last window shows single pulses
+    finally:
+        server.should_exit = True
+        thread.join(10)
+
+
+def axis_steps_mid(log) -> int:
+    """A tick in the middle of the run where the port is busy."""
+    return int(log.frames.ticks[len(log.frames) // 2])

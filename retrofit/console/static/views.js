@@ -122,7 +122,7 @@ RV.timelineFigure = function (data, violations, tickS) {
     names.forEach((name, i) => {
       if (!data.axes[name][key]) return;
       traces.push({x: data.t, y: data.axes[name][key], mode: "lines", line: {color: colors[i % 4], width: 1.2},
-        name: name, legendgroup: name, showlegend: r === 0, xaxis: "x" + ax, yaxis: "y" + ax, type: "scattergl"});
+        name: name, legendgroup: name, showlegend: r === 0, xaxis: "x" + ax, yaxis: "y" + ax, type: "scatter"});
     });
   });
   layout["xaxis" + rows.length].title = {text: "machine time [s]"};
@@ -141,11 +141,11 @@ RV.pulsesFigure = function (data) {
       const x = data.ticks.map(t => t * s).concat([data.t1 * s]);
       const lv = data.levels[i];
       traces.push({x: x, y: lv.concat([lv[lv.length - 1] ?? 0]).map(l => base + l), mode: "lines",
-        line: {shape: "hv", width: 1.2}, name: name, type: "scattergl"});
+        line: {shape: "hv", width: 1.2}, name: name, type: "scatter"});
     } else {
       const e = data.bands.edges, c = data.bands.counts[i];
       traces.push({x: e.slice(0, -1).map(t => t * s), y: c.map(k => base + (k > 0 ? 1 : 0)), mode: "lines",
-        line: {shape: "hv", width: 1.2}, fill: "tonexty", name: name + " (busy)", type: "scattergl"});
+        line: {shape: "hv", width: 1.2}, fill: "tonexty", name: name + " (busy)", type: "scatter"});
     }
   });
   const layout = {margin: {t: 30, l: 80, r: 10, b: 40}, height: 60 + 45 * n, showlegend: false,
