@@ -110,7 +110,7 @@ RV.extendBackplot = function (div, pv, rows) {
 
 RV.timelineFigure = function (data, violations, tickS) {
   const rows = [["position_mm", "position [mm]"], ["velocity_mm_min", "velocity [mm/min]"],
-    ["accel_mm_s2", "acceleration [mm/s²]"], ["error_mm", "carriage − commanded [mm]"]];
+    ["accel_mm_s2", "acceleration [mm/s²]"], ["error_mm", "carriage − motor [mm]"]];
   const colors = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd"];
   const traces = [], layout = {margin: {t: 30, l: 70, r: 10, b: 40}, showlegend: true, height: 620,
     legend: {orientation: "h", y: 1.06}, grid: {rows: rows.length, columns: 1, shared_xaxes: true}};
