@@ -62,6 +62,7 @@ class SteeredRun:
         self._wake = threading.Event()
         self._lock = threading.Lock()
         self._sent_tick = 0
+        self._repace = False
         self._thread: threading.Thread | None = None
         record = self.ctl.processor.record
         begin = record.begin
@@ -74,7 +75,7 @@ class SteeredRun:
     # -- the operator ---------------------------------------------------------------------------
     def start(self) -> None:
         """Run in a thread of its own."""
-        self.state = "running"
+        self.begin()
         self._thread = threading.Thread(target=self._loop, name="retrofit-console-run", daemon=True)
         self._thread.start()
 
@@ -104,40 +105,57 @@ class SteeredRun:
 
     # -- the loop --------------------------------------------------------------------------------
     def _loop(self) -> None:
-        ctl = self.ctl
-        ctl.stream(self._device_commands())
-        wall0, tick0 = time.perf_counter(), ctl.ticks
-        while True:
-            if self._apply_actions():
-                wall0, tick0 = time.perf_counter(), ctl.ticks
-            if self.state == "stopped":
-                break
-            if self.dialog is not None or (self.held and self._hold_done()):
-                self._publish()
-                self._wake.wait(0.05)
-                self._wake.clear()
-                wall0, tick0 = time.perf_counter(), ctl.ticks
-                continue
-            idle = self._run_chunk()
-            self._keep_feed_override()
-            self._send_frames()
-            self._publish()
-            if ctl.fault:
-                self._event("error", ctl.fault)
-                self.state = "error"
-                break
-            if idle:
-                with self._lock:
-                    if not self._after_idle():
-                        self.state = "done"
-                        break
-            if self.paced and self.speed > 0:
-                ahead = (ctl.ticks - tick0) * self.machine.tick_s / self.speed - (time.perf_counter() - wall0)
+        """Step chunk after chunk; when paced, wait until the clock catches up with machine time."""
+        wall0, tick0 = time.perf_counter(), self.ctl.ticks
+        while self.step():
+            if self._repace or self.waiting:
+                if self.waiting:
+                    self._wake.wait(0.05)
+                    self._wake.clear()
+                wall0, tick0, self._repace = time.perf_counter(), self.ctl.ticks, False
+            elif self.paced and self.speed > 0:
+                ahead = (self.ctl.ticks - tick0) * self.machine.tick_s / self.speed - (time.perf_counter() - wall0)
                 if ahead > 0:
                     self._wake.wait(ahead)
                     self._wake.clear()
         self._send_frames()
         self._publish()
+
+    def begin(self) -> None:
+        """Hand the program to the controller (what :meth:`start` does before its thread steps)."""
+        self.state = "running"
+        self.ctl.stream(self._device_commands())
+
+    @property
+    def waiting(self) -> bool:
+        """True while a dialog waits for the operator, or a feed hold has brought the axes to rest."""
+        return self.dialog is not None or (self.held and self._hold_done())
+
+    def step(self) -> bool:
+        """Apply the operator's actions, then run one chunk of ticks (none while waiting) and
+        publish the snapshot; False once the run has ended (done, stopped or in error)."""
+        if self._apply_actions():
+            self._repace = True
+        if self.state == "stopped":
+            self._publish()
+            return False
+        if self.waiting:
+            self._publish()
+            return True
+        idle = self._run_chunk()
+        self._keep_feed_override()
+        self._send_frames()
+        self._publish()
+        if self.ctl.fault:
+            self._event("error", self.ctl.fault)
+            self.state = "error"
+            return False
+        if idle:
+            with self._lock:
+                if not self._after_idle():
+                    self.state = "done"
+                    return False
+        return True
 
     def _run_chunk(self) -> bool:
         """Tick one chunk; True when the controller is idle."""
@@ -298,6 +316,15 @@ class SteeredRun:
             index = self.running_index()
             line = self.lines[index] if index >= 0 else None
         self.events.append({"tick": self.ctl.ticks, "kind": kind, "text": text, "line": line})
+
+    def close(self) -> None:
+        """Stop the run if it goes on and finish its real outputs (a VCD file is whole only then)."""
+        if self._thread is not None and self._thread.is_alive():
+            self.act("stop")
+            self.join(10)
+        for out in self.outputs:
+            out.close()
+        self.outputs = []
 
     def _send_frames(self) -> None:
         """The port frames made since the last chunk, to the real outputs."""

@@ -61,7 +61,7 @@ def moves(run, frames) -> list[dict]:
 
 def measured_feed(steps, machine, t0: int, t1: int) -> float | None:
     """The path speed (mm/min) the axes held over [t0, t1): measured from the first to the last
-    window (SPEED_WINDOW_S each) whose speed reaches 3/4 of the median window's, so that
+    window (SPEED_WINDOW_S each) whose speed reaches 9/10 of the median window's, so that
     acceleration at either end does not count (a straight move: the distance between the
     plateau's ends over its time); None when the stretch is shorter than three
     windows or nothing moved."""
@@ -74,7 +74,7 @@ def measured_feed(steps, machine, t0: int, t1: int) -> float | None:
     moving = speed[speed > 0]
     if not len(moving):
         return None
-    fast = np.flatnonzero(speed >= 0.75 * np.median(moving))
+    fast = np.flatnonzero(speed >= 0.9 * np.median(moving))
     a, b = int(fast[0]), int(fast[-1]) + 1             # the plateau: first to last fast window
     dist = np.linalg.norm(pos[b] - pos[a])
     return round(float(dist / ((ticks[b] - ticks[a]) * machine.tick_s) * 60.0), 3)

@@ -46,6 +46,7 @@ class Console:
         self._report = None
         self._steps = self._frames = self._pulses = None
         self._recorded = None                  # (frames, sim or None) of a run made elsewhere
+        self.run_id = 0                        # which run the page's state belongs to
 
     # -- program ------------------------------------------------------------------------------------
     def open(self, path: str | None = None, name: str | None = None, text: str | None = None) -> dict:
@@ -75,12 +76,19 @@ class Console:
             raise RetrofitError("no program open; open one first (a path or a shipped example)")
         if self.run is not None and not self.run.finished:
             raise RetrofitError("a run is under way; STOP it or wait for its end")
+        self.close()
         self._report = self._steps = self._frames = self._pulses = self._recorded = None
         self.run = SteeredRun(self.machine, self.program.commands, self.program.lines,
                               backlash_comp=self.backlash_comp, paced=speed > 0, speed=speed or 1.0,
                               outputs=self._open_outputs())
+        self.run_id += 1
         self.run.start()
-        return self.run.snapshot()
+        return self.state()
+
+    def close(self) -> None:
+        """End the run shown (its real outputs finished); the console closes with this too."""
+        if self.run is not None:
+            self.run.close()
 
     def _open_outputs(self) -> list:
         from ..outputs import open_output
@@ -103,11 +111,11 @@ class Console:
             else:
                 cmds, lines = self._mdi(run, str(args.get("text", "")))
             run.extend(cmds, lines)
-            return run.snapshot()
+            return self.state()
         if self.run is None:
             raise RetrofitError(f"{kind}: nothing is running")
         self.run.act(kind, **args)
-        return self.run.snapshot()
+        return self.state()
 
     def _manual_run(self):
         from .engine import SteeredRun
@@ -115,7 +123,10 @@ class Console:
             if self.run.state == "running":
                 raise RetrofitError("jog, home and MDI wait until the program has ended")
         if self.run is None or self.run.state in ("stopped", "error"):
-            self.run = SteeredRun(self.machine, [], [], backlash_comp=self.backlash_comp)
+            self.close()
+            self.run_id += 1
+            self.run = SteeredRun(self.machine, [], [], backlash_comp=self.backlash_comp,
+                                  outputs=self._open_outputs())
         self._report = self._steps = self._frames = self._pulses = None
         return self.run
 
@@ -129,14 +140,17 @@ class Console:
         """Show a run made elsewhere (``retrofit run``'s fast path, a recording) in the after-run
         views: its port frames, and the carriage error when ``sim`` saw them."""
         self.run = self._steps = self._frames = self._pulses = None
+        self.run_id += 1
         self._recorded = (log.frames, sim)
         self._report = report or {"machine": self.machine.name, "tick_us": self.machine.tick_us,
                                   "ticks": int(log.frames.end_tick), "violations": [], "events": [], "moves": []}
 
     def state(self, since: int = 0) -> dict:
+        """The run's snapshot, its id, and the backplot points from ``since`` on."""
         if self.run is None:
-            return {"state": "done" if self._recorded else "ready", "trail": [], "trail_len": 0}
-        snap = dict(self.run.snapshot())
+            return {"state": "done" if self._recorded else "ready", "trail": [], "trail_len": 0,
+                    "run_id": self.run_id}
+        snap = dict(self.run.snapshot(), run_id=self.run_id)
         trail = self.run.trail
         snap["trail"], snap["trail_len"] = trail[since:], len(trail)
         return snap
@@ -207,6 +221,8 @@ def command_list(text: str, file: str):
 
 def create_app(console: Console):
     """The Starlette application of ``console``."""
+    from contextlib import asynccontextmanager
+
     from starlette.applications import Starlette
     from starlette.responses import FileResponse, JSONResponse
     from starlette.routing import Mount, Route
@@ -236,7 +252,11 @@ def create_app(console: Console):
         Route("/api/pulses", guarded(lambda r, b: console.pulses(q(r, "t0"), q(r, "t1")))),
         Mount("/static", StaticFiles(directory=str(STATIC))),
     ]
-    return Starlette(routes=routes)
+    @asynccontextmanager
+    async def lifespan(app):
+        yield
+        console.close()                  # the server ends: finish the run's outputs
+    return Starlette(routes=routes, lifespan=lifespan)
 
 
 async def _call(fn, request, body):

@@ -2,7 +2,7 @@
 "use strict";
 
 const $ = (id) => document.getElementById(id);
-const C = {machine: null, preview: null, trail: 0, polling: null, lastLine: null, shownRun: false};
+const C = {machine: null, preview: null, trail: 0, polling: null, lastLine: null, runId: undefined, shownId: null};
 
 async function api(path, body) {
   const r = await fetch(path, body === undefined ? {} : {method: "POST", headers: {"Content-Type": "application/json"},
@@ -34,12 +34,13 @@ function bind() {
     if (f) await openProgram({name: f.name, text: await f.text()});
   };
   $("run").onclick = async () => {
-    C.trail = 0; C.shownRun = false;
     delete document.body.dataset.views;
     window.retrofitReport = null;
     $("timeline").innerHTML = ""; $("pulses").innerHTML = ""; $("violations").innerHTML = "";
     if (C.preview) RV.drawPreview($("preview"), C.preview, $("program-name").textContent);
-    await api("/api/run", {speed: parseFloat($("speed").value)});
+    const res = await api("/api/run", {speed: parseFloat($("speed").value)});
+    C.runId = res.run_id;
+    C.trail = 0;
   };
   $("speed").onchange = () => act("speed", {factor: parseFloat($("speed").value)}).catch(() => {});
   $("hold").onclick = () => act("hold");
@@ -63,7 +64,11 @@ function bind() {
   };
 }
 
-function act(kind, args) { return api("/api/action", Object.assign({kind: kind}, args || {})); }
+async function act(kind, args) {
+  const res = await api("/api/action", Object.assign({kind: kind}, args || {}));
+  if (res.run_id !== C.runId) { C.runId = res.run_id; C.trail = 0; }
+  return res;
+}
 
 async function openProgram(body) {
   body = body || ($("path").value ? {path: $("path").value} : {name: $("example").value});
@@ -84,7 +89,8 @@ async function openProgram(body) {
 async function poll() {
   try {
     const s = await api("/api/state?since=" + C.trail);
-    show(s);
+    if (C.runId === undefined) C.runId = s.run_id;
+    if (s.run_id === C.runId) show(s);
   } catch (e) { /* shown in #message */ }
   C.polling = setTimeout(poll, 100);
 }
@@ -119,7 +125,10 @@ function show(s) {
     if (!dlg.open) dlg.showModal();
   }
   if (!s.dialog && dlg.open) dlg.close();
-  if (["done", "stopped", "error"].includes(s.state) && !C.shownRun) { C.shownRun = true; showRun(); }
+  if (["done", "stopped", "error"].includes(s.state) && C.shownId !== s.run_id) {
+    C.shownId = s.run_id;
+    showRun().catch(() => { C.shownId = null; });
+  }
 }
 
 async function showRun() {
