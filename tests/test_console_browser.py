@@ -285,3 +285,45 @@ def test_ten_million_step_run_zooms_within_a_second_per_step(browser, tmp_path):
 def axis_steps_mid(log) -> int:
     """A tick in the middle of the run where the port is busy."""
     return int(log.frames.ticks[len(log.frames) // 2])
+
+
+@pytest.mark.skipif(shutil.which("rs274") is None, reason="needs LinuxCNC's rs274")
+def test_a_mill_program_is_previewed_in_3d_inside_its_work_envelope(browser, tmp_path):
+    from retrofit.console.server import Console, create_app
+    base, server, thread = start_server(create_app(Console(load_machine("engraver"))))
+    try:
+        browser.get(base + "/")
+        wait_for(browser, "return document.getElementById('example').options.length > 0")
+        browser.execute_script("document.getElementById('example').value = 'engraving.ngc'")
+        browser.find_element("id", "open").click()
+        wait_for(browser, "return document.getElementById('preview-info').dataset.cuts")
+        drawn = browser.execute_script("""
+            const d = document.getElementById('preview').data;
+            const t = (name) => d.find(x => x.name.startsWith(name));
+            return {types: [...new Set(d.map(x => x.type))], rapid: t('rapid').x.filter(v => v === null).length,
+                    dash: t('rapid').line.dash, box: [Math.min(...t('work').x.filter(v => v !== null)),
+                                                      Math.max(...t('work').x.filter(v => v !== null))]}""")
+        oracle = rs274_counts(resolve_program("engraving.ngc"))
+        assert drawn["types"] == ["scatter3d"] and drawn["dash"] == "dash"
+        assert drawn["rapid"] == oracle["STRAIGHT_TRAVERSE"] - count_null_traverses(resolve_program("engraving.ngc"))
+        machine = load_machine("engraver")
+        assert drawn["box"] == [machine.axis("X").min_mm, machine.axis("X").max_mm]
+        browser.save_screenshot(str(tmp_path / "mill-preview.png"))
+    finally:
+        server.should_exit = True
+        thread.join(10)
+
+
+def count_null_traverses(path: Path) -> int:
+    """Traverses rs274 reports that go nowhere (to where the tool already is): not drawn."""
+    out = subprocess.run(["rs274", "-g", str(path)], input="", capture_output=True, text=True, timeout=60).stdout
+    here, null = None, 0
+    for m in re.finditer(r"(STRAIGHT_TRAVERSE|STRAIGHT_FEED|ARC_FEED)\(([^)]*)\)", out):
+        values = [float(v) for v in m[2].split(",")]
+        if m[1] == "ARC_FEED":
+            here = None
+            continue
+        if m[1] == "STRAIGHT_TRAVERSE" and values[:3] == here:
+            null += 1
+        here = values[:3]
+    return null
