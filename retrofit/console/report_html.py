@@ -37,6 +37,8 @@ def write_html_report(args, log, sim, report: dict, commands=None) -> Path:
         from ..runprogram import resolve_program
         path = resolve_program(args.program)
         program, source, what = load_program(path, log.machine), path.read_text(errors="replace"), path.name
+    else:                                # a demo: its commanded points, as cuts
+        program = waypoint_program(log, what)
     title = user_title(log.machine, what, not args.no_backlash_comp)
     text = html_report(log.machine, log.frames, sim, report, title, program, source, log.start_steps)
     out = Path(args.html)
@@ -45,6 +47,15 @@ def write_html_report(args, log, sim, report: dict, commands=None) -> Path:
     tmp.write_text(text, encoding="utf-8")
     tmp.replace(out)
     return out
+
+
+def waypoint_program(log, name: str):
+    """The controller's commanded points as a program of PMOVs (for runs that had no program)."""
+    from ..commands import PMov
+    from ..gcode.program import Program
+    axes = log.machine.axes
+    cmds = [PMov(axes=tuple((a.name, a.to_mm(s)) for a, s in zip(axes, w.steps))) for w in log.waypoints]
+    return Program(cmds, [0] * len(cmds), name)
 
 
 def html_report(machine: Machine, frames: PortFrames, sim, report: dict, title: str, program=None,
