@@ -83,10 +83,11 @@ _STOCK = re.compile(r"stock[^\n]*?(\d+(?:\.\d+)?)\s*mm\s+diameter", re.IGNORECAS
 
 
 def stock_and_part(segments: list[Segment], machine: Machine, source_text: str = "") -> dict | None:
-    """On a lathe: the stock (a bar) and the radius the cuts leave along Z; None elsewhere.
+    """On a lathe: the stock (a bar) and the radius the cuts leave along Z; None elsewhere, and
+    None when the program does not name its stock.
 
-    The stock's diameter is read from a program comment such as ``Stock: bar of 44 mm diameter``
-    (else the outermost cut); it reaches from the facing cut (a radial cut to the centre; else the
+    The stock's diameter is read from a program comment such as ``Stock: bar of 44 mm diameter``;
+    it reaches from the facing cut (a radial cut to the centre; else the
     cuts' rightmost Z) to 5 mm past the cuts' leftmost Z. The part's radius at each Z is the smallest radius a cut reached there.
     """
     if not is_lathe(machine):
@@ -96,7 +97,9 @@ def stock_and_part(segments: list[Segment], machine: Machine, source_text: str =
     if not cuts:
         return None
     found = _STOCK.search(source_text)
-    radius = float(found.group(1)) / 2 if found else max(max(s.start[x], s.end[x]) for s in cuts)
+    if found is None:
+        return None
+    radius = float(found.group(1)) / 2
     facing = [s for s in cuts if abs(s.start[z] - s.end[z]) < 1e-9 and min(s.start[x], s.end[x]) <= 0.5]
     z_right = max(s.start[z] for s in facing) if facing else max(max(s.start[z], s.end[z]) for s in cuts)
     z_left = min(min(s.start[z], s.end[z]) for s in cuts) - 5.0

@@ -13,6 +13,7 @@ import pytest
 from retrofit.config import load_machine
 from retrofit.demo import circle_targets
 from retrofit.gcode import load_program
+from retrofit.gcode.program import compile_program
 from retrofit.motion.errorloop import PositionErrorLoop
 from retrofit.plot import axis_label, run_figure, stock_and_part, toolpath, user_title, worst_error_point
 from retrofit.runner import deliver
@@ -46,6 +47,11 @@ def test_part_outline_is_the_profile_the_program_describes(lathe, profile):
     assert part_radius(shape, -0.5) == pytest.approx(14.5, abs=1e-6)    # on the 45 deg chamfer
     assert part_radius(shape, -47.0) == pytest.approx(22.0)             # past the cuts: stock
     assert shape["z_mm"][0] < -45.0
+
+
+def test_a_lathe_program_that_names_no_stock_gets_none(lathe):
+    program = compile_program("G0 X12 Z1\nG1 Z-10 F100\nG0 X20\n", lathe, "bare.ngc")
+    assert stock_and_part(toolpath(program.commands, lathe), lathe, "G0 X12 Z1") is None
 
 
 def test_a_mill_has_no_stock_outline():

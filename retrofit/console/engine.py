@@ -302,7 +302,7 @@ class SteeredRun:
         return {
             "state": "held" if self.held and self.state == "running" else self.state,
             "tick": ctl.ticks, "time_s": round(ctl.ticks * machine.tick_s, 4),
-            "line": self.lines[index] if index >= 0 else None,
+            "line": self.dialog["line"] if self.dialog else (self.lines[index] if index >= 0 else None),
             "commanded_mm": {a.name: round(p / a.steps_per_mm, 4) for a, p in zip(machine.axes, pos)},
             "carriage_mm": {a.name: round(self.sim.carriage_mm(a.name), 4) for a in machine.axes},
             "flags": [f.name for f in type(status.flags) if f in status.flags],

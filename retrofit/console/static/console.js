@@ -83,7 +83,8 @@ async function openProgram(body) {
   info.dataset.cuts = counts.cuts;
   info.dataset.cutLines = res.preview.cut_lines;
   info.textContent = `${counts.cuts} cut segments (${res.preview.cut_lines} program lines), ${counts.rapids} rapids` +
-    (res.preview.stock ? `; stock diameter ${2 * res.preview.stock.radius} mm` : "");
+    (res.preview.stock ? `; stock diameter ${2 * res.preview.stock.radius} mm` :
+     (res.preview.lathe ? "; no stock drawn: name it in a comment, e.g. ; Stock: bar of 44 mm diameter" : ""));
 }
 
 async function poll() {
