@@ -145,17 +145,16 @@ class SteeredRun:
         idle = self._run_chunk()
         self._keep_feed_override()
         self._send_frames()
-        self._publish()
+        going = True
         if self.ctl.fault:
             self._event("error", self.ctl.fault)
-            self.state = "error"
-            return False
-        if idle:
+            self.state, going = "error", False
+        elif idle:
             with self._lock:
                 if not self._after_idle():
-                    self.state = "done"
-                    return False
-        return True
+                    self.state, going = "done", False
+        self._publish()
+        return going
 
     def _run_chunk(self) -> bool:
         """Tick one chunk; True when the controller is idle."""
