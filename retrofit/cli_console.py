@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
+import os
+
 from .errors import RetrofitError
+
+#: how much a console that drives only sim:// lowers its own priority
+CONSOLE_NICENESS = 10
 
 
 def add_commands(sub) -> None:
@@ -39,6 +44,8 @@ def cmd_console(args) -> int:
     for url in args.output or []:
         output_class(OutputURL.parse(url).scheme)          # an unknown output fails here, not mid-run
     console = Console(machine, args.output, backlash_comp=not args.no_backlash_comp)
+    if not console.output_urls and hasattr(os, "nice"):
+        os.nice(CONSOLE_NICENESS)     # only sim://: a paced port loop on this computer goes first
     print(f"retrofit console for {machine.name}: http://{host}:{port}/  (Ctrl-C ends it)", flush=True)
     uvicorn.run(create_app(console), host=host, port=port, log_level="warning")
     return 0
