@@ -91,7 +91,7 @@ class SteeredRun:
 
     def act(self, kind: str, **args) -> None:
         """Queue an operator's action: stop, hold, resume, feed (pct), rapid (pct), answer,
-        speed (factor; 0 = as fast as possible), jog / home / mdi (commands: a list)."""
+        speed (factor; 0 = as fast as possible). Jog, home and MDI are commands: :meth:`extend`."""
         self._actions.append((kind, args))
         self._wake.set()
 
@@ -243,16 +243,6 @@ class SteeredRun:
 
     def _do_speed(self, factor: float) -> None:
         self.paced, self.speed = factor > 0, float(factor)
-
-    def _do_commands(self, commands: list[Command]) -> None:
-        """Jog, home, MDI: the operator's own commands, when the program is not running."""
-        for cmd in commands:
-            self.serial_index.append(-1)
-            reply = self.ctl.submit(cmd)
-            if reply is not None:
-                self.serial_index.pop()
-                self._event("refused", f"{cmd}: {reply}")
-                return
 
     def _hold_done(self) -> bool:
         return self.ctl.ticks - self._hold_tick >= HOLD_RAMP_S / self.machine.tick_s
