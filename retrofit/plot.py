@@ -152,9 +152,11 @@ def plot_run(args, log: RunLog, sim: SimMachine, commands=None) -> Path:
         from .runprogram import resolve_program
         path = resolve_program(program)
         what, source = path.name, path.read_text(errors="replace")
+    elif getattr(args, "which", "") == "circle":
+        what = f"circle (r = {args.radius:g} mm, {args.points} points)"
     else:
-        what = f"{args.which} (r = {args.radius:g} mm, {args.points} points)"
-    title = user_title(log.machine, what, not args.no_backlash_comp)
+        what = getattr(args, "which", "")
+    title = user_title(log.machine, what, not getattr(args, "no_backlash_comp", False))
     return plot_path(log, sim, args.plot, title, commands, source)
 
 
