@@ -78,6 +78,7 @@ def motion_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-backlash-comp", action="store_true", help="turn backlash compensation off")
     p.add_argument("--plot", metavar="FILE.png", help="save commanded vs carriage path as PNG")
     p.add_argument("--report", metavar="FILE.json", help="write the run report (docs/report.md)")
+    p.add_argument("--html", metavar="FILE.html", help="write the run as an interactive page that opens offline")
 
 
 def _cmd_machines(args) -> int:
@@ -159,8 +160,11 @@ def finish_run(args, log, title: str, commands=None) -> dict:
         report["remote"] = remote
     lines = [title] + summary_lines(report) + remote_lines(remote)
     if args.plot:                        # files first: a closed terminal must not lose them
-        from .plot import plot_path
-        lines.append(f"  plot: {plot_path(log, sim, args.plot, title)}")
+        from .plot import plot_run
+        lines.append(f"  plot: {plot_run(args, log, sim, commands)}")
+    if getattr(args, "html", None):
+        from .console.report_html import write_html_report
+        lines.append(f"  html: {write_html_report(args, log, sim, report, commands)}")
     if args.report:
         write_json_atomic(args.report, report)
         lines.append(f"  report: {args.report}")

@@ -1,7 +1,15 @@
-"""Plots of a run: commanded path against the carriage path, in mm, saved as PNG (headless-safe)."""
+"""Plots of a run, and the drawing rules every view of a run shares (PNG, HTML report, console).
+
+The rules: rapids are dashed, cuts solid; on a lathe the stock and the part the cuts leave are
+drawn under the path; an inset magnifies the worst distance between the commanded and the
+carriage path, so a backlash of 0.1 mm on a 30 mm circle is visible; an axis is named once
+("X transversal [mm]", not "X (X) [mm]"); titles say what ran, on what, in the user's words.
+"""
 
 from __future__ import annotations
 
+import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -10,13 +18,247 @@ from .config import Machine
 from .runlog import RunLog
 from .sim import SimMachine
 
+#: the step (mm) along Z at which the lathe part outline is sampled
+PART_STEP_MM = 0.05
+
+
+@dataclass(frozen=True)
+class Segment:
+    """One straight piece of the commanded tool path, in mm, and the command it came from."""
+
+    kind: str                      # "rapid" (FMOV) or "cut" (PMOV)
+    start: tuple[float, ...]
+    end: tuple[float, ...]
+    index: int                     # index of the command in the program
+
+
+def toolpath(commands, machine: Machine, start_mm: tuple[float, ...] | None = None) -> list[Segment]:
+    """The commanded path of ``commands`` as segments: FMOV a rapid, PMOV a cut (arcs are chords).
+
+    >>> from retrofit.config import load_machine
+    >>> from retrofit.commands import parse_command
+    >>> segs = toolpath([parse_command("FMOV X5 Z1"), parse_command("PMOV Z-4")], load_machine("chivu-lathe"))
+    >>> [(s.kind, s.end) for s in segs]
+    [('rapid', (5.0, 1.0)), ('cut', (5.0, -4.0))]
+    """
+    from .commands import FMov, PMov
+    names = machine.axis_names
+    here = tuple(start_mm) if start_mm is not None else (0.0,) * len(names)
+    out = []
+    for i, cmd in enumerate(commands):
+        if not isinstance(cmd, (FMov, PMov)):
+            continue
+        target = list(here)
+        for name, mm in cmd.axes:
+            if name.upper() in names:
+                target[names.index(name.upper())] = float(mm)
+        target = tuple(target)
+        if target != here:
+            out.append(Segment("rapid" if isinstance(cmd, FMov) else "cut", here, target, i))
+        here = target
+    return out
+
+
+def is_lathe(machine: Machine) -> bool:
+    """A lathe: its axes are X (radius) and Z (along the bed)."""
+    return set(machine.axis_names) == {"X", "Z"}
+
 
 def plane_axes(machine: Machine) -> tuple[int, int]:
     """Indices of the (horizontal, vertical) axes: Z along, X across on a lathe; else the first two."""
     names = machine.axis_names
-    if set(names) == {"X", "Z"}:
+    if is_lathe(machine):
         return names.index("Z"), names.index("X")
     return 0, min(1, len(names) - 1)
+
+
+def axis_label(axis) -> str:
+    """``X transversal [mm]``; an axis whose label is its name is named once: ``X [mm]``."""
+    if axis.label.strip().upper() in ("", axis.name.upper()):
+        return f"{axis.name} [mm]"
+    return f"{axis.name} {axis.label} [mm]"
+
+
+_STOCK = re.compile(r"stock[^\n]*?(\d+(?:\.\d+)?)\s*mm\s+diameter", re.IGNORECASE)
+
+
+def stock_and_part(segments: list[Segment], machine: Machine, source_text: str = "") -> dict | None:
+    """On a lathe: the stock (a bar) and the radius the cuts leave along Z; None elsewhere, and
+    None when the program does not name its stock.
+
+    The stock's diameter is read from a program comment such as ``Stock: bar of 44 mm diameter``;
+    it reaches from the facing cut (a radial cut to the centre; else the
+    cuts' rightmost Z) to 5 mm past the cuts' leftmost Z. The part's radius at each Z is the smallest radius a cut reached there.
+    """
+    if not is_lathe(machine):
+        return None
+    x, z = machine.axis_names.index("X"), machine.axis_names.index("Z")
+    cuts = [s for s in segments if s.kind == "cut"]
+    if not cuts:
+        return None
+    found = _STOCK.search(source_text)
+    if found is None:
+        return None
+    radius = float(found.group(1)) / 2
+    facing = [s for s in cuts if abs(s.start[z] - s.end[z]) < 1e-9 and min(s.start[x], s.end[x]) <= 0.5]
+    z_right = max(s.start[z] for s in facing) if facing else max(max(s.start[z], s.end[z]) for s in cuts)
+    z_left = min(min(s.start[z], s.end[z]) for s in cuts) - 5.0
+    grid = np.arange(z_left, z_right + PART_STEP_MM / 2, PART_STEP_MM)
+    part = np.full(len(grid), radius)
+    for s in cuts:
+        z0, z1, x0, x1 = s.start[z], s.end[z], s.start[x], s.end[x]
+        lo, hi = sorted((z0, z1))
+        sel = (grid >= lo - PART_STEP_MM / 2) & (grid <= hi + PART_STEP_MM / 2)
+        if not sel.any():
+            continue
+        if hi - lo < 1e-9:                   # a radial cut: it reaches its lowest radius there
+            xs = np.full(int(sel.sum()), min(x0, x1))
+        else:
+            xs = np.interp(grid[sel], [z0, z1], [x0, x1]) if z0 < z1 else np.interp(grid[sel], [z1, z0], [x1, x0])
+        part[sel] = np.minimum(part[sel], xs)
+    return {"radius_mm": radius, "z_mm": (z_left, z_right), "part_z": grid, "part_x": np.clip(part, 0.0, radius)}
+
+
+def worst_error_point(log: RunLog, sim: SimMachine, h: int, v: int) -> tuple[float, float, float] | None:
+    """(h_mm, v_mm, error_mm) at the reached point where carriage and command lie furthest apart."""
+    machine = log.machine
+    ah, av = machine.axes[h], machine.axes[v]
+    best = None
+    for w in log.waypoints:
+        if w.reached_tick is None:
+            continue
+        state = sim.state_at(w.reached_tick)
+        ch, cv = state[ah.name][1], state[av.name][1]
+        th, tv = ah.to_mm(w.steps[h]), av.to_mm(w.steps[v])
+        err = float(np.hypot(ch - th, cv - tv))
+        if best is None or err > best[2]:
+            best = (th, tv, err)
+    return best
+
+
+def user_title(machine: Machine, what: str, backlash_comp: bool | None = None) -> str:
+    """What ran, on which machine, in words: ``lathe-profile.ngc on the chivu-lathe (400-class ...)``."""
+    title = f"{what} on the {machine.name}" if what else machine.name
+    if backlash_comp is not None:
+        title += f", backlash compensation {'on' if backlash_comp else 'off'}"
+    return title
+
+
+def plot_run(args, log: RunLog, sim: SimMachine, commands=None) -> Path:
+    """``--plot FILE.png`` of a ``retrofit run`` or ``retrofit demo``: its title in the user's words."""
+    program = getattr(args, "program", None)
+    source = ""
+    if program:
+        from .runprogram import resolve_program
+        path = resolve_program(program)
+        what, source = path.name, path.read_text(errors="replace")
+    elif getattr(args, "which", "") == "circle":
+        what = f"circle (r = {args.radius:g} mm, {args.points} points)"
+    else:
+        what = getattr(args, "which", "")
+    title = user_title(log.machine, what, not getattr(args, "no_backlash_comp", False))
+    return plot_path(log, sim, args.plot, title, commands, source)
+
+
+def plot_path(log: RunLog, sim: SimMachine, path: str | Path, title: str = "", commands=None,
+              source_text: str = "") -> Path:
+    """Commanded path and carriage path in the machine's main plane; returns the PNG path.
+
+    ``commands`` (the program's) let rapids be told from cuts; without them the commanded path
+    is the controller's waypoints, drawn solid. ``source_text`` (the G-code) may name the stock.
+    """
+    plt = _pyplot()
+    fig = run_figure(log, sim, title, commands, source_text)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def run_figure(log: RunLog, sim: SimMachine, title: str = "", commands=None, source_text: str = ""):
+    """The matplotlib figure :func:`plot_path` saves (its axes the path; a child axes, the inset)."""
+    plt = _pyplot()
+    machine = log.machine
+    h, v = plane_axes(machine)
+    ah, av = machine.axes[h], machine.axes[v]
+    fig, ax = plt.subplots(figsize=(8, 6))
+    segments = toolpath(commands, machine, tuple(a.to_mm(s) for a, s in zip(machine.axes, log.start_steps))) \
+        if commands is not None else []
+    lathe = stock_and_part(segments, machine, source_text)
+    if lathe is not None:
+        _draw_lathe(ax, lathe)
+    if segments:
+        _draw_segments(ax, segments, h, v)
+    else:
+        commanded = np.array([log.start_steps] + [w.steps for w in log.waypoints], float)
+        ax.plot(commanded[:, h] / ah.steps_per_mm, commanded[:, v] / av.steps_per_mm, "-", lw=1.0,
+                color="tab:blue", label="commanded")
+    carriage = carriage_path(sim)
+    ax.plot(carriage[:, h], carriage[:, v], "-", lw=2.5, color="tab:red", alpha=0.25, zorder=1,
+            label="carriage (simulated)")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel(axis_label(ah))
+    ax.set_ylabel(axis_label(av))
+    ax.set_title(title or user_title(machine, ""), fontsize=10)
+    ax.grid(True, lw=0.3)
+    worst = worst_error_point(log, sim, h, v)
+    if worst is not None:
+        _inset(ax, segments, log, carriage, h, v, worst)
+    ax.legend(loc="upper left", fontsize=8, framealpha=0.9)
+    return fig
+
+
+def _pyplot():
+    import matplotlib
+    if matplotlib.get_backend().lower() not in ("agg", "pdf", "svg") and not _has_display():
+        matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def _draw_lathe(ax, lathe: dict) -> None:
+    z_left, z_right = lathe["z_mm"]
+    r = lathe["radius_mm"]
+    ax.fill_between([z_left, z_right], 0, r, color="0.88", lw=0, label=f"stock (diameter {2 * r:g} mm)")
+    ax.fill_between(lathe["part_z"], 0, lathe["part_x"], color="tab:olive", alpha=0.45, lw=0,
+                    label="part left by the cuts")
+    ax.axhline(0.0, color="0.3", lw=0.6, ls="-.")          # the spindle axis
+
+
+def _draw_segments(ax, segments: list[Segment], h: int, v: int) -> None:
+    for kind, style in (("rapid", dict(ls=(0, (4, 3)), color="tab:gray", lw=0.9, label="rapid (G0)")),
+                        ("cut", dict(ls="-", color="tab:blue", lw=1.1, label="cut (G1/G2/G3)"))):
+        xs, ys = [], []
+        for s in segments:
+            if s.kind == kind:
+                xs += [s.start[h], s.end[h], np.nan]
+                ys += [s.start[v], s.end[v], np.nan]
+        if xs:
+            ax.plot(xs, ys, **style)
+
+
+def _inset(ax, segments, log: RunLog, carriage: np.ndarray, h: int, v: int, worst) -> None:
+    """A magnifying inset around the worst commanded-vs-carriage distance."""
+    ch, cv, err = worst
+    half = max(4 * err, 20 * log.machine.axes[h].step_mm)
+    ins = ax.inset_axes([1.06, 0.25, 0.5, 0.5])
+    if segments:
+        _draw_segments(ins, segments, h, v)
+    else:
+        commanded = np.array([w.steps for w in log.waypoints], float)
+        ins.plot(commanded[:, h] * log.machine.axes[h].step_mm, commanded[:, v] * log.machine.axes[v].step_mm,
+                 "-", color="tab:blue", lw=1.1)
+    ins.plot(carriage[:, h], carriage[:, v], "-", lw=1.0, color="tab:red")
+    ins.plot([ch], [cv], "o", ms=3, color="black")
+    ins.set_xlim(ch - half, ch + half)
+    ins.set_ylim(cv - half, cv + half)
+    ins.set_aspect("equal")
+    ins.tick_params(labelsize=6)
+    factor = (ax.get_xlim()[1] - ax.get_xlim()[0]) / (2 * half)
+    ins.set_title(f"magnified x{factor:.0f}: worst error {err:.3f} mm", fontsize=7)
+    ins.set_xlabel("commanded (blue, grey) and carriage (red)", fontsize=7)
+    ax.indicate_inset_zoom(ins, edgecolor="0.2")
 
 
 def carriage_path(sim: SimMachine) -> np.ndarray:
@@ -30,35 +272,6 @@ def carriage_path(sim: SimMachine) -> np.ndarray:
         values = np.concatenate(([sim._initial[i][1]], np.asarray(trace.carriage_mm, float)))
         cols.append(values[np.searchsorted(t, ticks, side="right")])
     return np.column_stack(cols)
-
-
-def plot_path(log: RunLog, sim: SimMachine, path: str | Path, title: str = "") -> Path:
-    """Commanded path and carriage path in the machine's main plane; returns the PNG path."""
-    import matplotlib
-    if matplotlib.get_backend().lower() not in ("agg", "pdf", "svg") and not _has_display():
-        matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    machine = log.machine
-    h, v = plane_axes(machine)
-    ah, av = machine.axes[h], machine.axes[v]
-    commanded = np.array([log.start_steps] + [w.steps for w in log.waypoints], float)
-    carriage = carriage_path(sim)
-    fig, ax = plt.subplots(figsize=(7, 7))
-    ax.plot(commanded[:, h] / ah.steps_per_mm, commanded[:, v] / av.steps_per_mm, "o-", ms=2.5,
-            lw=0.8, color="tab:blue", label="commanded")
-    ax.plot(carriage[:, h], carriage[:, v], "-", lw=0.8, color="tab:red", alpha=0.8, label="carriage (simulated)")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.set_xlabel(f"{ah.name} ({ah.label}) [mm]")
-    ax.set_ylabel(f"{av.name} ({av.label}) [mm]")
-    ax.set_title(title or f"{machine.name}: commanded vs carriage path")
-    ax.grid(True, lw=0.3)
-    ax.legend(loc="best")
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120, bbox_inches="tight")
-    plt.close(fig)
-    return path
 
 
 def _has_display() -> bool:

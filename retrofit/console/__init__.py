@@ -1,0 +1,7 @@
+"""The operator's console (``retrofit console``) and the offline HTML report (``--html``).
+
+``engine``: the steerable run on the 002 controller (the one module that drives the engine);
+``views``: what the page draws, cut from a run's port frames; ``runreport``: the run's report
+with the operator's actions and the measured feeds; ``server``: the Starlette app and its JSON
+API; ``report_html``: the self-contained HTML report; ``static/``: the page and its scripts.
+"""
