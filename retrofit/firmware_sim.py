@@ -31,14 +31,12 @@ ROOT = Path(__file__).resolve().parents[1]
 FIRMWARE = ROOT / "firmware"
 HARNESS = FIRMWARE / "build" / "hil"
 F_CPU = 16_000_000
-#: the link's axis letters, in the order the firmware lists its axes
-LINK_ORDER = "XYZABCUVE"
 
 #: Arduino Mega pin -> (AVR port, bit) for the pins the RAMPS 1.4 sockets use
 MEGA_PINS = {54: ("F", 0), 55: ("F", 1), 60: ("F", 6), 61: ("F", 7), 46: ("L", 3), 48: ("L", 1),
              26: ("A", 4), 28: ("A", 6), 36: ("C", 1), 34: ("C", 3)}
-#: the RAMPS socket of an axis letter (any other letter: E0), as firmware/board.h wires them
-SOCKET_PINS = {"X": (54, 55), "Y": (60, 61), "Z": (46, 48), "E0": (26, 28)}
+#: the RAMPS sockets' (step, dir) pins, as firmware/board.h wires them
+SOCKET_PINS = {"X": (54, 55), "Y": (60, 61), "Z": (46, 48), "E0": (26, 28), "E1": (36, 34)}
 #: the RAMPS endstop connectors -> (AVR port, bit)
 CONNECTOR_PINS = {"XMIN": ("E", 5), "XMAX": ("E", 4), "YMIN": ("J", 1), "YMAX": ("J", 0),
                   "ZMIN": ("D", 3), "ZMAX": ("D", 2)}
@@ -53,12 +51,37 @@ class HarnessError(RetrofitError):
 
 
 def firmware_axes(machine: Machine) -> list:
-    """The machine's axes in the firmware's order (the link's letter order)."""
-    return sorted(machine.axes, key=lambda a: LINK_ORDER.index(a.name) if a.name in LINK_ORDER else 99)
+    """The machine's axes in the firmware's order: ascending link mask bit (codec.axis_bits)."""
+    from .link.codec import axis_bits
+    bits = axis_bits(machine)
+    return sorted(machine.axes, key=lambda a: bits[a.name])
 
 
-def socket_of(letter: str) -> str:
-    return letter if letter in ("X", "Y", "Z") else "E0"
+def sockets(machine: Machine) -> dict[str, str]:
+    """Axis letter -> RAMPS socket: X, Y and Z their own, any other letter E0, then E1."""
+    spare = ["E0", "E1"]
+    out = {}
+    for a in firmware_axes(machine):
+        if a.name in ("X", "Y", "Z"):
+            out[a.name] = a.name
+        elif spare:
+            out[a.name] = spare.pop(0)
+        else:
+            raise HarnessError(f"{machine.source}: axis {a.name} has no RAMPS socket left "
+                               "(X, Y, Z, E0 and E1 drive five axes)")
+    return out
+
+
+def supported_machines() -> list[str]:
+    """The shipped machines the firmware builds for (RAMPS pins, at most five axes)."""
+    from .config import load_machine
+    out = []
+    for path in sorted((ROOT / "retrofit" / "machines").glob("*.toml")):
+        name = path.stem
+        m = load_machine(name)
+        if m.port == "ramps" or (FIRMWARE / "machines" / f"{name}.h").exists():
+            out.append(name)
+    return out
 
 
 def switch_connectors(machine: Machine) -> list[tuple[object, str, int]]:
@@ -87,7 +110,7 @@ def wiring_args(machine: Machine, start_steps: dict[str, int] | None = None,
     axes = firmware_axes(machine)
     args: list[str] = []
     for a in axes:
-        step, direction = (MEGA_PINS[p] for p in SOCKET_PINS[socket_of(a.name)])
+        step, direction = (MEGA_PINS[p] for p in SOCKET_PINS[sockets(machine)[a.name]])
         args += ["--axis", f"{step[0]}{step[1]},{direction[0]}{direction[1]},"
                            f"{int(a.invert_dir)},{int(start_steps.get(a.name, 0))}"]
     index = {a.name: i for i, a in enumerate(axes)}
@@ -173,7 +196,7 @@ class HarnessLog:
 
 def step_times(log: HarnessLog, machine: Machine, axis: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(rising-edge cycles, falling-edge cycles, direction pin level at each rise) of one axis."""
-    step_pin, dir_pin = (MEGA_PINS[p] for p in SOCKET_PINS[socket_of(machine.axis(axis).name)])
+    step_pin, dir_pin = (MEGA_PINS[p] for p in SOCKET_PINS[sockets(machine)[machine.axis(axis).name]])
     cycles, levels = log.pin(*step_pin)
     prev = np.concatenate(([0], levels[:-1]))
     rises = cycles[(levels == 1) & (prev == 0)]
@@ -202,7 +225,7 @@ def port_frames(log: HarnessLog, machine: Machine) -> PortFrames:
     """The step and direction pins as the port byte of ``machine`` (PinMap bit positions)."""
     events = []
     for a in machine.axes:
-        step_pin, dir_pin = (MEGA_PINS[p] for p in SOCKET_PINS[socket_of(a.name)])
+        step_pin, dir_pin = (MEGA_PINS[p] for p in SOCKET_PINS[sockets(machine)[a.name]])
         for (port, bit), target in ((step_pin, a.step_bit), (dir_pin, a.dir_bit)):
             cycles, levels = log.pin(port, bit)
             events += [(int(c), target, int(v)) for c, v in zip(cycles, levels)]

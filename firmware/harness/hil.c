@@ -379,7 +379,7 @@ int main(int argc, char **argv)
     avr_load_firmware(avr, &fw);
     avr->frequency = 16000000;
 
-    static const char ports[] = "ABFHKL";
+    static const char ports[] = "ABCFHKL";
     for (const char *p = ports; *p; p++)
         avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(*p), IOPORT_IRQ_PIN_ALL),
                                 port_changed, (void *)(intptr_t)*p);
