@@ -38,6 +38,7 @@ static volatile uint16_t next_ocr = 2000;    /* the gap from a pulse's end to th
 static volatile uint8_t next_skip;           /*   as next_skip + 1 timer cycles of next_ocr */
 static uint8_t skip_left;
 static volatile uint8_t pulse_on;            /* step pins high: the next compare ends the pulse */
+static uint16_t rise_delay;                  /* counts from a step cycle's match to its rise */
 
 /* ---- pins ---------------------------------------------------------------------------- */
 
@@ -58,14 +59,25 @@ static volatile uint8_t pulse_on;            /* step pins high: the next compare
 
 #define PULSE_COUNTS US_TO_COUNTS(PULSE_HIGH_US)
 
-/* Raise the step pins of `bits`; the next Timer1 compare, PULSE_COUNTS later, lowers them. */
+/* A compare value `counts` after the match that started this cycle, but never at or below the
+ * counter: in CTC mode a compare value the counter has passed is only matched after the 16-bit
+ * wrap (32.8 ms). A late interrupt stretches the cycle instead. */
+static inline void compare_after(uint16_t counts)
+{
+    uint16_t now = TCNT1;
+    OCR1A = counts > now + 4 ? counts : now + 4;
+}
+
+/* Raise the step pins of `bits`; the compare PULSE_COUNTS after the rise lowers them, so the
+ * pulse is as wide as configured however late in the interrupt the pins rose. */
 static inline void pulse_start(uint8_t bits)
 {
     if (!bits)
         return;
     stepped_negative = (stepped_negative & (uint8_t)~bits) | (run.dir_bits & bits);
     FOR_EACH_AXIS(STEP_HIGH)
-    OCR1A = PULSE_COUNTS;
+    rise_delay = TCNT1;
+    OCR1A = rise_delay + PULSE_COUNTS;
     pulse_on = 1;
 }
 
@@ -174,7 +186,8 @@ static void step_event(void)
 /* The rest of the step period after a pulse. */
 static inline void gap(void)
 {
-    OCR1A = next_ocr;
+    /* the next rise comes about rise_delay after the next match: the period counts rise to rise */
+    compare_after(next_ocr > rise_delay + 8 ? next_ocr - rise_delay : 8);
     skip_left = next_skip;
 }
 
@@ -200,8 +213,9 @@ ISR(TIMER1_COMPA_vect)
         next_ocr = run.start_ocr;              /* the start rate, until the profile speeds up */
         next_skip = run.start_skip;
         gap();                                 /* the first step: direction set-up is over */
-        if (OCR1A < US_TO_COUNTS(DIR_SETUP_US))
-            OCR1A = US_TO_COUNTS(DIR_SETUP_US);
+        uint16_t setup = TCNT1 + US_TO_COUNTS(DIR_SETUP_US) + 2;
+        if (OCR1A < setup)
+            OCR1A = setup;
         return;
     }
     if (run.indexer && !takeup_bits) {         /* backlash taken up: the encoder drives on */

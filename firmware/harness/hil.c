@@ -31,6 +31,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <simavr/avr_extint.h>
 #include <simavr/avr_ioport.h>
 #include <simavr/avr_uart.h>
 #include <simavr/sim_avr.h>
@@ -172,9 +173,11 @@ static void uart_xoff_cb(struct avr_irq_t *irq, uint32_t value, void *param)
     uart_xon = 0;
 }
 
+static avr_irq_t *uart_in;
+
 static void uart_feed(void)
 {
-    avr_irq_t *in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
+    avr_irq_t *in = uart_in;
     while (uart_xon && rx_tail != rx_head) {
         avr_raise_irq(in, rx_fifo[rx_tail]);
         rx_tail = (rx_tail + 1) % RX_FIFO;
@@ -391,6 +394,11 @@ int main(int argc, char **argv)
     avr_ioctl(avr, AVR_IOCTL_UART_GET_FLAGS('0'), &flags);
     flags &= ~AVR_UART_FLAG_STDIO;
     avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
+    /* A switch input held low would make simavr poll its INTn level trigger every cycle even
+     * with the interrupt off (20x slower); the firmware uses edge triggers only. */
+    for (uint8_t n = 0; n < 8; n++)
+        avr_extint_set_strict_lvl_trig(avr, n, 0);
+    uart_in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
     update_switches();
     if (spindle_rpm > 0 && spindle_counts > 0)
         avr_cycle_timer_register(avr, 1000, spindle_edge, NULL);
@@ -421,7 +429,8 @@ int main(int argc, char **argv)
             rx_push(script[script_next].bytes, script[script_next].n);
             script_next++;
         }
-        uart_feed();
+        if (rx_tail != rx_head)
+            uart_feed();
         if (avr->cycle >= next_poll) {
             next_poll = avr->cycle + 1600;            /* every 100 us of AVR time */
             if (listen_at && poll_socket() && once)

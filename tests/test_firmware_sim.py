@@ -1,0 +1,114 @@
+"""The compiled firmware in simavr (cycle-exact ATmega2560), measured from its pins in cycles.
+
+Every figure here comes from the harness's log of pin changes stamped with the AVR's cycle
+counter (16 per microsecond); no test reads the host's clock. The commands go in as a script of
+frames at chosen cycles, so each run is the same on a loaded machine.
+"""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+
+from retrofit.commands import parse_command
+from retrofit.config import load_machine
+from retrofit.link import (IMMEDIATE, QUEUED, Ack, FrameDecoder, Position, Status, StatusFlags,
+                           decode_reply, encode_command, encode_frame, seq_byte)
+
+pytestmark = pytest.mark.skipif(
+    shutil.which("avr-gcc") is None or shutil.which("make") is None,
+    reason="the firmware needs avr-gcc and make: apt-get install gcc-avr avr-libc make libsimavr-dev")
+
+fs = pytest.importorskip("retrofit.firmware_sim")
+CYCLES_PER_US = 16
+S = 16_000_000                       # cycles a second
+
+
+@pytest.fixture(scope="module")
+def lathe():
+    machine = load_machine("mitic-lathe")
+    return machine, fs.build(machine.name)
+
+
+class Script:
+    """Frames at chosen AVR cycles, with each channel's sequence numbers kept."""
+
+    def __init__(self, machine):
+        self.machine, self.items, self.next = machine, [], {QUEUED: 0, IMMEDIATE: 0}
+        self.at(1_000_000, "SYNC", QUEUED)
+        self.at(1_000_000, "SYNC", IMMEDIATE)
+
+    def at(self, cycle: int, text: str, channel: int | None = None) -> "Script":
+        if text == "SYNC":
+            payload = bytes((0x7F,))
+        else:
+            cmd = parse_command(text)
+            payload = encode_command(cmd, self.machine)
+            channel = (IMMEDIATE if cmd.immediate else QUEUED) if channel is None else channel
+        number = self.next[channel]
+        self.next[channel] = (number + 1) % 128
+        self.items.append((cycle, encode_frame(seq_byte(channel, number), payload)))
+        return self
+
+
+def replies(log, machine):
+    return [decode_reply(f.payload, machine) for f in FrameDecoder().feed(log.answer_bytes())]
+
+
+def test_a_rapid_move_steps_every_pulse_as_wide_as_configured_and_ends_on_target(lathe):
+    machine, elf = lathe
+    script = Script(machine).at(3_200_000, "FMOV X12").at(14_000_000, "RDPS").at(14_000_000, "RDST")
+    log = fs.Harness(elf, machine, script=script.items, cycles=14_500_000).run()
+    answers = replies(log, machine)
+    assert answers[:3] == [Ack(), Ack(), Ack()]
+    assert answers[3] == Position((("X", 1200), ("Z", 0)))
+    assert not answers[4].flags & (StatusFlags.MOVING | StatusFlags.ERROR)
+    rises, falls, _ = fs.step_times(log, machine, "X")
+    assert len(rises) == 1200 + machine.axis("X").backlash_steps      # take-up steps first
+    high_us = (falls - rises) / CYCLES_PER_US
+    low_us = (rises[1:] - falls[:-1]) / CYCLES_PER_US
+    x = machine.axis("X")
+    assert high_us.min() >= x.pulse_high_ticks * machine.tick_us          # 100 us, on the wire
+    assert low_us.min() >= x.pulse_low_ticks * machine.tick_us
+    # the cruise at 1500 mm/min is 2500 steps/s: 400 us a step
+    assert np.median(np.diff(rises)) / CYCLES_PER_US == pytest.approx(400, abs=2)
+    report = fs.report(log, machine)
+    assert report["motor_steps"]["X"] == 1202
+    assert not [v for v in report["violations"] if v["kind"] in ("pulse_high", "pulse_low")]
+
+
+def test_ffdr_mid_move_slows_the_running_move_measured_in_cycles(lathe):
+    machine, elf = lathe
+    script = (Script(machine).at(3_200_000, "FMOV X39")
+              .at(int(0.5 * S), "FFDR F15"))                  # a hundredth: 25 steps/s
+    log = fs.Harness(elf, machine, script=script.items, cycles=int(1.0 * S)).run()
+    rises, _, _ = fs.step_times(log, machine, "X")
+    gaps = np.diff(rises) / S
+    before = gaps[(rises[1:] > 0.3 * S) & (rises[1:] < 0.5 * S)]
+    after = gaps[rises[1:] > 0.7 * S]
+    assert np.median(before) == pytest.approx(1 / 2500, rel=0.01)
+    assert len(after) >= 2 and np.median(after) == pytest.approx(1 / 25, rel=0.02)
+
+
+def test_interrupt_figures_are_measured_and_the_main_loop_never_masks_long(lathe):
+    machine, elf = lathe
+    script = Script(machine).at(3_200_000, "FMOV X10")
+    log = fs.Harness(elf, machine, script=script.items, cycles=int(0.6 * S), stats=True).run()
+    assert log.stats["cycles"] >= int(0.6 * S)
+    assert 0 < log.stats["isr_cycles"] < log.stats["cycles"]
+    assert log.stats["isr_longest"] > 0
+
+
+def test_the_mill_with_its_carousel_builds_and_its_e_axis_steps_on_the_e0_socket():
+    machine = load_machine("tul-mill")
+    elf = fs.build(machine.name)
+    script = Script(machine).at(3_200_000, "FMOV E1")          # one pocket pitch: 160 steps
+    script.at(int(0.5 * S), "RDPS")
+    log = fs.Harness(elf, machine, script=script.items, cycles=int(0.55 * S)).run()
+    answers = replies(log, machine)
+    assert answers[2] == Ack()
+    assert dict(answers[3].steps)["E"] == 160
+    rises, _, _ = fs.step_times(log, machine, "E")
+    assert len(rises) >= 160 and fs.MEGA_PINS[26] == ("A", 4)
