@@ -112,3 +112,27 @@ def test_the_mill_with_its_carousel_builds_and_its_e_axis_steps_on_the_e0_socket
     assert dict(answers[3].steps)["E"] == 160
     rises, _, _ = fs.step_times(log, machine, "E")
     assert len(rises) >= 160 and fs.MEGA_PINS[26] == ("A", 4)
+
+
+@pytest.mark.parametrize("rpm", [300, 600, 1200])
+def test_a_thread_pass_waits_for_the_index_pulse_then_cuts_the_pitch_at_any_speed(lathe, rpm):
+    machine, elf = lathe
+    counts = machine.parts["spindle"].encoder_counts_per_rev
+    script = (Script(machine).at(3_200_000, "ISTP").at(3_300_000, "PFDR F0.5")
+              .at(3_400_000, "PMOV Z-1"))                     # 0.5 mm a revolution, 2 turns
+    turns_s = 60 / rpm
+    log = fs.Harness(elf, machine, script=script.items, cycles=int((0.3 + 3 * turns_s) * S),
+                     spindle_rpm=rpm).run()
+    rises, _, dirs = fs.step_times(log, machine, "Z")
+    sind = [c for c, port, bit, level in log.inputs if (port, bit, level) == ("D", 1, 1)]
+    iclk = np.array([c for c, port, bit, level in log.inputs if (port, bit, level) == ("D", 0, 1)])
+    index = [c for c in sind if c > 3_400_000]
+    z = machine.axis("Z")
+    assert len(rises) == round(1 * z.steps_per_mm) and not dirs.any()    # towards -Z
+    assert rises[0] > index[0]                                # no step before the index pulse
+    # each revolution (from one index pulse to the next) carries 0.5 mm = 40 Z steps
+    per_turn = [int(((rises > a) & (rises <= b)).sum()) for a, b in zip(index, index[1:3])]
+    assert per_turn == [round(0.5 * z.steps_per_mm)] * 2
+    # each step follows an encoder count: the same spindle angle at every speed
+    first_count = np.searchsorted(iclk, index[0])
+    assert np.searchsorted(iclk, rises[0]) - first_count <= counts // 40

@@ -128,7 +128,7 @@ static avr_cycle_count_t spindle_edge(avr_t *a, avr_cycle_count_t when, void *pa
     pin_t iclk = {'D', 0}, sind = {'D', 1};
     if (high) {
         drive(iclk, 0);
-        if (spindle_count == 1)
+        if (spindle_count % spindle_counts == 1)
             drive(sind, 0);
         high = 0;
         double period = 60.0 * avr->frequency / spindle_rpm / (double)spindle_counts;
