@@ -136,3 +136,49 @@ def test_a_thread_pass_waits_for_the_index_pulse_then_cuts_the_pitch_at_any_spee
     # each step follows an encoder count: the same spindle angle at every speed
     first_count = np.searchsorted(iclk, index[0])
     assert np.searchsorted(iclk, rises[0]) - first_count <= counts // 40
+
+
+@pytest.fixture(scope="module")
+def mill():
+    machine = load_machine("tul-mill")
+    return machine, fs.build(machine.name)
+
+
+def test_homing_z_alone_latches_within_one_step_of_its_switch(mill):
+    machine, elf = mill
+    end = int(5.5 * S)                   # seek at 50 mm/s, back off and latch at 0.5 mm/s
+    script = Script(machine).at(3_200_000, "ZMOV Z").at(end - 100_000, "RDPS")
+    log = fs.Harness(elf, machine, script=script.items, cycles=end, start_steps={"Z": 2000}).run()
+    steps = dict(zip([a.name for a in fs.firmware_axes(machine)], log.steps))
+    assert steps["Z"] in (0, -1) and steps["X"] == steps["Y"] == 0
+    assert dict(replies(log, machine)[-1].steps)["Z"] == 0
+    report = fs.report(log, machine, {"Z": 2000})
+    assert report["carriage_mm"]["Z"] == pytest.approx(0.0, abs=0.011)
+    assert not report["violations"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("start", [
+    {"X": 1500, "Y": 2500, "Z": 800},
+    {"X": 4400, "Y": 10, "Z": 3000},
+    {"X": 1, "Y": 4000, "Z": 4500},
+], ids=["middle", "x-far-y-near", "z-far-x-near"])
+def test_homing_z_y_x_stops_each_carriage_within_one_step_of_its_switch(mill, start):
+    machine, elf = mill
+    end = int(16 * S)
+    script = Script(machine).at(3_200_000, "ZMOV Z Y X").at(end - 1_000_000, "RDST")
+    script.at(end - 1_000_000, "RDPS")
+    log = fs.Harness(elf, machine, script=script.items, cycles=end, start_steps=start).run()
+    answers = replies(log, machine)
+    status, position = answers[-2], answers[-1]
+    assert isinstance(status, Status) and status.flags & StatusFlags.HOMED, status
+    assert not status.flags & (StatusFlags.MOVING | StatusFlags.ERROR)
+    order = fs.firmware_axes(machine)
+    steps = dict(zip([a.name for a in order], log.steps))      # the carriages, counted on the pins
+    for axis in "XYZ":                                         # the switches trip at 0 steps
+        assert steps[axis] in (0, -1), (axis, steps)
+        assert dict(position.steps)[axis] == 0
+    assert steps["E"] == 0                                     # not homed, not moved
+    # Z homed first, then Y, then X: the first step of each axis comes in that order
+    first = {a: fs.step_times(log, machine, a)[0][0] for a in "XYZ"}
+    assert first["Z"] < first["Y"] < first["X"]
