@@ -265,6 +265,14 @@ def report(log: HarnessLog, machine: Machine, start_steps: dict[str, int] | None
     }
 
 
+def _die_with_parent() -> None:
+    """In the harness process, before exec: Linux ends it when the Python side dies, however."""
+    import sys
+    if sys.platform.startswith("linux"):
+        import ctypes
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)   # PR_SET_PDEATHSIG
+
+
 class Harness:
     """One run of the harness: ``start()``, then ``stop()`` for its :class:`HarnessLog`."""
 
@@ -295,9 +303,11 @@ class Harness:
 
     def start(self) -> "Harness":
         self.proc = subprocess.Popen(self.args, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                                     text=True)
+                                     text=True, preexec_fn=_die_with_parent)
         if "--listen" in self.args:
             line = self.proc.stdout.readline()
+            while line.startswith("Loaded "):               # simavr's own note of the ELF
+                line = self.proc.stdout.readline()
             if not line.startswith("listening on "):
                 self.proc.kill()
                 raise HarnessError(f"{HARNESS}: did not start listening ({line.strip() or 'no output'})")
