@@ -121,16 +121,19 @@ void plan_home(move_t *m, uint8_t axis, int8_t dir, uint32_t steps, uint8_t kind
 void profile_update(void)
 {
     static float rate;
-    static uint8_t seen;
-    move_t m;
+    static uint8_t seen = 255;
+    static move_t m;                           /* the running move's constants */
     uint8_t seq;
-    uint32_t left = stepper_snapshot(&m, &seq);
-    if (!left || m.indexer)
-        return;
-    if (seq != seen) {                         /* a new move started at its start rate */
+    uint32_t left = stepper_snapshot(&m, &seq, 0);
+    if (left && seq != seen) {                 /* a new move started at its start rate */
+        left = stepper_snapshot(&m, &seq, 1);
+        if (!left)
+            return;
         seen = seq;
         rate = m.rate_start;
     }
+    if (!left || m.indexer)
+        return;
     float cruise = m.feed * m.k_feed;
     if (cruise > m.rate_max)
         cruise = m.rate_max;

@@ -289,9 +289,15 @@ static int was_off, was_isr;
 
 static void account(void)
 {
+    static int started;                  /* the firmware's first sei(): the boot does not count */
     int off = !avr->sreg[S_I];
     int in_isr = avr->interrupts.running_ptr > 0;
     unsigned long long now = avr->cycle;
+    if (!started) {
+        if (off)
+            return;
+        started = 1;
+    }
     if (in_isr != was_isr) {
         if (in_isr)
             isr_start = now;
