@@ -40,6 +40,8 @@
 #include <simavr/sim_vcd_file.h>
 
 #define MAX_AXES 6
+#define UCSR0B_ADDR 0xC1                  /* ATmega2560: USART0 control register B */
+#define RXEN0_BIT 0x10
 #define MAX_SWITCHES 16
 #define RX_FIFO 65536
 
@@ -435,8 +437,8 @@ int main(int argc, char **argv)
             rx_push(script[script_next].bytes, script[script_next].n);
             script_next++;
         }
-        if (rx_tail != rx_head)
-            uart_feed();
+        if (rx_tail != rx_head && (avr->data[UCSR0B_ADDR] & RXEN0_BIT))
+            uart_feed();                      /* held until the firmware's receiver is on */
         if (avr->cycle >= next_poll) {
             next_poll = avr->cycle + 1600;            /* every 100 us of AVR time */
             if (listen_at && poll_socket() && once)
