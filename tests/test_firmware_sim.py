@@ -222,3 +222,23 @@ def test_a_second_of_framed_garbage_during_a_move_leaves_its_deceleration_intact
     assert (np.abs(dn - dq) / dq).max() < 0.06
     assert abs(int(dn.sum()) - int(dq.sum())) < S // 1000
     assert abs(int(dn[-1]) - int(dq[-1])) <= CYCLES_PER_US
+
+
+def test_the_spindle_pwm_runs_while_on_and_its_pin_stays_low_when_off(lathe):
+    machine, elf = lathe
+    script = (Script(machine).at(3_200_000, "SPIN S1000 D1")
+              .at(int(0.3 * S), "SPIN S0 D0"))
+    log = fs.Harness(elf, machine, script=script.items, cycles=int(0.4 * S)).run()
+    cycles, levels = log.pin("W", 4)                          # D10 = PB4 = OC2A, on the wire
+    on = (cycles > int(0.25 * S)) & (cycles < int(0.3 * S))
+    rises_on = int(((levels == 1) & on).sum())
+    assert rises_on >= 40                                     # ~1 kHz PWM for 50 ms
+    off = cycles > int(0.31 * S)
+    assert not (levels[off] == 1).any()                       # no 4 us spike every period
+
+
+def test_the_watchdog_does_not_fire_while_the_main_loop_runs(lathe):
+    machine, elf = lathe
+    script = Script(machine).at(3_200_000, "FMOV X2").at(int(0.5 * S), "RDPS")
+    log = fs.Harness(elf, machine, script=script.items, cycles=int(0.55 * S)).run()
+    assert replies(log, machine)[-1] == Position((("X", 200), ("Z", 0)))   # no reset on the way

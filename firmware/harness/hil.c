@@ -120,6 +120,20 @@ static void port_changed(struct avr_irq_t *irq, uint32_t value, void *param)
         update_switches();
 }
 
+/* D10 = PB4 = OC2A, the spindle PWM: the timer drives this pin without a write to PORTB, so its
+ * own level is logged as port "W" (bit 4). */
+static void pwm_pin_changed(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq;
+    (void)param;
+    static int last = -1;
+    if ((int)(value & 1) == last)
+        return;
+    last = (int)(value & 1);
+    if (log_file)
+        fprintf(log_file, "P %llu W %02x\n", (unsigned long long)avr->cycle, (value & 1) << 4);
+}
+
 /* ICLK pulses COUNTS times a revolution (2 us high), SIND once a revolution with count 0. */
 static long spindle_count;
 static avr_cycle_count_t spindle_edge(avr_t *a, avr_cycle_count_t when, void *param)
@@ -394,6 +408,8 @@ int main(int argc, char **argv)
     for (const char *p = ports; *p; p++)
         avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(*p), IOPORT_IRQ_PIN_ALL),
                                 port_changed, (void *)(intptr_t)*p);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('B'), IOPORT_IRQ_PIN4),
+                            pwm_pin_changed, NULL);
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT), uart_out, NULL);
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON), uart_xon_cb, NULL);
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF), uart_xoff_cb, NULL);
