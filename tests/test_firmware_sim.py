@@ -242,3 +242,17 @@ def test_the_watchdog_does_not_fire_while_the_main_loop_runs(lathe):
     script = Script(machine).at(3_200_000, "FMOV X2").at(int(0.5 * S), "RDPS")
     log = fs.Harness(elf, machine, script=script.items, cycles=int(0.55 * S)).run()
     assert replies(log, machine)[-1] == Position((("X", 200), ("Z", 0)))   # no reset on the way
+
+
+@pytest.mark.parametrize("pitch, why", [(6.0, "480 Z steps a turn, 400 encoder counts"),
+                                        (2.5, "Z at 4000 steps/s, its limit 3200")])
+def test_a_thread_the_axis_cannot_cut_is_refused_with_error_before_any_step(lathe, pitch, why):
+    machine, elf = lathe
+    script = (Script(machine).at(3_200_000, "SPIN S1200 D1").at(3_300_000, "ISTP")
+              .at(3_400_000, f"PFDR F{pitch}").at(3_500_000, "PMOV Z-3")
+              .at(int(0.45 * S), "RDST"))
+    log = fs.Harness(elf, machine, script=script.items, cycles=int(0.5 * S), spindle_rpm=1200).run()
+    status = replies(log, machine)[-1]
+    assert status.flags & StatusFlags.ERROR, why
+    rises, _, _ = fs.step_times(log, machine, "Z")
+    assert len(rises) == 0, why
