@@ -30,6 +30,9 @@ def add_commands(sub) -> None:
     s.add_argument("--speed", type=float, default=1.0,
                    help="AVR time per wall time at most (0: as fast as simavr goes); default 1")
     s.add_argument("--once", action="store_true", help="stop when the first client hangs up")
+    s.add_argument("--boot-ms", type=float, default=0.0,
+                   help="drop the bytes of the first N ms, as the Mega's bootloader does after "
+                        "the port opens (DTR reset); default 0")
     s.add_argument("--json", action="store_true", help="print the report as JSON")
     s.set_defaults(func=_cmd_sim)
     z = fsub.add_parser("size", help="flash and RAM of the firmware built for a machine")
@@ -60,6 +63,8 @@ def _cmd_sim(args) -> int:
                       spindle_rpm=args.spindle_rpm, speed=args.speed, stats=True)
     if args.once:
         harness.args.append("--once")
+    if args.boot_ms:
+        harness.args += ["--boot-ms", f"{args.boot_ms:g}"]
     harness.start()
     print(f"{machine.name}: firmware in simavr listening on {harness.address} "
           f"(host: --output serial+socket://{harness.address})", flush=True)

@@ -16,6 +16,7 @@
  * outside and inside ISRs, and the cycles spent in ISRs. --vcd FILE writes the step ports as VCD.
  * The simulated time runs at most --speed times wall time (0: unpaced; default 1 with --listen).
  * It stops after --cycles N, at SIGTERM / SIGINT, or when a --listen client hangs up (--once).
+ * --boot-ms N drops what the client sends in the first N ms, as the Mega's bootloader does.
  */
 #define _GNU_SOURCE
 #include <arpa/inet.h>
@@ -245,6 +246,7 @@ static void read_script(const char *path)
 }
 
 static int listener = -1;
+static unsigned long long boot_cycles;    /* --boot-ms: bytes that arrive sooner are dropped */
 
 static void open_listener(const char *spec)
 {
@@ -286,8 +288,8 @@ static int poll_socket(void)
     }
     uint8_t buf[4096];
     ssize_t n = recv(client, buf, sizeof buf, 0);
-    if (n > 0)
-        rx_push(buf, (size_t)n);
+    if (n > 0 && avr->cycle >= boot_cycles)
+        rx_push(buf, (size_t)n);           /* before: a bootloader's time, the bytes are lost */
     if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK)) {
         close(client);
         client = -1;
@@ -371,6 +373,7 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--cycles")) { max_cycles = strtoull(v, NULL, 10); i++; }
         else if (!strcmp(a, "--speed")) { speed = atof(v); i++; }
         else if (!strcmp(a, "--once")) once = 1;
+        else if (!strcmp(a, "--boot-ms")) { boot_cycles = (unsigned long long)(atof(v) * 16000.0); i++; }
         else if (!strcmp(a, "--stats")) want_stats = 1;
         else if (!strcmp(a, "--axis") && n_axes < MAX_AXES) {
             char s[4], d[4];
