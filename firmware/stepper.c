@@ -261,6 +261,7 @@ ISR(TIMER1_COMPA_vect)
         return;
     }
     if (!running) {
+        OCR1A = 0xFFFF;       /* loading takes longer than the 20 us wake-up compare: no match */
         if (!load() || (run.indexer && !takeup_bits)) {
             timer_halt();                      /* nothing to do, or the encoder clocks it */
             return;
