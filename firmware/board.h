@@ -51,6 +51,17 @@
 #define RAMPS_E0_EN_DDR     DDRA
 #define RAMPS_E0_EN_BIT     2
 
+/* E1 socket (a fifth axis): STEP D36 = PC1, DIR D34 = PC3, ENABLE D30 = PC7 */
+#define RAMPS_E1_STEP_PORT  PORTC
+#define RAMPS_E1_STEP_DDR   DDRC
+#define RAMPS_E1_STEP_BIT   1
+#define RAMPS_E1_DIR_PORT   PORTC
+#define RAMPS_E1_DIR_DDR    DDRC
+#define RAMPS_E1_DIR_BIT    3
+#define RAMPS_E1_EN_PORT    PORTC
+#define RAMPS_E1_EN_DDR     DDRC
+#define RAMPS_E1_EN_BIT     7
+
 /* Endstop connectors (inputs with the AVR pull-up on). */
 /* X-min D3 = PE5, X-max D2 = PE4, Y-min D14 = PJ1, Y-max D15 = PJ0, Z-min D18 = PD3, Z-max D19 = PD2 */
 #define RAMPS_XMIN_PIN  PINE

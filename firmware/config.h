@@ -37,8 +37,8 @@
 #define MIN_RATE      2.0f
 #define MAX_RATE      (1000000.0f / (float)MIN_PERIOD_US)
 
-#if N_AXES < 1 || N_AXES > 4
-#error "the firmware drives 1 to 4 axes (the RAMPS X, Y, Z and E0 sockets)"
+#if N_AXES < 1 || N_AXES > 5
+#error "the firmware drives 1 to 5 axes (the RAMPS X, Y, Z, E0 and E1 sockets)"
 #endif
 #if PULSE_HIGH_US < 1 || PULSE_HIGH_US >= MIN_PERIOD_US
 #error "the step pulse must be at least 1 us and shorter than the shortest step period"

@@ -37,6 +37,7 @@ static int32_t offset[N_AXES];         /* PSTN: program coordinate = machine ste
 static float fast_feed, machining_feed, program_feed;    /* mm/min (mm/rev under ISTP) */
 static uint8_t program_feed_waiting;   /* PFDR: applies at the next motion command fetched */
 static uint8_t indexer;                /* ISTP: the spindle encoder is the step source */
+static float spindle_rpm;              /* SPIN's speed: the thread speed is checked against it */
 static uint8_t thread_chain;           /* the last move prepared was an ISTP PMOV */
 static uint16_t flags;                 /* HOMED, ERROR, STOPPED, SPINDLE_ON, COOLANT_ON */
 static uint8_t dwelling;
@@ -251,6 +252,10 @@ static void fetch_motion(const command_t *c)
     uint8_t synchronised = !fast && indexer;
     if (plan_line(&m, planned, target, fast ? FEED_FAST : FEED_MACHINING,
                   fast ? fast_feed : machining_feed, synchronised)) {
+        if (!plan_thread_ok(&m, spindle_rpm)) {
+            fault();                                   /* refused before any motion */
+            return;
+        }
         m.chained = synchronised && thread_chain;      /* the next pass of the same thread */
         thread_chain = synchronised;
         stepper_submit(&m);
@@ -281,6 +286,7 @@ static void fetch_at_rest(const command_t *c)
         if (direction && !(flags & ST_SPINDLE_ON))
             stepper_clear_index_seen();                /* INDEX_SEEN: since the spindle started */
         spindle_set((uint16_t)(c->value >> 8), direction);
+        spindle_rpm = direction ? (float)(c->value >> 8) : 0.0f;
         flags = direction ? flags | ST_SPINDLE_ON : flags & ~ST_SPINDLE_ON;
         break;
     }

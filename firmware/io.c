@@ -23,7 +23,7 @@ void io_init(void)
     /* Spindle speed: Timer2 fast PWM on OC2A (D10), duty 0 = off. */
     SPINDLE_PWM_DDR |= _BV(SPINDLE_PWM_BIT);
     SPINDLE_DIR_DDR |= _BV(SPINDLE_DIR_BIT);
-    TCCR2A = _BV(COM2A1) | _BV(WGM21) | _BV(WGM20);
+    TCCR2A = _BV(WGM21) | _BV(WGM20);                  /* the pin joins the timer when on */
     TCCR2B = _BV(CS22);                                /* clock / 64: about 1 kHz */
     OCR2A = 0;
     FLOOD_DDR |= _BV(FLOOD_BIT);
@@ -42,6 +42,14 @@ void spindle_set(uint16_t rpm, int8_t direction)
 {
     uint32_t duty = direction ? (uint32_t)rpm * 255UL / SPINDLE_MAX_RPM : 0;
     OCR2A = duty > 255 ? 255 : (uint8_t)duty;
+    /* Off: the pin leaves the timer and is held low. In fast PWM a duty of 0 still gives a
+     * one-count spike (4 us) every period. */
+    if (duty)
+        TCCR2A |= _BV(COM2A1);
+    else {
+        TCCR2A &= (uint8_t)~_BV(COM2A1);
+        PORTB &= (uint8_t)~_BV(SPINDLE_PWM_BIT);
+    }
     if (direction < 0)
         SPINDLE_DIR_PORT |= _BV(SPINDLE_DIR_BIT);      /* M4: reverse */
     else

@@ -28,9 +28,11 @@ int main(void)
     planner_reset();
     interp_init();
     sei();
+    wdt_enable(WDTO_120MS);        /* a main loop stuck for 120 ms resets the board: steppers stop */
 
     uint16_t last_ms = io_millis();
     for (;;) {
+        wdt_reset();
         int16_t byte;
         while ((byte = uart_getc()) >= 0)             /* async_comm */
             link_receive((uint8_t)byte);

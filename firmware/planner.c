@@ -98,6 +98,21 @@ uint8_t plan_line(move_t *m, const int32_t *from, const int32_t *to, uint8_t fee
     return 1;
 }
 
+uint8_t plan_thread_ok(const move_t *m, float rpm)
+{
+    if (!m->indexer)
+        return 1;
+    float counts = (float)m->events;           /* the encoder counts of the line */
+    for (uint8_t i = 0; i < N_AXES; i++) {
+        if (m->delta[i] > m->events)
+            return 0;                          /* more steps than counts: the pitch would be cut */
+        float rate = (float)m->delta[i] / counts * (float)ENCODER_COUNTS_PER_REV * rpm / 60.0f;
+        if (rate > max_rate[i])
+            return 0;                          /* the axis cannot follow the spindle */
+    }
+    return 1;
+}
+
 void plan_home(move_t *m, uint8_t axis, int8_t dir, uint32_t steps, uint8_t kind, uint8_t watch,
                uint8_t feed_kind, float feed)
 {
@@ -121,16 +136,19 @@ void plan_home(move_t *m, uint8_t axis, int8_t dir, uint32_t steps, uint8_t kind
 void profile_update(void)
 {
     static float rate;
-    static uint8_t seen;
-    move_t m;
+    static uint8_t seen = 255;
+    static move_t m;                           /* the running move's constants */
     uint8_t seq;
-    uint32_t left = stepper_snapshot(&m, &seq);
-    if (!left || m.indexer)
-        return;
-    if (seq != seen) {                         /* a new move started at its start rate */
+    uint32_t left = stepper_snapshot(&m, &seq, 0);
+    if (left && seq != seen) {                 /* a new move started at its start rate */
+        left = stepper_snapshot(&m, &seq, 1);
+        if (!left)
+            return;
         seen = seq;
         rate = m.rate_start;
     }
+    if (!left || m.indexer)
+        return;
     float cruise = m.feed * m.k_feed;
     if (cruise > m.rate_max)
         cruise = m.rate_max;

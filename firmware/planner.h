@@ -13,6 +13,9 @@ void planner_resync(void);
  * revolution when `indexer` is set. Returns 0 for a line of no length (nothing to do). */
 uint8_t plan_line(move_t *m, const int32_t *from, const int32_t *to, uint8_t feed_kind,
                   float feed, uint8_t indexer);
+/* An ISTP line at `rpm`: 0 if an axis would need more steps than encoder counts, or a step rate
+ * above its limit (the host controller refuses the same threads). */
+uint8_t plan_thread_ok(const move_t *m, float rpm);
 /* Prepare a homing move of `axis`: up to `steps` steps in `dir` (+1 / -1); a SEEK or RELEASE
  * move ends early when switch `watch` closes or opens. */
 void plan_home(move_t *m, uint8_t axis, int8_t dir, uint32_t steps, uint8_t kind, uint8_t watch,

@@ -38,6 +38,18 @@ static volatile uint16_t next_ocr = 2000;    /* the gap from a pulse's end to th
 static volatile uint8_t next_skip;           /*   as next_skip + 1 timer cycles of next_ocr */
 static uint8_t skip_left;
 static volatile uint8_t pulse_on;            /* step pins high: the next compare ends the pulse */
+static uint16_t rise_delay;                  /* counts from a step cycle's match to its rise */
+static uint8_t in_timer;                     /* step_event runs in the Timer1 interrupt */
+
+/* Pulses up to this width end inside the step interrupt that raised them: a busy wait of at most
+ * 20 us on the counter, so the width is exact to a count (0.5 us) and a step costs one interrupt,
+ * not two. Longer pulses end at a compare of their own. */
+#define INLINE_PULSE_COUNTS US_TO_COUNTS(20)
+#define INLINE_PULSE (PULSE_COUNTS <= INLINE_PULSE_COUNTS)
+#define RISE_SLOT_COUNTS US_TO_COUNTS(8)
+/* The wait ends up to a count late and the pins fall ~10 cycles after it (measured in simavr):
+ * waiting two counts less than the width gives the width to +0.6 us, never less. */
+#define PULSE_WAIT_COUNTS (PULSE_COUNTS - 2)
 
 /* ---- pins ---------------------------------------------------------------------------- */
 
@@ -58,14 +70,33 @@ static volatile uint8_t pulse_on;            /* step pins high: the next compare
 
 #define PULSE_COUNTS US_TO_COUNTS(PULSE_HIGH_US)
 
-/* Raise the step pins of `bits`; the next Timer1 compare, PULSE_COUNTS later, lowers them. */
+/* A compare value `counts` after the match that started this cycle, but never at or below the
+ * counter: in CTC mode a compare value the counter has passed is only matched after the 16-bit
+ * wrap (32.8 ms). A late interrupt stretches the cycle instead. */
+static inline void compare_after(uint16_t counts)
+{
+    uint16_t now = TCNT1;
+    OCR1A = counts > now + 4 ? counts : now + 4;
+}
+
+/* Raise the step pins of `bits`; the compare PULSE_COUNTS after the rise lowers them, so the
+ * pulse is as wide as configured however late in the interrupt the pins rose. */
 static inline void pulse_start(uint8_t bits)
 {
     if (!bits)
         return;
     stepped_negative = (stepped_negative & (uint8_t)~bits) | (run.dir_bits & bits);
     FOR_EACH_AXIS(STEP_HIGH)
-    OCR1A = PULSE_COUNTS;
+    rise_delay = TCNT1;
+    if (INLINE_PULSE && in_timer) {            /* a short pulse: timed and ended right here */
+        OCR1A = 0xFFFF;                        /* no match meanwhile */
+        while ((uint16_t)(TCNT1 - rise_delay) < PULSE_WAIT_COUNTS)
+            ;
+        FOR_EACH_AXIS(STEP_LOW)
+        pulse_on = 2;
+        return;
+    }
+    OCR1A = rise_delay + PULSE_COUNTS;
     pulse_on = 1;
 }
 
@@ -108,6 +139,8 @@ static void wake(void)
 
 /* ---- phase two ------------------------------------------------------------------------ */
 
+static void step_compute(void);
+
 /* Take the pending move: constants in, directions out. Interrupt context. */
 static uint8_t load(void)
 {
@@ -127,6 +160,7 @@ static uint8_t load(void)
     index_wait = run.indexer && !run.chained;        /* a thread pass waits for SIND */
     running = 1;
     sequence++;
+    step_compute();                                  /* the first event, ready to fire */
     return 1;
 }
 
@@ -136,45 +170,79 @@ static void finish(uint8_t why)
     events |= why | EV_DONE;
 }
 
-/* One Bresenham event (or one step of backlash take-up). Interrupt context. */
-static void step_event(void)
+/* Each event is prepared one event ahead (step_compute), so that the step interrupt raises the
+ * pins first thing (step_fire) and its timing does not depend on how long Bresenham takes. */
+static uint8_t ready_bits, ready_takeup, fired;
+
+/* Prepare the next event: a step of backlash take-up, or one Bresenham event. */
+static void step_compute(void)
 {
     uint8_t bits = takeup_bits;
-    if (bits) {                                /* 003: the motor turns through the clearance; */
-        for (uint8_t i = 0; i < N_AXES; i++)   /* the actual position does not change */
+    ready_takeup = bits != 0;
+    if (!bits) {
+        for (uint8_t i = 0; i < N_AXES; i++) {
+            error_term[i] += run.delta[i];
+            if (error_term[i] >= run.events) {
+                error_term[i] -= run.events;
+                bits |= (uint8_t)(1 << i);
+            }
+        }
+    }
+    ready_bits = bits;
+}
+
+/* Perform the prepared event: switches checked, pins raised, positions counted. */
+static void step_fire(void)
+{
+    uint8_t bits = ready_bits;
+    if (ready_takeup) {                        /* 003: the motor turns through the clearance; */
+        pulse_start(bits);                     /* the actual position does not change */
+        for (uint8_t i = 0; i < N_AXES; i++)
             if ((bits & (1 << i)) && --takeup_left[i] == 0)
                 takeup_bits &= (uint8_t)~(1 << i);
-        pulse_start(bits);
         return;
     }
     if (run.kind != MOVE_LINE && switch_on(run.watch) == (run.kind == MOVE_SEEK)) {
         finish(EV_SWITCH);             /* the homing switch closed (SEEK) or opened (RELEASE) */
         return;
     }
-    for (uint8_t i = 0; i < N_AXES; i++) {
-        error_term[i] += run.delta[i];
-        if (error_term[i] >= run.events) {
-            error_term[i] -= run.events;
-            bits |= (uint8_t)(1 << i);
-        }
-    }
     if (switch_blocks(bits, run.dir_bits)) {
         pending_full = 0;                      /* a limit switch: everything stops here */
         finish(EV_LIMIT);
         return;
     }
+    pulse_start(bits);
+    fired = 1;
+}
+
+/* Count the event just fired (after its pulse has been timed): positions, events left. */
+static void step_account(void)
+{
+    if (!fired)
+        return;
+    fired = 0;
+    uint8_t bits = ready_bits;
     for (uint8_t i = 0; i < N_AXES; i++)
         if (bits & (1 << i))
             position[i] += (run.dir_bits >> i) & 1 ? -1 : 1;
-    pulse_start(bits);
     if (--left == 0)
         finish(0);
+}
+
+/* One event and the preparation of the next (the encoder's path). Interrupt context. */
+static void step_event(void)
+{
+    step_fire();
+    step_account();
+    if (running)
+        step_compute();
 }
 
 /* The rest of the step period after a pulse. */
 static inline void gap(void)
 {
-    OCR1A = next_ocr;
+    /* the next rise comes about rise_delay after the next match: the period counts rise to rise */
+    compare_after(next_ocr > rise_delay + 8 ? next_ocr - rise_delay : 8);
     skip_left = next_skip;
 }
 
@@ -193,6 +261,7 @@ ISR(TIMER1_COMPA_vect)
         return;
     }
     if (!running) {
+        OCR1A = 0xFFFF;       /* loading takes longer than the 20 us wake-up compare: no match */
         if (!load() || (run.indexer && !takeup_bits)) {
             timer_halt();                      /* nothing to do, or the encoder clocks it */
             return;
@@ -200,17 +269,33 @@ ISR(TIMER1_COMPA_vect)
         next_ocr = run.start_ocr;              /* the start rate, until the profile speeds up */
         next_skip = run.start_skip;
         gap();                                 /* the first step: direction set-up is over */
-        if (OCR1A < US_TO_COUNTS(DIR_SETUP_US))
-            OCR1A = US_TO_COUNTS(DIR_SETUP_US);
+        uint16_t setup = TCNT1 + US_TO_COUNTS(DIR_SETUP_US) + 2;
+        if (OCR1A < setup)
+            OCR1A = setup;
         return;
     }
     if (run.indexer && !takeup_bits) {         /* backlash taken up: the encoder drives on */
         timer_halt();
         return;
     }
-    step_event();
-    if (!pulse_on)
+    /* The pins rise at a fixed count after the match, whatever delayed the interrupt's entry
+     * (another interrupt, a short interrupts-off window): the period is exact to a count. */
+    while (TCNT1 < RISE_SLOT_COUNTS)
+        ;
+    in_timer = 1;
+    step_fire();
+    in_timer = 0;
+    if (pulse_on == 2) {                       /* a short pulse, already over */
+        pulse_on = 0;
+        /* the whole period from this match: the next rise comes as late after the next match */
+        uint16_t ocr = next_ocr;
+        compare_after(ocr > 0xFFFF - PULSE_COUNTS ? 0xFFFF : ocr + PULSE_COUNTS);
+        skip_left = next_skip;
+    } else if (!pulse_on)
         gap();                                 /* no step this cycle (a homing move ended) */
+    step_account();
+    if (running)
+        step_compute();                        /* the next event, while the timer runs */
 }
 
 /* ICLK: one encoder count of the spindle is one Bresenham event of an ISTP move. */
@@ -345,14 +430,28 @@ void stepper_set_feed(uint8_t kind, float feed_mm_min)
     }
 }
 
-uint32_t stepper_snapshot(move_t *copy, uint8_t *seq)
+uint32_t stepper_snapshot(move_t *copy, uint8_t *seq, uint8_t whole)
 {
     uint32_t n;
+    /* Only the fields the profile reads, and the per-move constants only when asked: the
+     * interrupts stay off for a few microseconds, not for a copy of the whole move. */
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
         n = running ? left : 0;
-        if (n)
-            *copy = run;
+        copy->feed = run.feed;
         *seq = sequence;
+    }
+    if (whole && n) {
+        ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+            copy->indexer = run.indexer;
+            copy->rate_start = run.rate_start;
+            copy->k_feed = run.k_feed;
+        }
+        ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+            copy->rate_max = run.rate_max;
+            copy->accel = run.accel;
+            if (*seq != sequence)
+                n = 0;                         /* a new move began meanwhile: next time */
+        }
     }
     return n;
 }

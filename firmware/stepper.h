@@ -55,8 +55,9 @@ void stepper_set_rate(float rate, uint8_t sequence);
 void stepper_period(float rate, uint16_t *ocr, uint8_t *skip);
 /* Change the feed of the running and pending moves governed by `kind` (FFDR, MFDR). */
 void stepper_set_feed(uint8_t kind, float feed_mm_min);
-/* For the speed profile: a copy of the running move and the events it has left (0: none). */
-uint32_t stepper_snapshot(move_t *copy, uint8_t *sequence);
+/* For the speed profile: the running move's feed (and with `whole` its constant limits and
+ * rates) and the events it has left (0: none). */
+uint32_t stepper_snapshot(move_t *copy, uint8_t *sequence, uint8_t whole);
 /* Which way each axis last stepped (+1 / -1; -1 before any step). */
 void stepper_directions(int8_t *dirs);
 uint8_t stepper_index_seen(void);  /* SIND has pulsed since the last call to clear it */

@@ -9,8 +9,8 @@ import pytest
 from tests.conformance.targets import FIRMWARE, build_firmware, missing_tools
 
 needs_avr = pytest.mark.skipif(bool(missing_tools()), reason="the firmware needs avr-gcc, make and "
-                               "qemu-system-avr: apt-get install gcc-avr avr-libc binutils-avr "
-                               "qemu-system-misc")
+                               "libsimavr: apt-get install gcc-avr avr-libc binutils-avr "
+                               "libsimavr-dev")
 
 
 def header_tool():

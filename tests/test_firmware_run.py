@@ -1,8 +1,5 @@
-"""``retrofit run`` of the lathe example on the firmware, running for real in QEMU (serial+socket://).
-
-QEMU's timers run in real time, so this takes as long as the part takes on the machine: about
-two and a half minutes.
-"""
+"""``retrofit run`` of the lathe example on the firmware in simavr (``retrofit firmware sim``),
+through serial+socket://, the AVR's time running as fast as simavr goes (--speed 0)."""
 
 import json
 
@@ -10,11 +7,11 @@ import pytest
 
 from retrofit.cli import main
 from retrofit.config import load_machine
-from tests.conformance.targets import QemuTarget, build_firmware, missing_tools
+from tests.conformance.targets import SimavrTarget, build_firmware, missing_tools
 
 pytestmark = pytest.mark.skipif(bool(missing_tools()), reason="the firmware needs avr-gcc, make and "
-                                "qemu-system-avr: apt-get install gcc-avr avr-libc binutils-avr "
-                                "qemu-system-misc")
+                                "libsimavr: apt-get install gcc-avr avr-libc binutils-avr "
+                                "libsimavr-dev")
 
 
 def report_of(tmp_path, output: str, name: str) -> dict:
@@ -28,8 +25,9 @@ def report_of(tmp_path, output: str, name: str) -> dict:
 def test_the_lathe_example_on_the_firmware_ends_where_it_ends_on_sim(tmp_path):
     machine = load_machine("mitic-lathe")
     local = report_of(tmp_path, "sim://", "local")
-    with QemuTarget(build_firmware()) as qemu:
-        remote = report_of(tmp_path, f"{qemu.output_url}?wait_s=900", "remote")
+    build_firmware()
+    with SimavrTarget("mitic-lathe", "--speed", "0") as fw:
+        remote = report_of(tmp_path, f"{fw.output_url}?wait_s=900", "remote")
     part = remote["remote"][0]
     expected = {name: machine.axis(name).to_steps(ax["target_mm"]) for name, ax in local["axes"].items()}
     assert part["position_steps"] == expected == {"X": 3000, "Z": 800}

@@ -18,13 +18,10 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from retrofit.config import Machine, load_machine  # noqa: E402
-from retrofit.link.codec import AXIS_LETTERS  # noqa: E402
+from retrofit.errors import RetrofitError  # noqa: E402
+from retrofit.firmware_sim import SWITCH_CONNECTORS, CONNECTORS, firmware_axes, sockets  # noqa: E402
+from retrofit.link.codec import axis_bits  # noqa: E402
 
-SOCKETS = {"X": "X", "Y": "Y", "Z": "Z"}            # any other axis letter: the E0 socket
-#: the 002 switches on the RAMPS endstop connectors, and their bit in the status word
-SWITCH_CONNECTORS = {"nlsx": ("XMIN", 2), "plsx": ("XMAX", 3), "plsz": ("ZMAX", 4),
-                     "ppsx": ("YMIN", 5), "ppsz": ("YMAX", 6)}
-CONNECTORS = ("XMIN", "XMAX", "YMIN", "YMAX", "ZMIN", "ZMAX")
 KINDS = {"limit": "SW_LIMIT", "home": "SW_HOME", "precise": "SW_PRECISE"}
 
 
@@ -47,13 +44,14 @@ def axis_lines(m: Machine, axes) -> list[str]:
     us = [m.tick_us * a.pulse_high_ticks for a in axes]
     period = [m.tick_us * (a.pulse_high_ticks + a.pulse_low_ticks) for a in axes]
     setup = [m.tick_us * max(a.dir_setup_ticks, 1) for a in axes]
-    sockets = [SOCKETS.get(a.name, "E0") for a in axes]
+    bits = axis_bits(m)
+    socket_of = sockets(m)
     return [
         f"#define N_AXES              {len(axes)}",
         f"#define AXIS_LETTERS        \"{''.join(a.name for a in axes)}\"",
-        f"#define AXIS_BITS           {_ints(AXIS_LETTERS.index(a.name) for a in axes)}"
+        f"#define AXIS_BITS           {_ints(bits[a.name] for a in axes)}"
         "   /* link mask bit of each axis */",
-        "#define FOR_EACH_AXIS(M)   " + " ".join(f"M({i}, {s})" for i, s in enumerate(sockets))
+        "#define FOR_EACH_AXIS(M)   " + " ".join(f"M({i}, {socket_of[a.name]})" for i, a in enumerate(axes))
         + "   /* index, RAMPS socket */",
         f"#define DIR_INVERT          0x{sum(1 << i for i, a in enumerate(axes) if a.invert_dir):02X}",
         f"#define STEPS_PER_MM        {_floats(a.steps_per_mm for a in axes)}",
@@ -125,11 +123,11 @@ def homing_lines(m: Machine, axes, ids: dict[str, int]) -> list[str]:
 
 def header(m: Machine) -> str:
     """The whole header text."""
-    for a in m.axes:
-        if a.name not in AXIS_LETTERS:
-            raise SystemExit(f"{m.name}: axis {a.name} has no letter on the serial link "
-                             f"({' '.join(AXIS_LETTERS)}); the firmware cannot drive it")
-    axes = sorted(m.axes, key=lambda a: AXIS_LETTERS.index(a.name))
+    try:
+        axes = firmware_axes(m)
+        sockets(m)
+    except RetrofitError as exc:
+        raise SystemExit(str(exc)) from None
     spindle = m.parts.get("spindle")
     switches, ids = switch_lines(m, axes)
     name = Path(m.source).name

@@ -4,6 +4,9 @@ Positions travel as signed 24-bit step counts (002's 24-bit space), feeds as uns
 counts of 0.1 um per minute (per spindle revolution under ISTP), dwell as 32-bit milliseconds.
 Axes are named by a mask whose bit number is fixed by the axis letter (``AXIS_LETTERS``), so a
 firmware for a lathe knows X is bit 0 and Z bit 2 whatever order its machine file lists them.
+A machine may have up to ``MAX_AXES`` axes; an axis whose letter is not in ``AXIS_LETTERS``
+(the mill's carousel, E) takes the highest bit whose letter the machine does not use, in the
+order of the machine file (:func:`axis_bits`).
 
     >>> from retrofit.config import load_machine
     >>> from retrofit.commands import PMov
@@ -25,6 +28,7 @@ from ..errors import LinkError, MotionError
 
 #: axis letter of each mask bit: bit 0 = X, bit 1 = Y, bit 2 = Z, ...
 AXIS_LETTERS = "XYZABCUV"
+MAX_AXES = 6
 POS_MAX = (1 << 23) - 1     # +8 388 607 steps; -8 388 608 (0x800000) is reserved
 FEED_UNIT_MM = 1e-4         # one feed count: 0.1 um (per minute, or per revolution under ISTP)
 U32_MAX = 0xFFFFFFFF
@@ -53,13 +57,43 @@ class PayloadError(LinkError):
         self.code = code
 
 
+def axis_bits(machine: Machine | None) -> dict[str, int]:
+    """Letter -> mask bit of each axis of ``machine`` (``AXIS_LETTERS`` without a machine).
+
+    >>> from retrofit.config import load_machine
+    >>> axis_bits(load_machine("tul-mill"))
+    {'X': 0, 'Y': 1, 'Z': 2, 'E': 7}
+    """
+    if machine is None:
+        return {letter: bit for bit, letter in enumerate(AXIS_LETTERS)}
+    names = machine.axis_names
+    if len(names) > MAX_AXES:
+        raise CommandError(f"{machine.source}: {len(names)} axes ({', '.join(names)}); the link "
+                           f"carries at most {MAX_AXES}")
+    bits = {n: AXIS_LETTERS.index(n) for n in names if n in AXIS_LETTERS}
+    free = [b for b in reversed(range(len(AXIS_LETTERS))) if AXIS_LETTERS[b] not in names]
+    for n in names:
+        if n not in bits:
+            bits[n] = free.pop(0)
+    return dict(sorted(bits.items(), key=lambda kv: kv[1]))
+
+
+def letter_of(bit: int, machine: Machine | None) -> str | None:
+    """The axis letter of a mask bit on ``machine``; None if no axis has it."""
+    for letter, b in axis_bits(machine).items():
+        if b == bit:
+            return letter
+    return None
+
+
 def axis_bit(name: str, machine: Machine, head: str) -> int:
     """Mask bit of an axis the machine has; CommandError naming the command otherwise."""
     letter = name.upper()
-    if letter not in machine.axis_names or letter not in AXIS_LETTERS:
+    bits = axis_bits(machine)
+    if letter not in bits:
         raise CommandError(f"{head}: axis {name!r} is not on machine {machine.name} "
-                           f"(axes {', '.join(machine.axis_names)}; the link knows {AXIS_LETTERS})")
-    return AXIS_LETTERS.index(letter)
+                           f"(axes {', '.join(machine.axis_names)})")
+    return bits[letter]
 
 
 def pack_s24(value: int, where: str) -> bytes:
@@ -79,12 +113,12 @@ def unpack_s24(raw: bytes, where: str) -> int:
     return value - (1 << 24) if value & 0x800000 else value
 
 
-def pack_positions(head: str, steps: dict[int, int]) -> bytes:
+def pack_positions(head: str, steps: dict[int, int], machine: Machine | None = None) -> bytes:
     """Axis mask, then one s24 per set bit in ascending bit order. ``steps`` maps bit -> steps."""
     mask = sum(1 << bit for bit in steps)
     out = bytearray((mask,))
     for bit in sorted(steps):
-        out += pack_s24(steps[bit], f"{head} {AXIS_LETTERS[bit]}")
+        out += pack_s24(steps[bit], f"{head} {letter_of(bit, machine) or f'bit {bit}'}")
     return bytes(out)
 
 
@@ -98,9 +132,9 @@ def unpack_positions(head: str, args: bytes, machine: Machine | None) -> list[tu
                            f"{1 + 3 * len(bits)} argument bytes, got {len(args)}", ERR_LENGTH)
     pairs = []
     for i, bit in enumerate(bits):
-        letter = AXIS_LETTERS[bit]
-        if machine is not None and letter not in machine.axis_names:
-            raise PayloadError(f"{head}: mask bit {bit} ({letter}) is not an axis of "
+        letter = letter_of(bit, machine)
+        if letter is None:
+            raise PayloadError(f"{head}: mask bit {bit} ({AXIS_LETTERS[bit]}) is not an axis of "
                                f"{machine.name} ({', '.join(machine.axis_names)})", ERR_VALUE)
         pairs.append((letter, unpack_s24(args[1 + 3 * i:4 + 3 * i], f"{head} {letter}")))
     return pairs
@@ -133,7 +167,7 @@ def encode_command(cmd: Command, machine: Machine) -> bytes:
             if not math.isfinite(mm):
                 raise CommandError(f"{head} {name}: {mm} is not a finite number")
             steps[bit] = machine.axis(name).to_steps(mm)
-        return op + pack_positions(head, steps)
+        return op + pack_positions(head, steps, machine)
     if isinstance(cmd, ZMov):
         bits = [axis_bit(name, machine, head) for name in cmd.names]
         if len(set(bits)) != len(bits):
@@ -209,14 +243,14 @@ def _decode_zmov(args: bytes, machine: Machine) -> ZMov:
                            "bit numbers", ERR_LENGTH)
     names = []
     for bit in args[1:]:
-        letter = AXIS_LETTERS[bit] if bit < len(AXIS_LETTERS) else "?"
-        if letter not in machine.axis_names or letter in names:
+        letter = letter_of(bit, machine)
+        if letter is None or letter in names:
             raise PayloadError(f"ZMOV: axis bit {bit} is not an axis of {machine.name} "
                                f"({', '.join(machine.axis_names)}) or is named twice", ERR_VALUE)
         names.append(letter)
     return ZMov(tuple(names))
 
 
-__all__ = ["AXIS_LETTERS", "OPCODES", "COMMAND_OF", "SYNC", "POS_MAX", "FEED_UNIT_MM",
+__all__ = ["AXIS_LETTERS", "MAX_AXES", "axis_bits", "letter_of", "OPCODES", "COMMAND_OF", "SYNC", "POS_MAX", "FEED_UNIT_MM",
            "PayloadError", "encode_command", "decode_command", "pack_positions",
            "unpack_positions", "ERR_TEXT"]

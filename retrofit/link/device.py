@@ -110,7 +110,7 @@ class DeviceEndpoint:
     def _answered(self, channel: int, number: int, reply: Reply, seq: int) -> None:
         """Record the answer that consumes this sequence number, and send it."""
         self._last[channel] = number
-        self._answer[channel] = encode_reply(reply)
+        self._answer[channel] = encode_reply(reply, self.machine)
         self._out += encode_frame(seq, self._answer[channel])
 
     def _error(self, seq: int, code: int, detail: int) -> None:
@@ -118,4 +118,4 @@ class DeviceEndpoint:
         self._send(seq, Err(code, detail))
 
     def _send(self, seq: int, reply: Reply) -> None:
-        self._out += encode_frame(seq, encode_reply(reply))
+        self._out += encode_frame(seq, encode_reply(reply, self.machine))

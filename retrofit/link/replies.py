@@ -14,7 +14,7 @@ from enum import IntFlag
 from typing import ClassVar
 
 from ..config import Machine
-from .codec import AXIS_LETTERS, ERR_LENGTH, ERR_TEXT, PayloadError, pack_positions, unpack_positions
+from .codec import ERR_LENGTH, ERR_TEXT, axis_bits, PayloadError, pack_positions, unpack_positions
 
 ACK, NAK, BUSY, ERR, POS, STAT = 0x80, 0x81, 0x82, 0x83, 0x84, 0x85
 
@@ -99,14 +99,15 @@ REPLY_OF: dict[int, type[Reply]] = {c.opcode: c for c in (Ack, Nak, Busy, Err, P
 _ARGS = {ACK: 0, NAK: 0, BUSY: 0, ERR: 2, STAT: 3}
 
 
-def encode_reply(reply: Reply) -> bytes:
-    """The payload of a reply, opcode first."""
+def encode_reply(reply: Reply, machine: Machine | None = None) -> bytes:
+    """The payload of a reply, opcode first (POS bits from ``machine``'s lettering, codec.axis_bits)."""
     op = bytes((reply.opcode,))
     if isinstance(reply, Err):
         return op + bytes((reply.code & 0xFF, reply.detail & 0xFF))
     if isinstance(reply, Position):
-        steps = {AXIS_LETTERS.index(name): value for name, value in reply.steps}
-        return op + pack_positions("POS", steps)
+        bits = axis_bits(machine)
+        steps = {bits[name]: value for name, value in reply.steps}
+        return op + pack_positions("POS", steps, machine)
     if isinstance(reply, Status):
         if not 0 <= reply.queued <= 0xFF:
             raise ValueError(f"STAT queued = {reply.queued}: must be 0..255")

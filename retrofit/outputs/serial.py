@@ -5,13 +5,17 @@ URL grammar: ``serial:///dev/ttyUSB0?baud=115200`` (a serial device: an Arduino 
 (the same bytes over TCP: ``retrofit mcu --listen``, or the firmware under QEMU). Options:
 ``baud`` (int, 115200), ``timeout_ms`` (float, 100: resend when unanswered, docs/protocol.md §6),
 ``tries`` (int, 10), ``init`` (bool, 1: send INIT first), ``wait_s`` (float, 0: how long to wait
-for the motion to end; 0 waits as long as it takes), ``poll_ms`` (float, 20: RDST interval).
+for the motion to end; 0 waits as long as it takes), ``poll_ms`` (float, 20: RDST interval),
+``boot_ms`` (float, 3000: how long to wait for the device to answer after the port opens).
 
 This is a *command-level* output (``takes_commands = True``). A bit-level output takes port
 frames through ``write``; here the controller at the far end makes its own port bytes, so
 ``write`` refuses frames and the program goes through :meth:`SerialOutput.send_program`:
 
-1. open the port (pyserial, imported only now) and SYNC both channels;
+1. open the port (pyserial, imported only now) and wait out the device's start: opening an
+   Arduino's USB port resets it (DTR) into its bootloader for 1-2 s, which swallows bytes, so a
+   SYNC frame is repeated every 100 ms until the first answer comes (at most ``boot_ms``); then
+   SYNC both channels;
 2. INIT, unless ``init=0``: position 0, default feeds, empty queue, as the local plan starts;
 3. every command in order on the queued channel (BUSY waited out, NAK and timeouts resent);
 4. RDST every ``poll_ms`` until nothing moves, dwells or waits; ERROR or STOPPED fail the run;
@@ -43,7 +47,8 @@ class SerialOutput(Output):
     summary = ("a motion controller on the serial link (firmware/ on an Arduino Mega, or "
                "retrofit mcu): sends the program's commands, reads the final position (RDPS)")
     options = {"baud": (int, 115200), "timeout_ms": (float, 100.0), "tries": (int, 10),
-               "init": (bool, True), "wait_s": (float, 0.0), "poll_ms": (float, 20.0)}
+               "init": (bool, True), "wait_s": (float, 0.0), "poll_ms": (float, 20.0),
+               "boot_ms": (float, 3000.0)}
     takes_commands = True
 
     def __init__(self, url, machine):
@@ -69,6 +74,7 @@ class SerialOutput(Output):
                 self.link = HostLink.open(self.port_url, self.machine, baudrate=self.opts["baud"],
                                           timeout_s=self.opts["timeout_ms"] / 1000,
                                           max_tries=self.opts["tries"])
+                wait_for_device(self.link.port, self.opts["boot_ms"] / 1000, self.url.text)
             except LinkError as exc:
                 raise OutputError(f"{self.url.text}: {exc}") from None
         super().open()
@@ -145,6 +151,27 @@ class SerialSocketOutput(SerialOutput):
     grammar = "serial+socket://HOST:PORT"
     summary = ("the serial protocol over TCP: retrofit mcu --listen, or the firmware in QEMU "
                "(-serial tcp:...)")
+
+
+def wait_for_device(port, boot_s: float, name: str) -> float:
+    """Send SYNC (queued channel, number 0) every 100 ms until any answer frame comes; the
+    seconds waited. LinkError after ``boot_s``. The answer is discarded: the link's own SYNC
+    follows (a repeated SYNC is answered again, docs/protocol.md §5)."""
+    from ..link import QUEUED, FrameDecoder, encode_frame, seq_byte
+    from ..link.transport import read_some, write_all
+    sync = encode_frame(seq_byte(QUEUED, 0), bytes((0x7F,)))
+    decoder, start = FrameDecoder(), time.monotonic()
+    while True:
+        write_all(port, sync, name)
+        until = time.monotonic() + 0.1
+        while time.monotonic() < until:
+            if decoder.feed(read_some(port, name)):
+                time.sleep(0.02)
+                read_some(port, name)                 # an answer to a second SYNC, if any
+                return time.monotonic() - start
+        if time.monotonic() - start > boot_s:
+            raise LinkError(f"{name}: no answer to SYNC within {boot_s:g} s of opening the port "
+                            "(is the firmware flashed and the baud rate right?)")
 
 
 def flag_names(flags) -> list[str]:

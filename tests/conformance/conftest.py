@@ -4,7 +4,7 @@ import pytest
 
 from retrofit.config import load_machine
 from tests.conformance.rawlink import RawLink
-from tests.conformance.targets import (MACHINE, TARGETS, McuTarget, QemuTarget, build_firmware,
+from tests.conformance.targets import (MACHINE, TARGETS, McuTarget, SimavrTarget, build_firmware,
                                        missing_tools)
 
 
@@ -14,14 +14,15 @@ def firmware_elf():
     missing = missing_tools()
     if missing:
         pytest.skip(f"the firmware needs {', '.join(missing)}: apt-get install gcc-avr avr-libc "
-                    "binutils-avr qemu-system-misc")
+                    "binutils-avr libsimavr-dev")
     return build_firmware()
 
 
 def start(name: str, request):
     if name == "mcu":
         return McuTarget()
-    return QemuTarget(request.getfixturevalue("firmware_elf"))
+    request.getfixturevalue("firmware_elf")
+    return SimavrTarget()
 
 
 @pytest.fixture(scope="module", params=TARGETS)

@@ -1,0 +1,487 @@
+/* hil.c - the compiled firmware in simavr's cycle-exact ATmega2560, its pins wired to a machine.
+ *
+ *   hil FIRMWARE.elf [options]
+ *
+ * USART0 is served on a TCP port (--listen HOST:PORT, one client at a time) or fed from a script
+ * of bytes at given cycles (--script FILE: lines "CYCLE HEXBYTES"). Every change of the output
+ * ports A, B, F, H, K, L and every byte the firmware sends is written to --log FILE as text lines
+ *   P CYCLE PORT VALUE      (port letter, the 8-bit output value in hex)
+ *   U CYCLE BYTE            (a byte on the USART's TX, hex)
+ *   I CYCLE PORT BIT LEVEL  (an input the harness drove)
+ * so the Python side (retrofit/firmware_sim.py) decodes the step pins with retrofit's own driver
+ * model. The harness keeps a step count per axis itself (--axis STEP,DIR,INVERT_DIR) so that
+ * switches (--switch PIN,AXIS,<|>,STEPS,ACTIVE_LEVEL) open and close at a step count within the
+ * same cycle, and drives the spindle encoder (--spindle RPM,COUNTS_PER_REV: ICLK on PD0, SIND on
+ * PD1). --stats prints interrupt figures at the end: the longest stretch with interrupts off
+ * outside and inside ISRs, and the cycles spent in ISRs. --vcd FILE writes the step ports as VCD.
+ * The simulated time runs at most --speed times wall time (0: unpaced; default 1 with --listen).
+ * It stops after --cycles N, at SIGTERM / SIGINT, or when a --listen client hangs up (--once).
+ * --boot-ms N drops what the client sends in the first N ms, as the Mega's bootloader does.
+ */
+#define _GNU_SOURCE
+#include <arpa/inet.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <simavr/avr_extint.h>
+#include <simavr/avr_ioport.h>
+#include <simavr/avr_uart.h>
+#include <simavr/sim_avr.h>
+#include <simavr/sim_elf.h>
+#include <simavr/sim_irq.h>
+#include <simavr/sim_vcd_file.h>
+
+#define MAX_AXES 6
+#define UCSR0B_ADDR 0xC1                  /* ATmega2560: USART0 control register B */
+#define RXEN0_BIT 0x10
+#define MAX_SWITCHES 16
+#define RX_FIFO 65536
+
+static avr_t *avr;
+static FILE *log_file;
+static volatile sig_atomic_t stop_now;
+
+/* ---- the machine on the pins ----------------------------------------------------------- */
+
+typedef struct { char port; int bit; } pin_t;
+typedef struct { pin_t step, dir; int invert_dir; long steps; int step_level; } axis_t;
+typedef struct { pin_t pin; int axis; char side; long at; int active; int level; } sw_t;
+
+static axis_t axes[MAX_AXES];
+static int n_axes;
+static sw_t switches[MAX_SWITCHES];
+static int n_switches;
+static uint8_t out_ports[16];             /* last value of each output port, by letter - 'A' */
+static double spindle_rpm;
+static long spindle_counts;
+
+/* An input the machine drives: also declared as the port's external level, so that the
+ * firmware's write of a pull-up to PORTx does not override it. */
+static uint8_t ext_mask[16], ext_value[16];
+
+static void drive(pin_t p, int level)
+{
+    int k = p.port - 'A';
+    ext_mask[k] |= (uint8_t)(1 << p.bit);
+    ext_value[k] = (uint8_t)((ext_value[k] & ~(1 << p.bit)) | (level << p.bit));
+    avr_ioport_external_t ext = {.name = (unsigned long)p.port, .mask = ext_mask[k], .value = ext_value[k]};
+    avr_ioctl(avr, AVR_IOCTL_IOPORT_SET_EXTERNAL(p.port), &ext);
+    avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(p.port), p.bit), level);
+    if (log_file)
+        fprintf(log_file, "I %llu %c %d %d\n", (unsigned long long)avr->cycle, p.port, p.bit, level);
+}
+
+static void update_switches(void)
+{
+    for (int i = 0; i < n_switches; i++) {
+        sw_t *s = &switches[i];
+        long pos = axes[s->axis].steps;
+        int closed = s->side == '<' ? pos <= s->at : pos >= s->at;
+        int level = closed ? s->active : !s->active;
+        if (level != s->level) {
+            s->level = level;
+            drive(s->pin, level);
+        }
+    }
+}
+
+static int pin_level(pin_t p) { return (out_ports[p.port - 'A'] >> p.bit) & 1; }
+
+static void port_changed(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq;
+    char port = (char)(intptr_t)param;
+    uint8_t old = out_ports[port - 'A'];
+    if (old == (uint8_t)value)
+        return;
+    out_ports[port - 'A'] = (uint8_t)value;
+    if (log_file)
+        fprintf(log_file, "P %llu %c %02x\n", (unsigned long long)avr->cycle, port, value & 0xFF);
+    int moved = 0;
+    for (int i = 0; i < n_axes; i++) {
+        axis_t *a = &axes[i];
+        int level = pin_level(a->step);
+        if (level && !a->step_level) {          /* a rising step edge: the driver steps */
+            int positive = pin_level(a->dir) ^ a->invert_dir;
+            a->steps += positive ? 1 : -1;
+            moved = 1;
+        }
+        a->step_level = level;
+    }
+    if (moved)
+        update_switches();
+}
+
+/* D10 = PB4 = OC2A, the spindle PWM: the timer drives this pin without a write to PORTB, so its
+ * own level is logged as port "W" (bit 4). */
+static void pwm_pin_changed(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq;
+    (void)param;
+    static int last = -1;
+    if ((int)(value & 1) == last)
+        return;
+    last = (int)(value & 1);
+    if (log_file)
+        fprintf(log_file, "P %llu W %02x\n", (unsigned long long)avr->cycle, (value & 1) << 4);
+}
+
+/* ICLK pulses COUNTS times a revolution (2 us high), SIND once a revolution with count 0. */
+static long spindle_count;
+static avr_cycle_count_t spindle_edge(avr_t *a, avr_cycle_count_t when, void *param)
+{
+    (void)a;
+    (void)param;
+    static int high;
+    pin_t iclk = {'D', 0}, sind = {'D', 1};
+    if (high) {
+        drive(iclk, 0);
+        if (spindle_count % spindle_counts == 1)
+            drive(sind, 0);
+        high = 0;
+        double period = 60.0 * avr->frequency / spindle_rpm / (double)spindle_counts;
+        long next = (long)((double)(spindle_count + 1) * period) - (long)((double)spindle_count * period);
+        return when + (avr_cycle_count_t)(next > 64 ? next - 32 : 32);
+    }
+    if (spindle_count % spindle_counts == 0)
+        drive(sind, 1);
+    drive(iclk, 1);
+    spindle_count++;
+    high = 1;
+    return when + 32;
+}
+
+/* ---- the USART ------------------------------------------------------------------------- */
+
+static uint8_t rx_fifo[RX_FIFO];
+static size_t rx_head, rx_tail;
+static int uart_xon = 1;
+static int client = -1;
+
+static void uart_out(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq;
+    (void)param;
+    uint8_t byte = (uint8_t)value;
+    if (log_file)
+        fprintf(log_file, "U %llu %02x\n", (unsigned long long)avr->cycle, byte);
+    if (client >= 0 && send(client, &byte, 1, MSG_NOSIGNAL) < 0)
+        client = -1;
+}
+
+static void uart_xon_cb(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq; (void)value; (void)param;
+    uart_xon = 1;
+}
+
+static void uart_xoff_cb(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq; (void)value; (void)param;
+    uart_xon = 0;
+}
+
+static avr_irq_t *uart_in;
+
+static void uart_feed(void)
+{
+    avr_irq_t *in = uart_in;
+    while (uart_xon && rx_tail != rx_head) {
+        avr_raise_irq(in, rx_fifo[rx_tail]);
+        rx_tail = (rx_tail + 1) % RX_FIFO;
+    }
+}
+
+static void rx_push(const uint8_t *data, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        size_t next = (rx_head + 1) % RX_FIFO;
+        if (next == rx_tail)
+            return;
+        rx_fifo[rx_head] = data[i];
+        rx_head = next;
+    }
+}
+
+/* ---- script and socket ------------------------------------------------------------------ */
+
+typedef struct { unsigned long long cycle; uint8_t *bytes; size_t n; } chunk_t;
+static chunk_t *script;
+static size_t n_script, script_next;
+
+static void read_script(const char *path)
+{
+    FILE *f = fopen(path, "r");
+    if (!f) { fprintf(stderr, "hil: %s: %s\n", path, strerror(errno)); exit(2); }
+    char *line = NULL;
+    size_t cap = 0;
+    while (getline(&line, &cap, f) > 0) {
+        unsigned long long cycle;
+        int used;
+        if (sscanf(line, "%llu %n", &cycle, &used) < 1)
+            continue;
+        script = realloc(script, (n_script + 1) * sizeof *script);
+        chunk_t *c = &script[n_script++];
+        c->cycle = cycle;
+        c->bytes = malloc(strlen(line) / 2 + 1);
+        c->n = 0;
+        for (char *p = line + used; p[0] && p[1] && p[0] != '\n'; p += 2) {
+            unsigned v;
+            if (sscanf(p, "%2x", &v) != 1)
+                break;
+            c->bytes[c->n++] = (uint8_t)v;
+        }
+    }
+    free(line);
+    fclose(f);
+}
+
+static int listener = -1;
+static unsigned long long boot_cycles;    /* --boot-ms: bytes that arrive sooner are dropped */
+
+static void open_listener(const char *spec)
+{
+    char host[128];
+    int port;
+    if (sscanf(spec, "%127[^:]:%d", host, &port) != 2) {
+        fprintf(stderr, "hil: --listen %s: expected HOST:PORT\n", spec);
+        exit(2);
+    }
+    struct sockaddr_in sa = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port)};
+    if (inet_pton(AF_INET, strcmp(host, "localhost") ? host : "127.0.0.1", &sa.sin_addr) != 1) {
+        fprintf(stderr, "hil: --listen %s: not an IPv4 address\n", spec);
+        exit(2);
+    }
+    listener = socket(AF_INET, SOCK_STREAM, 0);
+    int one = 1;
+    setsockopt(listener, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+    if (bind(listener, (struct sockaddr *)&sa, sizeof sa) < 0 || listen(listener, 1) < 0) {
+        fprintf(stderr, "hil: --listen %s: %s\n", spec, strerror(errno));
+        exit(2);
+    }
+    socklen_t len = sizeof sa;
+    getsockname(listener, (struct sockaddr *)&sa, &len);
+    fcntl(listener, F_SETFL, O_NONBLOCK);
+    printf("listening on %s:%d\n", host, ntohs(sa.sin_port));
+    fflush(stdout);
+}
+
+/* Accept a client, read what it sent; 1 when the client hung up. */
+static int poll_socket(void)
+{
+    if (client < 0) {
+        client = accept(listener, NULL, NULL);
+        if (client < 0)
+            return 0;
+        int one = 1;
+        setsockopt(client, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+        fcntl(client, F_SETFL, O_NONBLOCK);
+    }
+    uint8_t buf[4096];
+    ssize_t n = recv(client, buf, sizeof buf, 0);
+    if (n > 0 && avr->cycle >= boot_cycles)
+        rx_push(buf, (size_t)n);           /* before: a bootloader's time, the bytes are lost */
+    if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK)) {
+        close(client);
+        client = -1;
+        return 1;
+    }
+    return 0;
+}
+
+/* ---- interrupt figures ------------------------------------------------------------------ */
+
+static int want_stats;
+static unsigned long long off_start, off_longest_main, off_longest_isr, isr_cycles, isr_start;
+static unsigned long long isr_longest;
+static int was_off, was_isr;
+
+static void account(void)
+{
+    static int started;                  /* the firmware's first sei(): the boot does not count */
+    int off = !avr->sreg[S_I];
+    int in_isr = avr->interrupts.running_ptr > 0;
+    unsigned long long now = avr->cycle;
+    if (!started) {
+        if (off)
+            return;
+        started = 1;
+    }
+    if (in_isr != was_isr) {
+        if (in_isr)
+            isr_start = now;
+        else {
+            isr_cycles += now - isr_start;
+            if (now - isr_start > isr_longest)
+                isr_longest = now - isr_start;
+        }
+    }
+    if (off != was_off) {
+        if (off)
+            off_start = now;
+        else if (was_isr || in_isr) {
+            if (now - off_start > off_longest_isr) off_longest_isr = now - off_start;
+        } else if (now - off_start > off_longest_main)
+            off_longest_main = now - off_start;
+    }
+    was_off = off;
+    was_isr = in_isr;
+}
+
+/* ---- main ------------------------------------------------------------------------------- */
+
+static pin_t parse_pin(const char *s)
+{
+    pin_t p = {s[0], s[1] - '0'};
+    if (p.port < 'A' || p.port > 'L' || p.bit < 0 || p.bit > 7) {
+        fprintf(stderr, "hil: pin %s: expected a port letter and bit, e.g. F0\n", s);
+        exit(2);
+    }
+    return p;
+}
+
+static void on_signal(int sig) { (void)sig; stop_now = 1; }
+
+static double now_s(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
+}
+
+int main(int argc, char **argv)
+{
+    const char *elf = NULL, *listen_at = NULL, *vcd_path = NULL;
+    unsigned long long max_cycles = 0;
+    double speed = -1.0;
+    int once = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : "";
+        if (!strcmp(a, "--listen")) { listen_at = v; i++; }
+        else if (!strcmp(a, "--script")) { read_script(v); i++; }
+        else if (!strcmp(a, "--log")) { log_file = fopen(v, "w"); i++; }
+        else if (!strcmp(a, "--vcd")) { vcd_path = v; i++; }
+        else if (!strcmp(a, "--cycles")) { max_cycles = strtoull(v, NULL, 10); i++; }
+        else if (!strcmp(a, "--speed")) { speed = atof(v); i++; }
+        else if (!strcmp(a, "--once")) once = 1;
+        else if (!strcmp(a, "--boot-ms")) { boot_cycles = (unsigned long long)(atof(v) * 16000.0); i++; }
+        else if (!strcmp(a, "--stats")) want_stats = 1;
+        else if (!strcmp(a, "--axis") && n_axes < MAX_AXES) {
+            char s[4], d[4];
+            int inv = 0;
+            long start = 0;
+            sscanf(v, "%2s,%2s,%d,%ld", s, d, &inv, &start);
+            axes[n_axes++] = (axis_t){parse_pin(s), parse_pin(d), inv, start, 0};
+            i++;
+        } else if (!strcmp(a, "--switch") && n_switches < MAX_SWITCHES) {
+            char p[4], side;
+            sw_t *w = &switches[n_switches++];
+            sscanf(v, "%2s,%d,%c,%ld,%d", p, &w->axis, &side, &w->at, &w->active);
+            w->pin = parse_pin(p);
+            w->side = side;
+            w->level = -1;
+            i++;
+        } else if (!strcmp(a, "--spindle")) {
+            sscanf(v, "%lf,%ld", &spindle_rpm, &spindle_counts);
+            i++;
+        } else if (a[0] != '-' && !elf) elf = a;
+        else { fprintf(stderr, "hil: unknown option %s\n", a); return 2; }
+    }
+    if (!elf) { fprintf(stderr, "usage: hil FIRMWARE.elf [--listen HOST:PORT] [--script F] ...\n"); return 2; }
+    elf_firmware_t fw;
+    memset(&fw, 0, sizeof fw);
+    if (elf_read_firmware(elf, &fw)) { fprintf(stderr, "hil: %s: cannot read the ELF\n", elf); return 2; }
+    avr = avr_make_mcu_by_name("atmega2560");
+    avr_init(avr);
+    avr->log = 0;
+    fw.frequency = 16000000;
+    avr_load_firmware(avr, &fw);
+    avr->frequency = 16000000;
+
+    static const char ports[] = "ABCFHKL";
+    for (const char *p = ports; *p; p++)
+        avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(*p), IOPORT_IRQ_PIN_ALL),
+                                port_changed, (void *)(intptr_t)*p);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('B'), IOPORT_IRQ_PIN4),
+                            pwm_pin_changed, NULL);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT), uart_out, NULL);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON), uart_xon_cb, NULL);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF), uart_xoff_cb, NULL);
+    /* The harness is not a terminal: no stdio on the USART's output. */
+    uint32_t flags = 0;
+    avr_ioctl(avr, AVR_IOCTL_UART_GET_FLAGS('0'), &flags);
+    flags &= ~AVR_UART_FLAG_STDIO;
+    avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
+    /* A switch input held low would make simavr poll its INTn level trigger every cycle even
+     * with the interrupt off (20x slower); the firmware uses edge triggers only. */
+    for (uint8_t n = 0; n < 8; n++)
+        avr_extint_set_strict_lvl_trig(avr, n, 0);
+    uart_in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
+    update_switches();
+    if (spindle_rpm > 0 && spindle_counts > 0)
+        avr_cycle_timer_register(avr, 1000, spindle_edge, NULL);
+
+    avr_vcd_t vcd;
+    if (vcd_path) {
+        avr_vcd_init(avr, vcd_path, &vcd, 1000);
+        for (const char *p = ports; *p; p++) {
+            char name[8] = {'P', 'O', 'R', 'T', *p, 0};
+            avr_vcd_add_signal(&vcd, avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(*p), IOPORT_IRQ_PIN_ALL), 8, name);
+        }
+        avr_vcd_start(&vcd);
+    }
+    if (listen_at)
+        open_listener(listen_at);
+    if (speed < 0)
+        speed = listen_at ? 1.0 : 0.0;
+    signal(SIGTERM, on_signal);
+    signal(SIGINT, on_signal);
+
+    double wall0 = now_s();
+    unsigned long long next_poll = 0;
+    int state = cpu_Running;
+    while (!stop_now && state != cpu_Done && state != cpu_Crashed) {
+        if (max_cycles && avr->cycle >= max_cycles)
+            break;
+        while (script_next < n_script && script[script_next].cycle <= avr->cycle) {
+            rx_push(script[script_next].bytes, script[script_next].n);
+            script_next++;
+        }
+        if (rx_tail != rx_head && (avr->data[UCSR0B_ADDR] & RXEN0_BIT))
+            uart_feed();                      /* held until the firmware's receiver is on */
+        if (avr->cycle >= next_poll) {
+            next_poll = avr->cycle + 1600;            /* every 100 us of AVR time */
+            if (listen_at && poll_socket() && once)
+                break;
+            if (speed > 0) {
+                double ahead = (double)avr->cycle / avr->frequency / speed - (now_s() - wall0);
+                if (ahead > 0.002)
+                    usleep((useconds_t)(ahead * 1e6));
+            }
+        }
+        state = avr_run(avr);
+        if (want_stats)
+            account();
+    }
+    if (vcd_path)
+        avr_vcd_stop(&vcd);
+    if (want_stats)
+        printf("stats cycles=%llu isr_cycles=%llu isr_longest=%llu off_main_longest=%llu "
+               "off_isr_longest=%llu\n", (unsigned long long)avr->cycle, isr_cycles, isr_longest,
+               off_longest_main, off_longest_isr);
+    for (int i = 0; i < n_axes; i++)
+        printf("axis %d steps=%ld\n", i, axes[i].steps);
+    printf("end cycles=%llu state=%d\n", (unsigned long long)avr->cycle, state);
+    if (log_file)
+        fclose(log_file);
+    return state == cpu_Crashed ? 3 : 0;
+}

@@ -1,0 +1,117 @@
+"""Sub-command ``retrofit firmware``: the compiled firmware in simavr (``sim``), its size (``size``)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+
+def add_commands(sub) -> None:
+    """Add ``firmware sim`` and ``firmware size`` to the ``retrofit`` command line."""
+    fw = sub.add_parser("firmware", help="the ATmega2560 firmware: run it in simavr wired to a "
+                                         "simulated machine, or print its flash and RAM use")
+    fsub = fw.add_subparsers(dest="firmware_command", required=True)
+    s = fsub.add_parser("sim", help="run firmware/ in simavr, its USART on a TCP port, its pins "
+                                    "wired to the simulated machine",
+                        description="Build the firmware for the machine and run it on simavr's "
+                                    "cycle-exact ATmega2560: step/dir pins decoded by the driver "
+                                    "model of sim://, switches and the spindle encoder fed back. "
+                                    "Serves until interrupted (or until the client hangs up with "
+                                    "--once), then prints a report like sim://'s.")
+    s.add_argument("--machine", default="mitic-lathe", help="shipped machine name or path to a .toml file")
+    s.add_argument("--listen", metavar="HOST:PORT", required=True,
+                   help="serve the USART on a TCP port (port 0 picks a free one; it is printed)")
+    s.add_argument("--vcd", metavar="FILE", help="write the output ports as VCD")
+    s.add_argument("--spindle-rpm", type=float, default=0.0,
+                   help="turn the spindle encoder at this speed (ICLK on D21, SIND on D20)")
+    s.add_argument("--start", metavar="AXIS=STEPS", action="append", default=[],
+                   help="where a carriage starts, in steps (repeatable); default 0")
+    s.add_argument("--speed", type=float, default=1.0,
+                   help="AVR time per wall time at most (0: as fast as simavr goes); default 1")
+    s.add_argument("--once", action="store_true", help="stop when the first client hangs up")
+    s.add_argument("--boot-ms", type=float, default=0.0,
+                   help="drop the bytes of the first N ms, as the Mega's bootloader does after "
+                        "the port opens (DTR reset); default 0")
+    s.add_argument("--json", action="store_true", help="print the report as JSON")
+    s.set_defaults(func=_cmd_sim)
+    z = fsub.add_parser("size", help="flash and RAM of the firmware built for a machine")
+    z.add_argument("--machine", action="append", default=[],
+                   help="machine name (repeatable); default: every machine the firmware supports")
+    z.set_defaults(func=_cmd_size)
+
+
+def _start_steps(specs: list[str], machine) -> dict[str, int]:
+    from .errors import ConfigError
+    out = {}
+    for spec in specs:
+        name, _, value = spec.partition("=")
+        try:
+            out[machine.axis(name).name] = int(value)
+        except ValueError:
+            raise ConfigError(f"--start {spec}: expected AXIS=STEPS with whole steps, e.g. X=-1200") from None
+    return out
+
+
+def _cmd_sim(args) -> int:
+    from .config import load_machine
+    from .firmware_sim import Harness, build, report
+    machine = load_machine(args.machine)
+    start = _start_steps(args.start, machine)
+    elf = build(machine.name)
+    harness = Harness(elf, machine, listen=args.listen, start_steps=start, vcd=args.vcd,
+                      spindle_rpm=args.spindle_rpm, speed=args.speed, stats=True)
+    if args.once:
+        harness.args.append("--once")
+    if args.boot_ms:
+        harness.args += ["--boot-ms", f"{args.boot_ms:g}"]
+    harness.start()
+    print(f"{machine.name}: firmware in simavr listening on {harness.address} "
+          f"(host: --output serial+socket://{harness.address})", flush=True)
+    try:
+        harness.proc.wait()
+    except KeyboardInterrupt:
+        pass
+    log = harness.stop(0.0)
+    result = report(log, machine, start)
+    result["interrupts"] = log.stats
+    if args.json:
+        print(json.dumps(result, indent=2))
+    else:
+        _print_report(result)
+    return 0
+
+
+def _print_report(r: dict) -> None:
+    print(f"{r['machine']}: {r['cycles']} cycles ({r['duration_s']:.3f} s of AVR time), "
+          f"{r['bytes_sent']} bytes sent")
+    print("  carriage mm: " + ", ".join(f"{a} {v:.3f}" for a, v in r["carriage_mm"].items()))
+    print("  motor steps: " + ", ".join(f"{a} {v}" for a, v in r["motor_steps"].items()))
+    print(f"  violations: {len(r['violations'])}")
+    for v in r["violations"][:10]:
+        print(f"    cycle {v['cycle']} {v['axis']} {v['kind']}: {v['detail']}")
+
+
+def firmware_size(machine_name: str) -> dict[str, int]:
+    """Flash (text + data) and RAM (data + bss) bytes of the firmware for ``machine_name``."""
+    from .firmware_sim import build
+    elf = build(machine_name)
+    out = subprocess.run(["avr-size", "-A", str(elf)], capture_output=True, text=True, check=True).stdout
+    sizes = {}
+    for line in out.splitlines():
+        words = line.split()
+        if len(words) >= 2 and words[0].startswith(".") and words[1].isdigit():
+            sizes[words[0]] = int(words[1])
+    text, data, bss = sizes.get(".text", 0), sizes.get(".data", 0), sizes.get(".bss", 0)
+    return {"flash": text + data, "ram": data + bss, "flash_of": 262144 - 8192, "ram_of": 8192}
+
+
+def _cmd_size(args) -> int:
+    from .firmware_sim import supported_machines
+    names = args.machine or supported_machines()
+    for name in names:
+        s = firmware_size(name)
+        print(f"{name}: flash {s['flash']} of {s['flash_of']} bytes ({100 * s['flash'] / s['flash_of']:.1f} %), "
+              f"RAM {s['ram']} of {s['ram_of']} bytes ({100 * s['ram'] / s['ram_of']:.1f} %)")
+    sys.stdout.flush()
+    return 0

@@ -1,0 +1,266 @@
+"""The compiled firmware in simavr (cycle-exact ATmega2560), measured from its pins in cycles.
+
+Every figure here comes from the harness's log of pin changes stamped with the AVR's cycle
+counter (16 per microsecond); no test reads the host's clock. The commands go in as a script of
+frames at chosen cycles, so each run is the same on a loaded machine.
+"""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+
+from retrofit.commands import parse_command
+from retrofit.config import load_machine
+from retrofit.link import (IMMEDIATE, QUEUED, Ack, FrameDecoder, Position, Status, StatusFlags,
+                           decode_reply, encode_command, encode_frame, seq_byte)
+
+pytestmark = pytest.mark.skipif(
+    shutil.which("avr-gcc") is None or shutil.which("make") is None,
+    reason="the firmware needs avr-gcc and make: apt-get install gcc-avr avr-libc make libsimavr-dev")
+
+fs = pytest.importorskip("retrofit.firmware_sim")
+CYCLES_PER_US = 16
+S = 16_000_000                       # cycles a second
+
+
+@pytest.fixture(scope="module")
+def lathe():
+    machine = load_machine("mitic-lathe")
+    return machine, fs.build(machine.name)
+
+
+class Script:
+    """Frames at chosen AVR cycles, with each channel's sequence numbers kept."""
+
+    def __init__(self, machine):
+        self.machine, self.items, self.next = machine, [], {QUEUED: 0, IMMEDIATE: 0}
+        self.at(1_000_000, "SYNC", QUEUED)
+        self.at(1_000_000, "SYNC", IMMEDIATE)
+
+    def at(self, cycle: int, text: str, channel: int | None = None) -> "Script":
+        if text == "SYNC":
+            payload = bytes((0x7F,))
+        else:
+            cmd = parse_command(text)
+            payload = encode_command(cmd, self.machine)
+            channel = (IMMEDIATE if cmd.immediate else QUEUED) if channel is None else channel
+        number = self.next[channel]
+        self.next[channel] = (number + 1) % 128
+        self.items.append((cycle, encode_frame(seq_byte(channel, number), payload)))
+        return self
+
+
+def replies(log, machine):
+    return [decode_reply(f.payload, machine) for f in FrameDecoder().feed(log.answer_bytes())]
+
+
+def test_a_rapid_move_steps_every_pulse_as_wide_as_configured_and_ends_on_target(lathe):
+    machine, elf = lathe
+    script = Script(machine).at(3_200_000, "FMOV X12").at(14_000_000, "RDPS").at(14_000_000, "RDST")
+    log = fs.Harness(elf, machine, script=script.items, cycles=14_500_000).run()
+    answers = replies(log, machine)
+    assert answers[:3] == [Ack(), Ack(), Ack()]
+    assert answers[3] == Position((("X", 1200), ("Z", 0)))
+    assert not answers[4].flags & (StatusFlags.MOVING | StatusFlags.ERROR)
+    rises, falls, _ = fs.step_times(log, machine, "X")
+    assert len(rises) == 1200 + machine.axis("X").backlash_steps      # take-up steps first
+    high_us = (falls - rises) / CYCLES_PER_US
+    low_us = (rises[1:] - falls[:-1]) / CYCLES_PER_US
+    x = machine.axis("X")
+    assert high_us.min() >= x.pulse_high_ticks * machine.tick_us          # 100 us, on the wire
+    assert low_us.min() >= x.pulse_low_ticks * machine.tick_us
+    # the cruise at 1500 mm/min is 2500 steps/s: 400 us a step
+    assert np.median(np.diff(rises)) / CYCLES_PER_US == pytest.approx(400, abs=2)
+    report = fs.report(log, machine)
+    assert report["motor_steps"]["X"] == 1202
+    assert not report["violations"]                           # pulse, low time, direction set-up
+
+
+def test_ffdr_mid_move_slows_the_running_move_measured_in_cycles(lathe):
+    machine, elf = lathe
+    script = (Script(machine).at(3_200_000, "FMOV X39")
+              .at(int(0.5 * S), "FFDR F15"))                  # a hundredth: 25 steps/s
+    log = fs.Harness(elf, machine, script=script.items, cycles=int(1.0 * S)).run()
+    rises, _, _ = fs.step_times(log, machine, "X")
+    gaps = np.diff(rises) / S
+    before = gaps[(rises[1:] > 0.3 * S) & (rises[1:] < 0.5 * S)]
+    after = gaps[rises[1:] > 0.7 * S]
+    assert np.median(before) == pytest.approx(1 / 2500, rel=0.01)
+    assert len(after) >= 2 and np.median(after) == pytest.approx(1 / 25, rel=0.02)
+
+
+def test_a_reversal_keeps_the_direction_set_up_before_the_first_step(lathe):
+    machine, elf = lathe
+    script = Script(machine).at(3_200_000, "FMOV X0.5").at(3_300_000, "FMOV X0")
+    log = fs.Harness(elf, machine, script=script.items, cycles=int(0.6 * S)).run()
+    report = fs.report(log, machine)
+    assert report["motor_steps"]["X"] == 0 and not report["violations"]
+
+
+def test_interrupt_figures_are_measured_and_the_main_loop_never_masks_long(lathe):
+    machine, elf = lathe
+    script = Script(machine).at(3_200_000, "FMOV X10")
+    log = fs.Harness(elf, machine, script=script.items, cycles=int(0.6 * S), stats=True).run()
+    assert log.stats["cycles"] >= int(0.6 * S)
+    assert 0 < log.stats["isr_cycles"] < log.stats["cycles"]
+    assert log.stats["isr_longest"] > 0
+
+
+def test_the_mill_with_its_carousel_builds_and_its_e_axis_steps_on_the_e0_socket():
+    machine = load_machine("tul-mill")
+    elf = fs.build(machine.name)
+    script = Script(machine).at(3_200_000, "FMOV E1")          # one pocket pitch: 160 steps
+    script.at(int(0.5 * S), "RDPS")
+    log = fs.Harness(elf, machine, script=script.items, cycles=int(0.55 * S)).run()
+    answers = replies(log, machine)
+    assert answers[2] == Ack()
+    assert dict(answers[3].steps)["E"] == 160
+    rises, _, _ = fs.step_times(log, machine, "E")
+    assert len(rises) >= 160 and fs.MEGA_PINS[26] == ("A", 4)
+
+
+@pytest.mark.parametrize("rpm", [300, 600, 1200])
+def test_a_thread_pass_waits_for_the_index_pulse_then_cuts_the_pitch_at_any_speed(lathe, rpm):
+    machine, elf = lathe
+    counts = machine.parts["spindle"].encoder_counts_per_rev
+    script = (Script(machine).at(3_200_000, "ISTP").at(3_300_000, "PFDR F0.5")
+              .at(3_400_000, "PMOV Z-1"))                     # 0.5 mm a revolution, 2 turns
+    turns_s = 60 / rpm
+    log = fs.Harness(elf, machine, script=script.items, cycles=int((0.3 + 3 * turns_s) * S),
+                     spindle_rpm=rpm).run()
+    rises, _, dirs = fs.step_times(log, machine, "Z")
+    sind = [c for c, port, bit, level in log.inputs if (port, bit, level) == ("D", 1, 1)]
+    iclk = np.array([c for c, port, bit, level in log.inputs if (port, bit, level) == ("D", 0, 1)])
+    index = [c for c in sind if c > 3_400_000]
+    z = machine.axis("Z")
+    assert len(rises) == round(1 * z.steps_per_mm) and not dirs.any()    # towards -Z
+    assert rises[0] > index[0]                                # no step before the index pulse
+    # each revolution (from one index pulse to the next) carries 0.5 mm = 40 Z steps
+    per_turn = [int(((rises > a) & (rises <= b)).sum()) for a, b in zip(index, index[1:3])]
+    assert per_turn == [round(0.5 * z.steps_per_mm)] * 2
+    # each step follows an encoder count: the same spindle angle at every speed
+    first_count = np.searchsorted(iclk, index[0])
+    assert np.searchsorted(iclk, rises[0]) - first_count <= counts // 40
+
+
+@pytest.fixture(scope="module")
+def mill():
+    machine = load_machine("tul-mill")
+    return machine, fs.build(machine.name)
+
+
+def test_homing_z_alone_latches_within_one_step_of_its_switch(mill):
+    machine, elf = mill
+    end = int(5.5 * S)                   # seek at 50 mm/s, back off and latch at 0.5 mm/s
+    script = Script(machine).at(3_200_000, "ZMOV Z").at(end - 100_000, "RDPS")
+    log = fs.Harness(elf, machine, script=script.items, cycles=end, start_steps={"Z": 2000}).run()
+    steps = dict(zip([a.name for a in fs.firmware_axes(machine)], log.steps))
+    assert steps["Z"] in (0, -1) and steps["X"] == steps["Y"] == 0
+    assert dict(replies(log, machine)[-1].steps)["Z"] == 0
+    report = fs.report(log, machine, {"Z": 2000})
+    assert report["carriage_mm"]["Z"] == pytest.approx(0.0, abs=0.011)
+    assert not report["violations"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("start", [
+    {"X": 1500, "Y": 2500, "Z": 800},
+    {"X": 4400, "Y": 10, "Z": 3000},
+    {"X": 1, "Y": 4000, "Z": 4500},
+], ids=["middle", "x-far-y-near", "z-far-x-near"])
+def test_homing_z_y_x_stops_each_carriage_within_one_step_of_its_switch(mill, start):
+    machine, elf = mill
+    end = int(16 * S)
+    script = Script(machine).at(3_200_000, "ZMOV Z Y X").at(end - 1_000_000, "RDST")
+    script.at(end - 1_000_000, "RDPS")
+    log = fs.Harness(elf, machine, script=script.items, cycles=end, start_steps=start).run()
+    answers = replies(log, machine)
+    status, position = answers[-2], answers[-1]
+    assert isinstance(status, Status) and status.flags & StatusFlags.HOMED, status
+    assert not status.flags & (StatusFlags.MOVING | StatusFlags.ERROR)
+    order = fs.firmware_axes(machine)
+    steps = dict(zip([a.name for a in order], log.steps))      # the carriages, counted on the pins
+    for axis in "XYZ":                                         # the switches trip at 0 steps
+        assert steps[axis] in (0, -1), (axis, steps)
+        assert dict(position.steps)[axis] == 0
+    assert steps["E"] == 0                                     # not homed, not moved
+    # Z homed first, then Y, then X: the first step of each axis comes in that order
+    first = {a: fs.step_times(log, machine, a)[0][0] for a in "XYZ"}
+    assert first["Z"] < first["Y"] < first["X"]
+
+
+def test_a_second_of_framed_garbage_during_a_move_leaves_its_deceleration_intact(lathe):
+    """Damaged frames (a flipped CRC bit) at the line's full rate for 1 s while FMOV X20 runs:
+    each answered NAK, the move's steps and their timing the same as without them."""
+    machine, elf = lathe
+    end = int(1.6 * S)
+
+    def run(garbage: bool):
+        script = Script(machine).at(3_200_000, "FMOV X20").at(end - 200_000, "RDPS")
+        damaged = 0
+        if garbage:
+            good = encode_frame(seq_byte(QUEUED, 5), encode_command(parse_command("FMOV X1"), machine))
+            bad = bytearray(good)
+            bad[6] ^= 0x10                                    # a bit of X: the CRC fails
+            # back to back: simavr's USART ignores U2X, so the firmware's 115 200 baud runs at
+            # 57 600 there (11 bytes in ~1.9 ms); one frame every 2.2 ms fills the line
+            for k in range(int(1.0 * S / 35_200)):
+                script.items.append((4_000_000 + k * 35_200, bytes(bad)))
+                damaged += 1
+        log = fs.Harness(elf, machine, script=script.items, cycles=end).run()
+        return log, damaged
+
+    quiet, _ = run(False)
+    noisy, damaged = run(True)
+    frames = FrameDecoder().feed(noisy.answer_bytes())
+    answers = [decode_reply(f.payload, machine) for f in frames]
+    naks = sum(type(a).__name__ == "Nak" for a in answers)
+    assert naks == damaged                                    # every damaged frame answered
+    assert answers[-1] == Position((("X", 2000), ("Z", 0)))   # executed once, nothing twice
+    q, _, _ = fs.step_times(quiet, machine, "X")
+    n, _, _ = fs.step_times(noisy, machine, "X")
+    assert len(n) == len(q) == 2002
+    # the braking at the end as without the garbage: the speed profile changes its rate once a
+    # millisecond, so an interval may take the next rate one step earlier or later (< 6 %);
+    # the braking takes as long, and the last step comes at the same rate, to 1 us
+    dn, dq = np.diff(n)[-200:], np.diff(q)[-200:]
+    assert (np.abs(dn - dq) / dq).max() < 0.06
+    assert abs(int(dn.sum()) - int(dq.sum())) < S // 1000
+    assert abs(int(dn[-1]) - int(dq[-1])) <= CYCLES_PER_US
+
+
+def test_the_spindle_pwm_runs_while_on_and_its_pin_stays_low_when_off(lathe):
+    machine, elf = lathe
+    script = (Script(machine).at(3_200_000, "SPIN S1000 D1")
+              .at(int(0.3 * S), "SPIN S0 D0"))
+    log = fs.Harness(elf, machine, script=script.items, cycles=int(0.4 * S)).run()
+    cycles, levels = log.pin("W", 4)                          # D10 = PB4 = OC2A, on the wire
+    on = (cycles > int(0.25 * S)) & (cycles < int(0.3 * S))
+    rises_on = int(((levels == 1) & on).sum())
+    assert rises_on >= 40                                     # ~1 kHz PWM for 50 ms
+    off = cycles > int(0.31 * S)
+    assert not (levels[off] == 1).any()                       # no 4 us spike every period
+
+
+def test_the_watchdog_does_not_fire_while_the_main_loop_runs(lathe):
+    machine, elf = lathe
+    script = Script(machine).at(3_200_000, "FMOV X2").at(int(0.5 * S), "RDPS")
+    log = fs.Harness(elf, machine, script=script.items, cycles=int(0.55 * S)).run()
+    assert replies(log, machine)[-1] == Position((("X", 200), ("Z", 0)))   # no reset on the way
+
+
+@pytest.mark.parametrize("pitch, why", [(6.0, "480 Z steps a turn, 400 encoder counts"),
+                                        (2.5, "Z at 4000 steps/s, its limit 3200")])
+def test_a_thread_the_axis_cannot_cut_is_refused_with_error_before_any_step(lathe, pitch, why):
+    machine, elf = lathe
+    script = (Script(machine).at(3_200_000, "SPIN S1200 D1").at(3_300_000, "ISTP")
+              .at(3_400_000, f"PFDR F{pitch}").at(3_500_000, "PMOV Z-3")
+              .at(int(0.45 * S), "RDST"))
+    log = fs.Harness(elf, machine, script=script.items, cycles=int(0.5 * S), spindle_rpm=1200).run()
+    status = replies(log, machine)[-1]
+    assert status.flags & StatusFlags.ERROR, why
+    rises, _, _ = fs.step_times(log, machine, "Z")
+    assert len(rises) == 0, why
