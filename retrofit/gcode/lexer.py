@@ -174,7 +174,7 @@ def _oword(code: str, pos: int) -> tuple:
         raise RuleError(f"bad O-word {code[pos:pos + 12]!r}: expected o<name> or o<number> and a "
                         f"keyword ({' '.join(k.lower() for k in KEYWORDS)})")
     name, rest = match.group(1), match.group(2)
-    name = name[1:-1].lower() if name.startswith("<") else str(int(name))
+    name = f"<{''.join(name[1:-1].split()).lower()}>" if name.startswith("<") else str(int(name))
     keyword = rest if rest in KEYWORDS else None
     if keyword is None:
         raise RuleError(f"unknown O-word keyword {rest.lower()!r} after o{code[pos + 1:match.start(2)].lower()}"

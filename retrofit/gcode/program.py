@@ -203,7 +203,7 @@ class Interpreter:
         if name in self.sources:
             return self.sources[name]
         for folder in self.search_path:
-            path = folder / f"{name}.ngc"
+            path = folder / f"{name.strip('<>')}.ngc"
             if path.is_file():
                 try:
                     source = scan(Source(path.name, lex_lines(_read_text(path))))
@@ -211,12 +211,12 @@ class Interpreter:
                     exc.file = path.name
                     raise
                 if name not in source.subs:
-                    raise RuleError(f"o<{name}> call: {path.name} does not define o<{name}> sub")
+                    raise RuleError(f"o{name} call: {path.name} does not define o{name} sub")
                 self.sources[name] = source
                 return source
         where = ", ".join(str(p) for p in self.search_path) or "no folder given"
         raise RuleError(f"o{name} call: unknown subroutine o{name} (not in {src.file}, and no "
-                        f"{name}.ngc in {where})")
+                        f"{name.strip('<>')}.ngc in {where})")
 
 
 _PREDEFINED = {

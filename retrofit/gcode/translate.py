@@ -77,6 +77,7 @@ class Translator:
         if nonmodal in coords.NONMODAL:
             coords.NONMODAL[nonmodal](self, block)
         elif nonmodal == 76:
+            self._needs_encoder("G76")
             g76(self, block)
         else:
             self._motion(block, mode)
@@ -185,6 +186,7 @@ class Translator:
             return
         end = self.state.target(block.axes, machine_coords)
         if mode == 33:
+            self._needs_encoder("G33")
             g33(self, block, end)
             self.state.position = end
             return
@@ -195,6 +197,11 @@ class Translator:
             self.feed_line(end, mode)
         else:
             self._arc(block, mode, end)
+
+    def _needs_encoder(self, code: str) -> None:
+        if "spindle" not in self.machine.parts:
+            raise RuleError(f"{code} needs a spindle encoder with an index pulse ([spindle] in the "
+                            f"machine file); machine {self.machine.name} has none")
 
     def rapid(self, end: dict[str, float], where: str = "") -> None:
         """A G0 move to ``end`` (machine mm)."""

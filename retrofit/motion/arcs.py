@@ -119,7 +119,7 @@ def arc_extent(start: Sequence[float], end: Sequence[float], center: Sequence[fl
 
         >>> lo, hi, n, length = arc_extent((10.0, 0.0), (0.0, 10.0), (0.0, 0.0), False, (0, 1), 0.5)
         >>> [round(v, 6) for v in lo + hi], n, round(length, 4)
-        ([0.0, 0.0, 10.0, 10.0], 2, 15.708)
+        ([0.0, 0.0, 10.0, 10.0], 3, 15.708)
     """
     a, b = plane_axes
     r0 = math.hypot(start[a] - center[a], start[b] - center[b])
