@@ -73,7 +73,6 @@ class Block:
     axes: dict[str, float] = field(default_factory=dict)     # machine axis -> value, program units
     values: dict[str, float] = field(default_factory=dict)   # other letters -> value
     texts: dict[str, str] = field(default_factory=dict)      # letter -> word as written
-    coolant: tuple = ()                                      # M7 and M8 may be given together
 
     @property
     def motion(self) -> float | None:
@@ -127,11 +126,6 @@ def _add_code(block: Block, letter: str, value: float) -> None:
         raise RuleError(f"unknown {'G' if letter == 'G' else 'M'} code used: {name}")
     group = groups[code]
     codes = block.g if letter == "G" else block.m
-    if group == "coolant" and code in (7, 8) and code not in block.coolant:
-        block.coolant += (code,)
-        if 9 not in block.coolant and codes.get(group) in (7, 8, None):
-            codes[group] = code
-            return
     if group in codes:
         raise RuleError(f"two {letter} codes used from the same modal group ({group}): "
                         f"{code_name(letter, codes[group])} and {name}")

@@ -115,6 +115,9 @@ def g10(tr, block) -> None:
 def _g10_tool(tr, block, number: int, kind: float) -> None:
     s = tr.state
     table = tr.tool_table if tr.tool_table is not None else ToolTable()
+    if number not in table:
+        raise RuleError(f"G10 L{kind:g} P{number}: requested tool {number} not found in the tool "
+                        f"table")
     try:
         for n, value in block.axes.items():
             mm = s.word_mm(n, value)

@@ -29,20 +29,22 @@ def run(tr, block, mode) -> None:
     v = block.values
     if "R" not in v and s.cycle_r is None:
         raise RuleError(f"G{mode:g}: R clearance plane unspecified in cycle")
-    if mode in (73, 83) and "Q" not in v:
+    if mode in (73, 83) and "Q" not in v and s.cycle_q is None:
         raise RuleError(f"G{mode:g}: Q word missing (the peck depth)")
     repeats = v.get("L", 1.0)
     if repeats != int(repeats) or not 0 <= repeats <= MAX_REPEATS:
         raise RuleError(f"{block.texts['L']}: L repeats a cycle 0 to {MAX_REPEATS} times")
     leave(tr)
-    if "R" in v:
-        s.cycle_r = v["R"]
-    if "Z" in block.axes:
-        s.cycle_z = block.axes["Z"]
+    s.cycle_r = v.get("R", s.cycle_r)
+    s.cycle_q = v.get("Q", s.cycle_q)
+    s.cycle_p = v.get("P", s.cycle_p)
+    s.cycle_z = block.axes.get("Z", s.cycle_z)
     if s.cycle_z is None:
-        raise RuleError(f"G{mode:g}: Z (the bottom of the hole) is missing")
+        raise RuleError(f"G{mode:g}: Z value unspecified in XY plane canned cycle")
     offset_z = s.offset("Z")
-    old = s.position["Z"]
+    if s.cycle_start is None:                  # the initial level of this run of cycles
+        s.cycle_start = s.position["Z"]
+    old = s.cycle_start
     if s.incremental:
         r = old + s.to_mm(s.cycle_r)
         bottom = r + s.to_mm(s.cycle_z)
@@ -56,25 +58,31 @@ def run(tr, block, mode) -> None:
         tr.rapid({**s.position, "Z": clean_mm(r)})
         old = r
     clear = r if s.retract_r else old
+    if s.incremental:
+        step = {a: s.word_mm(a, block.axes.get(a, 0.0)) for a in "XY"}
     hole = {a: block.axes[a] for a in "XY" if a in block.axes}
+    height = max(s.position["Z"], r)         # the first hole is reached at the current height
     for _ in range(int(repeats)):
-        xy = s.target(hole)
-        tr.rapid({**s.position, "X": xy["X"], "Y": xy["Y"], "Z": clean_mm(old)})
-        if old != r:
+        if s.incremental:
+            xy = {a: clean_mm(s.position[a] + step[a]) for a in "XY"}
+        else:
+            xy = s.target(hole)
+        tr.rapid({**s.position, "X": xy["X"], "Y": xy["Y"], "Z": clean_mm(height)})
+        if height != r:
             tr.rapid({**s.position, "Z": clean_mm(r)})
-        _cut(tr, mode, block, r, bottom, clear)
-        old = clear
+        _cut(tr, mode, r, bottom, clear)
+        height = clear
 
 
-def _cut(tr, mode, block, r: float, bottom: float, clear: float) -> None:
+def _cut(tr, mode, r: float, bottom: float, clear: float) -> None:
     s = tr.state
     at = lambda z: {**s.position, "Z": clean_mm(z)}  # noqa: E731
     if mode in (73, 83):
-        peck = s.to_mm(block.values["Q"])
+        peck = s.to_mm(s.cycle_q)
         if not peck > 0.0:
-            raise RuleError(f"{block.texts['Q']}: the peck depth Q must be > 0")
+            raise RuleError(f"Q{s.cycle_q:g}: the peck depth Q must be > 0")
         if (r - bottom) / peck > 100000:
-            raise RuleError(f"{block.texts['Q']}: more than 100000 pecks; raise Q")
+            raise RuleError(f"Q{s.cycle_q:g}: more than 100000 pecks; raise Q")
         depth = r - peck
         while depth > bottom:
             tr.feed_line(at(depth), mode)
@@ -86,7 +94,7 @@ def _cut(tr, mode, block, r: float, bottom: float, clear: float) -> None:
             depth -= peck
     tr.feed_line(at(bottom), mode)
     if mode in (82, 89):
-        tr._dwell(block.values.get("P", 0.0))
+        tr._dwell(s.cycle_p or 0.0)
     if mode in (85, 89):
         tr.feed_line(at(r), mode)
         if clear != r:

@@ -163,6 +163,9 @@ def _words(code: str, pos: int, line: Line) -> None:
             line.words.append((ch, value))
         elif ch == "O":
             raise RuleError("an O-word must be the first word of its line (after N)")
+        elif ch in "@^":
+            raise RuleError(f"{ch}: polar coordinates (@ radius, ^ angle) are not supported; "
+                            f"give X and Y")
         else:
             raise RuleError(f"unexpected character {ch!r} (a word is a letter and a value, "
                             f"e.g. X12.5, X#1 or X[#1+2])")

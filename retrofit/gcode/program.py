@@ -163,6 +163,8 @@ class Interpreter:
         if kw in ("ELSEIF", "ELSE"):
             opening = next(i for i, b in src.branches.items() if pc in b)
             return src, src.end[opening] + 1
+        if kw in ("ENDIF", "DO"):
+            return src, pc + 1
         if kw == "WHILE" and pc in src.start:            # the end of a do loop
             return src, (src.start[pc] + 1 if self._value(args[0]) else pc + 1)
         if kw == "WHILE":

@@ -58,6 +58,9 @@ class ModalState:
     tool_offset: dict[str, float] = field(default_factory=dict)   # G43: axis -> mm
     cycle_r: float | None = None        # the last R of a canned cycle (program units)
     cycle_z: float | None = None        # the last Z of a canned cycle
+    cycle_q: float | None = None        # the last Q (peck) of a canned cycle
+    cycle_p: float | None = None        # the last P (dwell) of a canned cycle
+    cycle_start: float | None = None    # machine Z where the current run of cycles began
 
     @classmethod
     def start(cls, machine: Machine, start_mm: Mapping[str, float] | None = None) -> "ModalState":

@@ -73,6 +73,8 @@ class Translator:
             coords.select_system(self, g["coordinate system"])
         if block.motion is not None:
             s.motion = None if block.motion == 80 else block.motion
+            if s.motion not in cycles.CYCLES:
+                s.cycle_start = None
         nonmodal = g.get("non-modal")
         if nonmodal in coords.NONMODAL:
             coords.NONMODAL[nonmodal](self, block)
@@ -137,7 +139,7 @@ class Translator:
     def _coolant(self, block: Block) -> None:
         code = block.m.get("coolant")
         if code is not None:
-            self.state.coolant = 0 if code == 9 else (8 if 8 in block.coolant else code)
+            self.state.coolant = 0 if code == 9 else code
             self._emit(Cool(self.state.coolant))
 
     def _dwell(self, seconds: float) -> None:
@@ -174,6 +176,8 @@ class Translator:
     # -- motion ----------------------------------------------------------------------------
     def _motion(self, block: Block, mode) -> None:
         if not block.axes:
+            if block.motion in (2, 3) and any(c in block.values for c in "IJK"):
+                self._arc(block, mode, dict(self.state.position))   # a full circle where it is
             return
         if mode is None:
             raise RuleError("cannot use axis values without a G code that uses them (no motion "

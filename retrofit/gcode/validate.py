@@ -74,7 +74,7 @@ def check_word_use(block, mode) -> None:
         raise RuleError(f"cannot use two G codes that both use axis values: G{block.motion:g} and "
                         f"G{nonmodal:g}; put them on separate lines")
     moving = bool(block.axes) and nonmodal not in AXIS_NONMODAL
-    arc = mode in (2, 3) and moving
+    arc = mode in (2, 3) and (moving or (block.motion in (2, 3) and nonmodal not in AXIS_NONMODAL))
     cycle = mode in CYCLE_CODES and moving
     g76 = nonmodal == 76
     uses = {
