@@ -125,15 +125,16 @@ def test_comments_block_delete_line_numbers_and_case(lathe):
     text = """%
 (whole-line comment)
 N10 g0 x10 (inline comment) z2 ; trailing comment
-/G0 X500 Q7 (a deleted block is skipped, not checked)
+/G0 X5 (block delete is off, as in LinuxCNC: the line runs)
 n20 G1 Z - 5 f 100
    ; only a comment
 N30G1X12
 %
 """
     prog = compile_program(text, lathe)
-    assert prog.commands == [FMov(xz(10, 2)), PFdr(100.0), PMov(xz(10, -5)), PMov(xz(12, -5))]
-    assert prog.lines == [3, 5, 5, 7]
+    assert prog.commands == [FMov(xz(10, 2)), FMov(xz(5, 2)), PFdr(100.0), PMov(xz(5, -5)),
+                             PMov(xz(12, -5))]
+    assert prog.lines == [3, 4, 5, 5, 7]
 
 
 def test_start_position_is_where_the_program_begins(lathe):

@@ -133,6 +133,7 @@ def _g10_tool(tr, block, number: int, kind: float) -> None:
 def tool_length(tr, block) -> None:
     """G43 [H], G43.1 (offsets in the block), G49 (cancel)."""
     s = tr.state
+    before = dict(s.tool_offset)
     code = block.g["tool length"]
     if code == 49:
         s.tool_offset = {}
@@ -149,6 +150,10 @@ def tool_length(tr, block) -> None:
         offsets = dict(tool.offsets_mm) if tool else {}
         s.tool_offset = {n: offsets[n] for n in tr.machine.axis_names if n in offsets}
     s.params.write(TOOL_Z, s.tool_offset.get("Z", 0.0))
+    for axis in set(before) | set(s.tool_offset):      # LinuxCNC keeps the program position:
+        delta = s.tool_offset.get(axis, 0.0) - before.get(axis, 0.0)   # the next move takes it up
+        if delta:
+            s.pending[axis] = s.pending.get(axis, 0.0) + delta
 
 
 def absolute_centre_words(tr, words: dict) -> dict:

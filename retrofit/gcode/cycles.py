@@ -95,9 +95,11 @@ def _cut(tr, mode, r: float, bottom: float, clear: float) -> None:
     tr.feed_line(at(bottom), mode)
     if mode in (82, 89):
         tr._dwell(s.cycle_p or 0.0)
-    if mode in (85, 89):
+    if mode == 85:
         tr.feed_line(at(r), mode)
         if clear != r:
             tr.rapid(at(clear))
+    elif mode == 89:
+        tr.feed_line(at(clear), mode)
     else:
         tr.rapid(at(clear))

@@ -84,7 +84,7 @@ def read_expression(code: str, pos: int) -> tuple[object, int]:
         if op is None:
             raise RuleError(f"unknown operator {code[pos:pos + 4]!r} in expression (operators: "
                             f"{' '.join(LEVELS)})")
-        while ops and LEVELS[ops[-1]] >= LEVELS[op] and not (op == "**" and ops[-1] == "**"):
+        while ops and LEVELS[ops[-1]] >= LEVELS[op]:
             _reduce(values, ops)
         ops.append(op)
         pos += len(op)

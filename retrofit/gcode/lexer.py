@@ -6,7 +6,8 @@ comment). On each line, as LinuxCNC reads it:
 * ``( ... )`` comments end on the same line, ``;`` starts a comment to the end of the line;
   ``(MSG,text)``, ``(DEBUG,text)`` and ``(PRINT,text)`` are kept as messages;
 * spaces are ignored and letters are upper-cased (``g 1 x - 5`` is ``G1X-5``);
-* a line starting with ``/`` is a deleted block, a line starting with ``%`` a program delimiter,
+* a ``/`` first (block delete) is ignored: LinuxCNC's block-delete switch is off by default and
+  the line runs; a line starting with ``%`` is a program delimiter,
   a line starting with ``$`` a grbl command (:mod:`retrofit.gcode.dialect`);
 * ``N..`` first is the line number, ignored; ``O..`` first is an O-word (subroutines, loops);
 * the rest is words (a letter and a value) and parameter assignments (``#1=2``, ``#<x>=[#1*2]``).
@@ -73,12 +74,14 @@ def lex_lines(text: str) -> list[Line]:
 
 
 def lex_line(number: int, raw: str) -> Line | None:
-    """The lexed line, or None for a blank, comment-free empty or deleted (``/``) line.
+    """The lexed line, or None for a blank or empty line.
 
     Raises RuleError for an unclosed comment, a stray character or a word without a value.
     """
     stripped = raw.strip()
-    if not stripped or stripped[0] == "/":
+    if stripped.startswith("/"):         # block delete: LinuxCNC's switch is off, the line runs
+        raw = stripped = stripped[1:].strip()
+    if not stripped:
         return None
     if stripped[0] == "%":
         return Line(number, percent=True)

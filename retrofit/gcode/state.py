@@ -56,6 +56,7 @@ class ModalState:
     tool: int = 0                       # in the spindle
     selected: int | None = None         # T given, not yet changed
     tool_offset: dict[str, float] = field(default_factory=dict)   # G43: axis -> mm
+    pending: dict[str, float] = field(default_factory=dict)  # tool offset change the next move makes
     cycle_r: float | None = None        # the last R of a canned cycle (program units)
     cycle_z: float | None = None        # the last Z of a canned cycle
     cycle_q: float | None = None        # the last Q (peck) of a canned cycle
@@ -101,12 +102,14 @@ class ModalState:
         """The end point (machine mm, every axis) of axis words in program units, under G90/G91
         (``machine_coords``: G53, absolute machine coordinates)."""
         end = dict(self.position)
+        for name, delta in self.pending.items():    # a new tool offset: the program position stays
+            end[name] = clean_mm(end[name] + delta)
         for name, value in axes.items():
             mm = self.word_mm(name, value)
             if machine_coords:
                 end[name] = clean_mm(mm)
             elif self.incremental:
-                end[name] = clean_mm(end[name] + mm)
+                end[name] = clean_mm(end[name] + mm)    # end already holds the pending change
             else:
                 end[name] = clean_mm(mm + self.offset(name))
         return end

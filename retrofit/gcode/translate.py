@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 
-from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, Tool
+from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, Tool, ZMov
 from ..config import Machine
 from ..motion.arcs import arc_extent, arc_points
 from . import coords, cycles
@@ -269,6 +269,8 @@ class Translator:
         return tuple((name, point[name]) for name in self.machine.axis_names)
 
     def _emit(self, command: Command) -> None:
+        if self.state.pending and isinstance(command, (FMov, PMov, ZMov)):
+            self.state.pending = {}
         self.commands.append(command)
         self.lines.append(self._line)
         self.files.append(self._file)

@@ -4,7 +4,9 @@ Usage: ``python3 tests/gcode/regenerate.py`` (needs ``/usr/bin/rs274``, Debian's
 For each ``programs/*.ngc`` and ``linuxcnc/*.ngc`` it writes ``golden/<folder>/<name>.canon``:
 a first line ``# rs274 exit <code>: <error or ok>`` and then rs274's canonical calls as printed
 (``STRAIGHT_TRAVERSE(...)``, ``ARC_FEED(...)``, offsets, units). The tool table is ``tool.tbl``.
-The golden files are committed, so the differential test runs where LinuxCNC is not installed.
+The golden files are committed, so the differential test runs where LinuxCNC is not installed. rs274 without a configuration
+works in inches: the tool table it reads is ``tool.tbl`` converted (``golden/tool-inch.tbl``), and
+programs that write offset parameters (#5161.., #5211..) as numbers are kept out of the corpus.
 """
 
 from __future__ import annotations
@@ -18,9 +20,21 @@ RS274 = "/usr/bin/rs274"
 FOLDERS = ("programs", "linuxcnc")
 
 
+def inch_tool_table() -> Path:
+    """``tool.tbl`` in inches: rs274 without a configuration reads tool tables in inches, and
+    prints the offsets in the program's units."""
+    out = HERE / "golden" / "tool-inch.tbl"
+    lines = []
+    for raw in (HERE / "tool.tbl").read_text().splitlines():
+        words = raw.split(";")[0].split()
+        lines.append(" ".join(w if w[0] in "TPD" else f"{w[0]}{float(w[1:]) / 25.4:.10f}" for w in words))
+    out.write_text("\n".join(lines) + "\n")
+    return out
+
+
 def run_rs274(program: Path) -> str:
     """rs274's output for ``program``, with the exit line first."""
-    proc = subprocess.run([RS274, "-t", str(HERE / "tool.tbl"), "-g", str(program)],
+    proc = subprocess.run([RS274, "-t", str(inch_tool_table()), "-g", str(program)],
                           stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=60,
                           cwd=program.parent)
     errors = [line for line in proc.stderr.splitlines() if line.strip() and line != "executing"]
