@@ -25,7 +25,7 @@ from .state import ModalState
 from .translate import Translator
 
 #: the most lines one run may execute: a loop that never ends is refused, not run for ever
-MAX_STEPS = 2_000_000
+MAX_STEPS = 500_000
 #: the deepest nesting of subroutine calls
 MAX_CALL_DEPTH = 50
 
