@@ -7,7 +7,6 @@ names an axis of the machine, every value is a finite number.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 from ..config import Machine
@@ -72,7 +71,11 @@ class Block:
     m: dict[str, float] = field(default_factory=dict)        # group -> M code
     axes: dict[str, float] = field(default_factory=dict)     # machine axis -> value, program units
     values: dict[str, float] = field(default_factory=dict)   # other letters -> value
-    texts: dict[str, str] = field(default_factory=dict)      # letter -> word as written
+
+    @property
+    def texts(self) -> dict[str, str]:
+        """Letter -> the word as evaluated (``'X12.5'``), for messages."""
+        return {letter: f"{letter}{value:g}" for letter, value in (*self.axes.items(), *self.values.items())}
 
     @property
     def motion(self) -> float | None:
@@ -88,27 +91,37 @@ def code_name(letter: str, value: float) -> str:
 def make_block(line: int, words: list[tuple[str, float]], machine: Machine) -> Block:
     """Sort one block's evaluated words; raise RuleError on the first word that breaks a rule."""
     block = Block(line)
+    axes, values = block.axes, block.values
+    names = _axis_names(machine)
     for letter, value in words:
-        if not math.isfinite(value) or abs(value) > MAX_VALUE:
+        if not -MAX_VALUE <= value <= MAX_VALUE:          # also refuses NaN
             raise RuleError(f"{letter}{value:g}: the value is not a finite number within "
                             f"+-{MAX_VALUE:g}")
         if letter == "G" or letter == "M":
             _add_code(block, letter, value)
         elif letter == "N":
             raise RuleError("line number N must be the first word of the block")
+        elif letter in axes or letter in values:
+            raise RuleError(f"{letter} given twice in one block ({block.texts[letter]}, "
+                            f"{letter}{value:g})")
+        elif letter in AXIS_LETTERS:
+            if letter not in names:
+                raise RuleError(f"axis {letter} is not on machine {machine.name} "
+                                f"(axes: {', '.join(machine.axis_names)})")
+            axes[letter] = value
         else:
-            if letter in block.texts:
-                raise RuleError(f"{letter} given twice in one block ({block.texts[letter]}, "
-                                f"{letter}{value:g})")
-            block.texts[letter] = f"{letter}{value:g}"
-            if letter in AXIS_LETTERS:
-                if letter not in machine.axis_names:
-                    raise RuleError(f"axis {letter} is not on machine {machine.name} "
-                                    f"(axes: {', '.join(machine.axis_names)})")
-                block.axes[letter] = value
-            else:
-                block.values[letter] = value
+            values[letter] = value
     return block
+
+
+_NAMES: dict[int, frozenset] = {}
+
+
+def _axis_names(machine: Machine) -> frozenset:
+    names = _NAMES.get(id(machine))
+    if names is None:
+        names = _NAMES[id(machine)] = frozenset(machine.axis_names)
+    return names
 
 
 def _add_code(block: Block, letter: str, value: float) -> None:

@@ -40,6 +40,7 @@ class Parameters:
         self.globals: dict[str, float] = {}
         self.frames: list[dict[str, float]] = [{}]
         self.saved: list[dict[int, float]] = []
+        self.version = 0          # counts writes to numbered parameters (offsets are cached on it)
 
     @staticmethod
     def index(value: float) -> int:
@@ -67,6 +68,7 @@ class Parameters:
             (self.globals if ref.startswith("_") else self.frames[-1])[ref] = value
         else:
             self.numbered[self.index(ref)] = value
+            self.version += 1
 
     def exists(self, name: str) -> bool:
         """EXISTS[#<name>]."""
@@ -90,6 +92,7 @@ class Parameters:
         """Return from a subroutine: the caller's locals and #1-#30 come back."""
         self.frames.pop()
         self.numbered.update(self.saved.pop())
+        self.version += 1
 
 
 def _show(ref) -> str:

@@ -57,6 +57,7 @@ class ModalState:
     selected: int | None = None         # T given, not yet changed
     tool_offset: dict[str, float] = field(default_factory=dict)   # G43: axis -> mm
     pending: dict[str, float] = field(default_factory=dict)  # tool offset change the next move makes
+    _offsets: tuple = (None, None, {})  # (parameter version, tool offsets, axis -> offset) cache
     cycle_r: float | None = None        # the last R of a canned cycle (program units)
     cycle_z: float | None = None        # the last Z of a canned cycle
     cycle_q: float | None = None        # the last Q (peck) of a canned cycle
@@ -83,6 +84,16 @@ class ModalState:
 
     def offset(self, axis: str) -> float:
         """Machine minus program coordinate of ``axis`` (mm): G5x + G92 + tool offsets."""
+        version, tool, cache = self._offsets
+        if version != self.params.version or tool is not self.tool_offset:
+            cache = {}
+            self._offsets = (self.params.version, self.tool_offset, cache)
+        value = cache.get(axis)
+        if value is None:
+            value = cache[axis] = self._offset(axis)
+        return value
+
+    def _offset(self, axis: str) -> float:
         p = self.params
         total = p.axis(G54_BASE + CS_STEP * (int(p.numbered.get(CS_SELECT, 1.0)) - 1), axis)
         if p.numbered.get(G92_BASE - 1, 0.0):

@@ -47,6 +47,7 @@ class Translator:
         self._line = 0
         self._file = ""
         self.indexing = False             # ISTP emitted and not yet ended by CSTP (a G33 chain)
+        self.names = machine.axis_names
         atc = machine.parts.get("atc")
         self.change_on_t = getattr(atc, "change_on", "M6") == "T"
 
@@ -233,7 +234,7 @@ class Translator:
                             f"from 1 to 1000")
         center = arc_center(mode, s.plane, (start[first], start[second]), (end[first], end[second]),
                             words, block.texts, s.inch)
-        names = self.machine.axis_names
+        names = self.names
         plane = (names.index(first), names.index(second))
         center_all = [0.0] * len(names)
         center_all[plane[0]], center_all[plane[1]] = center
@@ -266,7 +267,7 @@ class Translator:
             s.feed_sent = feed
 
     def _axes(self, point: dict[str, float]) -> tuple[tuple[str, float], ...]:
-        return tuple((name, point[name]) for name in self.machine.axis_names)
+        return tuple([(name, point[name]) for name in self.names])
 
     def _emit(self, command: Command) -> None:
         if self.state.pending and isinstance(command, (FMov, PMov, ZMov)):

@@ -58,6 +58,8 @@ def check_feed(mode: int, feed_mm_min: float) -> None:
 
 #: G codes of group 0 that take the block's axis words for themselves
 AXIS_NONMODAL = (10, 28, 30, 92)
+#: letters every block may carry
+_ALWAYS = frozenset("FST")
 #: canned cycles (motion group)
 CYCLE_CODES = (73, 81, 82, 83, 85, 89)
 
@@ -69,6 +71,8 @@ def check_word_use(block, mode) -> None:
     ``block`` is a :class:`~retrofit.gcode.blocks.Block`, ``mode`` the motion mode in force.
     """
     g = block.g
+    if not block.values.keys() - _ALWAYS and not g:
+        return                    # the common CAM block: axis words, F, S, T
     nonmodal = g.get("non-modal")
     if nonmodal in AXIS_NONMODAL and block.motion is not None and block.axes:
         raise RuleError(f"cannot use two G codes that both use axis values: G{block.motion:g} and "
