@@ -30,6 +30,8 @@ from .expressions import read_expression, read_parameter, read_value
 
 _LINE_END = re.compile(r"\r\n|\r|\n")
 _PLAIN = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+))")
+#: a whole line of plain words and nothing else (the fast path: most CAM lines)
+_PLAIN_LINE = re.compile(r"(?:[A-NP-Za-np-z]\s*[-+]?\s*(?:\d+\.?\d*|\.\d+)\s*)+")
 _LINE_NUMBER = re.compile(r"N\d*\.?\d*")
 _OWORD = re.compile(r"O(<[^>]*>|\d+)([A-Z]+)")
 #: O-word keywords and whether they take a bracketed argument (None: no, 1: one, "*": any number)
@@ -63,7 +65,12 @@ def lex_lines(text: str) -> list[Line]:
     """Every line of ``text`` that holds something; a line that cannot be read carries its
     error, raised only if the program reaches it (as LinuxCNC reads a line when it runs it)."""
     lines = []
+    plain, findall = _PLAIN_LINE.fullmatch, _PLAIN.findall
     for number, raw in enumerate(split_lines(text), start=1):
+        if plain(raw) and raw[0] not in "nN":
+            code = "".join(raw.split()).upper()
+            lines.append(Line(number, [(a, float(b)) for a, b in findall(code)]))
+            continue
         try:
             line = lex_line(number, raw)
         except RuleError as exc:

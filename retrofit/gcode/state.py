@@ -115,12 +115,15 @@ class ModalState:
         end = dict(self.position)
         for name, delta in self.pending.items():    # a new tool offset: the program position stays
             end[name] = clean_mm(end[name] + delta)
+        scale = MM_PER_INCH if self.inch else 1.0
         for name, value in axes.items():
-            mm = self.word_mm(name, value)
+            mm = value * scale
+            if self.diameter and name == "X":
+                mm /= 2.0
             if machine_coords:
-                end[name] = clean_mm(mm)
+                end[name] = round(mm, DECIMALS) + 0.0
             elif self.incremental:
-                end[name] = clean_mm(end[name] + mm)    # end already holds the pending change
+                end[name] = round(end[name] + mm, DECIMALS) + 0.0   # end holds the pending change
             else:
-                end[name] = clean_mm(mm + self.offset(name))
+                end[name] = round(mm + self.offset(name), DECIMALS) + 0.0
         return end

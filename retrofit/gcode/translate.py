@@ -32,6 +32,8 @@ MAX_DWELL_S = 86400.0
 MAX_FEED_MM_MIN = 1.0e6
 MAX_RPM = 1.0e6
 MAX_TOOL = 99999
+#: the only non-axis letter of a plain block
+_PLAIN_VALUES = frozenset("F")
 
 
 class Translator:
@@ -56,6 +58,9 @@ class Translator:
         self._line, self._file = block.line, file
         s = self.state
         g = block.g
+        if not block.m and (not g or (len(g) == 1 and g.get("motion") in (0, 1))) \
+                and not block.values.keys() - _PLAIN_VALUES:
+            return self._plain(block)
         mode = block.motion if block.motion is not None else s.motion
         check_word_use(block, mode)
         if "feed mode" in g:
@@ -90,6 +95,17 @@ class Translator:
         if stop in (2, 30):
             self._end()
             return True
+        return False
+
+    def _plain(self, block: Block) -> bool:
+        """A block of axis words and F only, the bulk of CAM output: the same steps as
+        :meth:`run`, without the codes it does not have."""
+        if "F" in block.values:
+            self._feed_word(block.values["F"])
+        if block.g:
+            self.state.motion = block.g["motion"]
+            self.state.cycle_start = None
+        self._motion(block, self.state.motion)
         return False
 
     # -- words acting before the motion ------------------------------------------------------
