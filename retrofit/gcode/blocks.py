@@ -114,14 +114,14 @@ def make_block(line: int, words: list[tuple[str, float]], machine: Machine) -> B
     return block
 
 
-_NAMES: dict[int, frozenset] = {}
+_NAMES: dict[int, tuple] = {}
 
 
 def _axis_names(machine: Machine) -> frozenset:
     names = _NAMES.get(id(machine))
-    if names is None:
-        names = _NAMES[id(machine)] = frozenset(machine.axis_names)
-    return names
+    if names is None or names[0] is not machine:      # an id can be reused by a new machine
+        names = _NAMES[id(machine)] = (machine, frozenset(machine.axis_names))
+    return names[1]
 
 
 def _add_code(block: Block, letter: str, value: float) -> None:

@@ -17,19 +17,29 @@ LIMIT_SLACK_MM = 1e-9
 
 
 def check_soft_limits(machine: Machine, point_mm: Mapping[str, float], where: str = "") -> None:
-    """Every axis of ``point_mm`` within its soft limits ``min_mm..max_mm``.
+    """Every axis of ``point_mm`` within its soft limits ``min_mm..max_mm`` (NaN is outside).
 
     ``where`` is added to the message (e.g. ``" on the G2 arc"``).
     """
-    for axis in machine.axes:
-        value = point_mm.get(axis.name)
-        if value is None:
-            continue
-        if not math.isfinite(value):
-            raise RuleError(f"{axis.name} {value} mm{where} is not a finite number")
-        if value < axis.min_mm - LIMIT_SLACK_MM or value > axis.max_mm + LIMIT_SLACK_MM:
-            raise RuleError(f"{axis.name} {value:.3f} mm{where} is outside the soft limits "
+    for name, low, high in _limits(machine):
+        value = point_mm.get(name)
+        if value is not None and not low <= value <= high:
+            axis = machine.axis(name)
+            if not math.isfinite(value):
+                raise RuleError(f"{name} {value} mm{where} is not a finite number")
+            raise RuleError(f"{name} {value:.3f} mm{where} is outside the soft limits "
                             f"{axis.min_mm:g}..{axis.max_mm:g} mm")
+
+
+_LIMITS: dict[int, tuple] = {}
+
+
+def _limits(machine: Machine) -> tuple:
+    limits = _LIMITS.get(id(machine))
+    if limits is None or limits[0] is not machine:
+        limits = _LIMITS[id(machine)] = (machine, tuple(
+            (a.name, a.min_mm - LIMIT_SLACK_MM, a.max_mm + LIMIT_SLACK_MM) for a in machine.axes))
+    return limits[1]
 
 
 #: the most chords one arc may become; more is refused before any chord is built
