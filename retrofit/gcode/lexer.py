@@ -54,6 +54,7 @@ class Line:
     dollar: str | None = None                       # a grbl '$' line, as written
     percent: bool = False                           # a '%' delimiter line
     error: str | None = None                        # why the line cannot be read (told if it runs)
+    plain: bool = False                             # only letters and numbers: values are floats
 
 
 def split_lines(text: str) -> list[str]:
@@ -69,7 +70,7 @@ def lex_lines(text: str) -> list[Line]:
     for number, raw in enumerate(split_lines(text), start=1):
         if plain(raw) and raw[0] not in "nN":
             code = "".join(raw.split()).upper()
-            lines.append(Line(number, [(a, float(b)) for a, b in findall(code)]))
+            lines.append(Line(number, [(a, float(b)) for a, b in findall(code)], plain=True))
             continue
         try:
             line = lex_line(number, raw)

@@ -111,6 +111,8 @@ class Interpreter:
 
     def _line(self, src: Source, line) -> bool:
         """One line of words; True when it ends the program."""
+        if line.plain:
+            return self.tr.run(make_block(line.number, line.words, self.machine), src.file)
         for kind, text in line.messages:
             self.messages.append((src.file, line.number, kind, self._substitute(text)))
         if line.dollar is not None:

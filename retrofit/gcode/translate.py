@@ -233,7 +233,9 @@ class Translator:
     def feed_line(self, end: dict[str, float], mode=1) -> None:
         """A G1 move to ``end`` (machine mm) at the programmed feed."""
         check_soft_limits(self.machine, end)
-        self._send_feed(math.dist(self.state.position.values(), end.values()), mode)
+        s = self.state
+        if s.inverse_time or s.feed_sent != s.feed_mm_min:
+            self._send_feed(math.dist(s.position.values(), end.values()), mode)
         self._emit(PMov(self._axes(end)))
         self.state.position = end
 
