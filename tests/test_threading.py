@@ -181,7 +181,7 @@ def test_a_pass_too_short_for_its_lead_in_is_refused_before_motion():
     ("S300 M3\nG76 P1.5 Z-10 I-1 J0.1 K1 E7 L1", "E7: the taper is longer than half the drive line"),
     ("S300 M3\nG76 X3 P1.5 Z-10 I-1 J0.1 K1", "G76 takes Z as its only axis word"),
     ("S300 M3\nG17 G76 P1.5 Z-10 I-1 J0.1 K1", r"G76 needs the ZX plane \(G18\)"),
-    ("G0 X1 Q5", "unknown word 'Q5'"),
+    ("G0 X1 Q5", "Q5: Q word with no G code that uses it"),
 ], ids=["too-fast", "spindle-stopped", "too-coarse", "no-k", "missing-j", "degression",
         "no-peak", "long-taper", "x-word", "plane", "q-without-g76"])
 def test_thread_rules_name_the_line_and_the_figures(text, message):

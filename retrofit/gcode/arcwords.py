@@ -12,20 +12,19 @@ import math
 from collections.abc import Mapping
 
 from ..config import Machine
-from .validate import RuleError
+from .errors import RuleError
 
 #: plane G code -> (first axis, second axis, normal axis)
 PLANES: dict[int, tuple[str, str, str]] = {17: ("X", "Y", "Z"), 18: ("Z", "X", "Y"), 19: ("Y", "Z", "X")}
 #: the centre-offset word of each axis
 OFFSET_LETTER = {"X": "I", "Y": "J", "Z": "K"}
-#: the end radius may differ from the start radius by at least this much (mm), so that programs
-#: written with three decimals still pass on a machine with a finer arc tolerance
-MIN_RADIUS_MISMATCH_MM = 0.002
-
-
-def allowed_radius_mismatch(machine: Machine) -> float:
-    """How far (mm) the end point may lie off the circle through the start point."""
-    return max(machine.motion.arc_tolerance_mm, MIN_RADIUS_MISMATCH_MM)
+#: LinuxCNC's rule for the end point of an I/J/K arc (measured against its ``rs274``): the radius
+#: to the end may differ from the radius to the start by up to ``ABS`` (0.0282 mm under G21,
+#: 0.0025 inch under G20), or by more when it is within ``REL`` (0.1 %) of the radius -- never by
+#: more than 100 times ``ABS``
+RADIUS_ABS_MM, RADIUS_ABS_INCH, RADIUS_REL = 0.0282, 0.0025 * 25.4, 0.001
+#: an R arc may be this much (mm) too short to reach its end point and is then a half circle
+R_REACH_MM = 0.00127
 
 
 def plane_axes(machine: Machine, plane: int, mode: int) -> tuple[str, str]:
@@ -40,12 +39,13 @@ def plane_axes(machine: Machine, plane: int, mode: int) -> tuple[str, str]:
 
 def arc_center(mode: int, plane: int, start: tuple[float, float], end: tuple[float, float],
                words_mm: Mapping[str, float], texts: Mapping[str, str],
-               allowed_mm: float) -> tuple[float, float]:
+               inch: bool = False) -> tuple[float, float]:
     """Plane coordinates (first, second) of the centre of a G2/G3 from ``start`` to ``end``.
 
     ``words_mm`` holds the block's I/J/K/R values converted to mm, ``texts`` the words as
-    written (for messages).
+    written (for messages); ``inch``: G20 is in force (the tolerance of the end radius).
     """
+    allowed_mm = RADIUS_ABS_INCH if inch else RADIUS_ABS_MM
     first, second, _ = PLANES[plane]
     in_plane = (OFFSET_LETTER[first], OFFSET_LETTER[second])
     offsets = [c for c in "IJK" if c in words_mm]
@@ -56,9 +56,10 @@ def arc_center(mode: int, plane: int, start: tuple[float, float], end: tuple[flo
     if "R" in words_mm and offsets:
         raise RuleError(f"G{mode} with both R and {texts[offsets[0]]}: give the centre one way")
     if "R" in words_mm:
-        return _center_from_radius(mode, start, end, words_mm["R"], allowed_mm)
+        return _center_from_radius(mode, start, end, words_mm["R"])
     if not offsets:
-        raise RuleError(f"G{mode} needs I/J/K or R in plane G{plane}")
+        raise RuleError(f"G{mode}: R, I, J and K words all missing for arc (plane G{plane} takes "
+                        f"{in_plane[0]}/{in_plane[1]} or R)")
     center = (start[0] + words_mm.get(in_plane[0], 0.0), start[1] + words_mm.get(in_plane[1], 0.0))
     _check_radii(mode, start, end, center, allowed_mm)
     return center
@@ -70,12 +71,14 @@ def _check_radii(mode: int, start, end, center, allowed_mm: float) -> None:
     if r0 == 0.0 or r1 == 0.0:
         raise RuleError(f"G{mode} radius 0: the centre offsets put the centre on the "
                         f"{'start' if r0 == 0.0 else 'end'} point")
-    if abs(r1 - r0) > allowed_mm:
-        raise RuleError(f"G{mode} radius mismatch {abs(r1 - r0):.4g} mm > {allowed_mm:g} mm "
-                        f"(start radius {r0:.3f}, end radius {r1:.3f})")
+    err = abs(r1 - r0)
+    if err > 100.0 * allowed_mm or (err / max(r0, r1) > RADIUS_REL and err > allowed_mm):
+        raise RuleError(f"G{mode}: radius to end of arc differs from radius to start by "
+                        f"{err:.4g} mm (start radius {r0:.4f}, end radius {r1:.4f}; allowed "
+                        f"{allowed_mm:g} mm, or {RADIUS_REL:.1%} of the radius)")
 
 
-def _center_from_radius(mode: int, start, end, radius: float, allowed_mm: float):
+def _center_from_radius(mode: int, start, end, radius: float):
     dx, dy = end[0] - start[0], end[1] - start[1]
     d = math.hypot(dx, dy)
     if d == 0.0:
@@ -86,7 +89,7 @@ def _center_from_radius(mode: int, start, end, radius: float, allowed_mm: float)
     r = abs(radius)
     h2 = r * r - (d / 2.0) ** 2
     if h2 < 0.0:
-        if d / 2.0 - r > allowed_mm:
+        if d / 2.0 - r > R_REACH_MM:
             raise RuleError(f"G{mode} radius {r:.3f} mm is too small for the {d:.3f} mm from "
                             f"start to end (needs |R| >= {d / 2.0:.3f} mm)")
         h2 = 0.0

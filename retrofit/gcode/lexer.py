@@ -1,89 +1,212 @@
-"""G-code lexer: the lines of a part program into blocks of words, each with its line number.
+"""G-code lexer: the text of a program into lines, each with its words, assignments and O-word.
 
-One line is one block. Comments ``( ... )`` and ``; ...`` are dropped, a line whose first
-character is ``/`` is a deleted block (skipped whole, never checked), a line holding only ``%``
-is a program delimiter, whitespace is ignored (``G 1 X - 5`` is ``G1X-5``) and letters are
-upper-cased. Each word is a letter and a number::
+Only ``\\n``, ``\\r\\n`` and ``\\r`` end a line (a form feed or U+2028 inside a comment stays in the
+comment). On each line, as LinuxCNC reads it:
 
-    >>> [w.text for w in lex_line("n10 g1 x-.5 (rough) z2 ; pass 1")]
-    ['N10', 'G1', 'X-.5', 'Z2']
+* ``( ... )`` comments end on the same line, ``;`` starts a comment to the end of the line;
+  ``(MSG,text)``, ``(DEBUG,text)`` and ``(PRINT,text)`` are kept as messages;
+* spaces are ignored and letters are upper-cased (``g 1 x - 5`` is ``G1X-5``);
+* a ``/`` first (block delete) is ignored: LinuxCNC's block-delete switch is off by default and
+  the line runs; a line starting with ``%`` is a program delimiter,
+  a line starting with ``$`` a grbl command (:mod:`retrofit.gcode.dialect`);
+* ``N..`` first is the line number, ignored; ``O..`` first is an O-word (subroutines, loops);
+* the rest is words (a letter and a value) and parameter assignments (``#1=2``, ``#<x>=[#1*2]``).
+
+A value is a number, a ``#`` parameter, an ``[expression]`` or a function
+(:mod:`retrofit.gcode.expressions`), read once and evaluated every time the line runs::
+
+    >>> line = lex_line(7, "n10 g1 x-.5 (rough) z[#1+1] ; pass 1")
+    >>> line.number, [(letter, value) for letter, value in line.words]
+    (7, [('G', 1.0), ('X', -0.5), ('Z', ('op', '+', ('#', 1.0), 1.0))])
 """
 
 from __future__ import annotations
 
 import re
-from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
-from .validate import RuleError
+from .errors import RuleError
+from .expressions import read_expression, read_parameter, read_value
 
-_NUMBER = re.compile(r"[-+]?(?:\d+(?:\.\d*)?|\.\d+)")
-_NOT_SUPPORTED = {"#": "parameters", "[": "expressions", "<": "named parameters"}
-
-
-@dataclass(frozen=True)
-class Word:
-    """One word: its letter, its value and its text as written (upper case, e.g. ``'G01'``)."""
-
-    letter: str
-    value: float
-    text: str
-
-
-def iter_lines(text: str) -> Iterator[tuple[int, str]]:
-    """(line number, text) of every source line, numbered from 1."""
-    return enumerate(text.splitlines(), start=1)
+_LINE_END = re.compile(r"\r\n|\r|\n")
+_PLAIN = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+))")
+#: a whole line of plain words and nothing else (the fast path: most CAM lines)
+_PLAIN_LINE = re.compile(r"(?:[A-NP-Za-np-z]\s*[-+]?\s*(?:\d+\.?\d*|\.\d+)\s*)+")
+_LINE_NUMBER = re.compile(r"N\d*\.?\d*")
+_OWORD = re.compile(r"O(<[^>]*>|\d+)([A-Z]+)")
+#: O-word keywords and whether they take a bracketed argument (None: no, 1: one, "*": any number)
+KEYWORDS = {"SUB": None, "ENDSUB": 1, "CALL": "*", "RETURN": 1, "IF": 1, "ELSEIF": 1, "ELSE": None,
+            "ENDIF": None, "WHILE": 1, "ENDWHILE": None, "DO": None, "REPEAT": 1, "ENDREPEAT": None,
+            "BREAK": None, "CONTINUE": None}
+#: the message comments LinuxCNC acts on
+MESSAGE_KINDS = ("MSG", "DEBUG", "PRINT")
 
 
-def lex_line(raw: str) -> tuple[Word, ...]:
-    """The words of one line; empty for a blank, comment-only, deleted or ``%`` line.
+@dataclass(slots=True)
+class Line:
+    """One source line, lexed: what it holds, in the order written."""
 
-    Raises RuleError for an unclosed comment, a stray character or a letter without a number.
+    number: int                                     # 1-based line number in its file
+    words: list = field(default_factory=list)       # (letter, value tree)
+    assigns: list = field(default_factory=list)     # (parameter tree, value tree)
+    oword: tuple | None = None                      # (name, KEYWORD, [argument trees])
+    messages: list = field(default_factory=list)    # (kind, text) of (MSG,..) (DEBUG,..) (PRINT,..)
+    dollar: str | None = None                       # a grbl '$' line, as written
+    percent: bool = False                           # a '%' delimiter line
+    error: str | None = None                        # why the line cannot be read (told if it runs)
+    plain: bool = False                             # only letters and numbers: values are floats
+
+
+def split_lines(text: str) -> list[str]:
+    """The source lines of ``text``; only ``\\n``, ``\\r\\n`` and ``\\r`` end a line."""
+    return _LINE_END.split(text)
+
+
+def lex_lines(text: str) -> list[Line]:
+    """Every line of ``text`` that holds something; a line that cannot be read carries its
+    error, raised only if the program reaches it (as LinuxCNC reads a line when it runs it)."""
+    lines = []
+    plain, findall = _PLAIN_LINE.fullmatch, _PLAIN.findall
+    for number, raw in enumerate(split_lines(text), start=1):
+        if plain(raw) and raw[0] not in "nN":
+            code = "".join(raw.split()).upper()
+            lines.append(Line(number, [(a, float(b)) for a, b in findall(code)], plain=True))
+            continue
+        try:
+            line = lex_line(number, raw)
+        except RuleError as exc:
+            line = Line(number, error=str(exc))
+        if line is not None:
+            lines.append(line)
+    return lines
+
+
+def lex_line(number: int, raw: str) -> Line | None:
+    """The lexed line, or None for a blank or empty line.
+
+    Raises RuleError for an unclosed comment, a stray character or a word without a value.
     """
     stripped = raw.strip()
-    if stripped.startswith("/") or stripped == "%":
-        return ()
-    code = "".join(_strip_comments(raw).split()).upper()
-    words = []
+    if stripped.startswith("/"):         # block delete: LinuxCNC's switch is off, the line runs
+        raw = stripped = stripped[1:].strip()
+    if not stripped:
+        return None
+    if stripped[0] == "%":
+        return Line(number, percent=True)
+    if stripped[0] == "$":
+        return Line(number, dollar=stripped)
+    code, messages = _code_and_comments(raw)
+    line = Line(number, messages=messages)
+    if not code:
+        return line if messages else None
     pos = 0
-    while pos < len(code):
-        letter = code[pos]
-        if not ("A" <= letter <= "Z"):
-            raise RuleError(_stray(letter))
-        match = _NUMBER.match(code, pos + 1)
-        if match is None:
-            after = code[pos + 1:pos + 2]
-            if after in _NOT_SUPPORTED:
-                raise RuleError(_stray(after))
-            raise RuleError(f"word {letter!r} has no number (expected e.g. {letter}10)")
-        words.append(Word(letter, float(match.group()), letter + match.group()))
-        pos = match.end()
-    return tuple(words)
+    if code[0] == "N":
+        pos = _LINE_NUMBER.match(code).end()
+    if code.startswith("O", pos):
+        line.oword = _oword(code, pos)
+        return line
+    if "#" not in code and "[" not in code:
+        _plain_words(code, pos, line)
+    else:
+        _words(code, pos, line)
+    return line
 
 
-def _strip_comments(raw: str) -> str:
-    """The line without its ``( ... )`` and ``; ...`` comments."""
-    out = []
-    pos = 0
-    while pos < len(raw):
-        ch = raw[pos]
-        if ch == ";":
+def _code_and_comments(raw: str) -> tuple[str, list]:
+    """The line's code (comments removed, no spaces, upper case) and its message comments."""
+    out, messages, pos = [], [], 0
+    while True:
+        paren, semi = raw.find("(", pos), raw.find(";", pos)
+        if semi >= 0 and (paren < 0 or semi < paren):
+            out.append(raw[pos:semi])
+            _message(raw[semi + 1:], messages)
             break
-        if ch == "(":
-            close = raw.find(")", pos + 1)
-            if close < 0:
-                raise RuleError("comment '(' is not closed on this line (a comment ends with ')')")
-            pos = close + 1
-            continue
-        if ch == ")":
-            raise RuleError("')' without an opening '('")
-        out.append(ch)
-        pos += 1
-    return "".join(out)
+        if paren < 0:
+            out.append(raw[pos:])
+            break
+        out.append(raw[pos:paren])
+        close = raw.find(")", paren + 1)
+        if close < 0:
+            raise RuleError("comment '(' is not closed on this line (a comment ends with ')')")
+        if "(" in raw[paren + 1:close]:
+            raise RuleError("nested comment: '(' inside a ( ... ) comment")
+        _message(raw[paren + 1:close], messages)
+        pos = close + 1
+    code = "".join("".join(out).split()).upper()
+    if ")" in code:
+        raise RuleError("')' without an opening '('")
+    return code, messages
 
 
-def _stray(ch: str) -> str:
-    what = _NOT_SUPPORTED.get(ch)
-    if what:
-        return f"unexpected character {ch!r}: {what} are not supported"
-    return f"unexpected character {ch!r} (a word is a letter and a number, e.g. X12.5)"
+def _message(text: str, messages: list) -> None:
+    head, comma, rest = text.partition(",")
+    kind = "".join(head.split()).upper()
+    if comma and kind in MESSAGE_KINDS:
+        messages.append((kind, rest.strip()))
+
+
+def _plain_words(code: str, pos: int, line: Line) -> None:
+    """The fast path: only letters and plain numbers."""
+    end = pos
+    for match in _PLAIN.finditer(code, pos):
+        if match.start() != end:
+            break
+        line.words.append((match.group(1), float(match.group(2))))
+        end = match.end()
+    if end != len(code):
+        _words(code, pos, line)          # let the full reader name the problem
+
+
+def _words(code: str, pos: int, line: Line) -> None:
+    line.words.clear()
+    while pos < len(code):
+        ch = code[pos]
+        if ch == "#":
+            target, pos = read_parameter(code, pos)
+            if not code.startswith("=", pos):
+                raise RuleError("a parameter at the start of a word must be assigned: #1=2.5")
+            value, pos = read_value(code, pos + 1)
+            line.assigns.append((target, value))
+        elif "A" <= ch <= "Z" and ch != "O":
+            if pos + 1 >= len(code):
+                raise RuleError(f"word {ch!r} has no value (expected e.g. {ch}10)")
+            value, pos = read_value(code, pos + 1)
+            line.words.append((ch, value))
+        elif ch == "O":
+            raise RuleError("an O-word must be the first word of its line (after N)")
+        elif ch in "@^":
+            raise RuleError(f"{ch}: polar coordinates (@ radius, ^ angle) are not supported; "
+                            f"give X and Y")
+        else:
+            raise RuleError(f"unexpected character {ch!r} (a word is a letter and a value, "
+                            f"e.g. X12.5, X#1 or X[#1+2])")
+
+
+def _oword(code: str, pos: int) -> tuple:
+    match = _OWORD.match(code, pos)
+    if match is None:
+        raise RuleError(f"bad O-word {code[pos:pos + 12]!r}: expected o<name> or o<number> and a "
+                        f"keyword ({' '.join(k.lower() for k in KEYWORDS)})")
+    name, rest = match.group(1), match.group(2)
+    name = f"<{''.join(name[1:-1].split()).lower()}>" if name.startswith("<") else str(int(name))
+    keyword = rest if rest in KEYWORDS else None
+    if keyword is None:
+        raise RuleError(f"unknown O-word keyword {rest.lower()!r} after o{code[pos + 1:match.start(2)].lower()}"
+                        f" (keywords: {' '.join(k.lower() for k in KEYWORDS)})")
+    pos = match.end()
+    args = []
+    while code.startswith("[", pos):
+        tree, pos = read_expression(code, pos)
+        args.append(tree)
+    if pos != len(code):
+        raise RuleError(f"o{name} {keyword.lower()}: unexpected {code[pos:pos + 8]!r} after the "
+                        f"O-word (arguments are [expressions])")
+    wanted = KEYWORDS[keyword]
+    if wanted is None and args:
+        raise RuleError(f"o{name} {keyword.lower()} takes no argument")
+    if keyword in ("IF", "ELSEIF", "WHILE", "REPEAT") and len(args) != 1:
+        raise RuleError(f"o{name} {keyword.lower()} needs one [condition]" if keyword != "REPEAT"
+                        else f"o{name} repeat needs a [count]")
+    if wanted == 1 and len(args) > 1:
+        raise RuleError(f"o{name} {keyword.lower()} takes at most one [value]")
+    return name, keyword, args

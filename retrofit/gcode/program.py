@@ -1,44 +1,262 @@
-"""A compiled part program, and the two ways to get one: from text or from a file."""
+"""A compiled part program, and the interpreter that runs a program's lines to get one.
+
+The interpreter follows the program as LinuxCNC does: line after line, O-words jumping
+(:mod:`retrofit.gcode.ocode`), each line's values evaluated against the parameters of that
+moment, then its parameter assignments made, then its block translated
+(:mod:`retrofit.gcode.translate`). It stops at M2/M30, at the ``%`` closing a file that opened
+with ``%``, or at the end of the file.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..commands import Command
 from ..config import Machine, load_machine
 from ..errors import GcodeError
-from .lexer import iter_lines, lex_line
-from .parser import parse_block
+from .blocks import make_block
+from .dialect import run_dollar
+from .errors import RuleError
+from .expressions import evaluate
+from .lexer import lex_lines
+from .ocode import Source, scan
 from .state import ModalState
 from .translate import Translator
-from .validate import RuleError
+
+#: the most lines one run may execute: a loop that never ends is refused, not run for ever
+MAX_STEPS = 500_000
+#: the deepest nesting of subroutine calls
+MAX_CALL_DEPTH = 50
 
 
 @dataclass
 class Program:
-    """The commands of a part program and the source line (1-based) each came from."""
+    """The commands of a part program and the source line (1-based) each came from.
+
+    ``files`` names the file of each command (a called subroutine file, or ``file``);
+    ``messages`` holds the (file, line, kind, text) of ``(MSG,..)``, ``(DEBUG,..)``,
+    ``(PRINT,..)`` comments and of grbl lines skipped.
+    """
 
     commands: list[Command]
     lines: list[int]
     file: str
+    files: list[str] = field(default_factory=list)
+    messages: list[tuple[str, int, str, str]] = field(default_factory=list)
 
     def __len__(self) -> int:
         return len(self.commands)
 
     def listing(self) -> str:
         """One ``file:line: COMMAND`` text line per command."""
-        return "\n".join(f"{self.file}:{line}: {cmd}" for cmd, line in zip(self.commands, self.lines))
+        files = self.files or [self.file] * len(self.commands)
+        return "\n".join(f"{f}:{line}: {cmd}" for cmd, line, f in zip(self.commands, self.lines, files))
+
+
+class Interpreter:
+    """Runs the lines of one program (and the subroutine files it calls) through a Translator."""
+
+    def __init__(self, machine: Machine, translator: Translator, search_path=()):
+        self.machine = machine
+        self.tr = translator
+        self.params = translator.state.params
+        self.search_path = [Path(p) for p in search_path]
+        self.sources: dict[str, Source] = {}
+        self.messages: list[tuple[str, int, str, str]] = []
+        self.steps = 0
+
+    def run(self, main: Source) -> None:
+        """Run ``main`` from its first line; RuleErrors carry ``.file`` and ``.line``."""
+        src, pc, calls, repeats = main, 0, [], {}
+        closing_percent = bool(main.lines) and main.lines[0].percent
+        if closing_percent:
+            pc = 1
+        while pc < len(src.lines):
+            line = src.lines[pc]
+            self.steps += 1
+            try:
+                if self.steps > MAX_STEPS:
+                    raise RuleError(f"the program runs more than {MAX_STEPS} lines (a loop that "
+                                    f"never ends?)")
+                if line.error:
+                    raise RuleError(line.error)
+                if line.percent:
+                    if closing_percent and src is main:
+                        return
+                    pc += 1
+                    continue
+                if line.oword is not None:
+                    src, pc = self._oword(src, pc, line, calls, repeats)
+                    continue
+                if self._line(src, line):
+                    return
+            except RuleError as exc:
+                if not hasattr(exc, "file"):
+                    exc.file, exc.line = src.file, line.number
+                raise
+            pc += 1
+
+    def _value(self, tree) -> float:
+        return tree if type(tree) is float else evaluate(tree, self._read, self.params.exists)
+
+    def _read(self, ref) -> float:
+        if isinstance(ref, str) and ref in _PREDEFINED:
+            return _PREDEFINED[ref](self.tr.state)
+        if not isinstance(ref, str) and 5420 <= ref <= 5428 and ref == int(ref):
+            axis = "XYZABCUVW"[int(ref) - 5420]
+            s = self.tr.state
+            return s.program_position(axis) / (25.4 if s.inch else 1.0)
+        return self.params.read(ref)
+
+    def _line(self, src: Source, line) -> bool:
+        """One line of words; True when it ends the program."""
+        if line.plain:
+            return self.tr.run(make_block(line.number, line.words, self.machine), src.file)
+        for kind, text in line.messages:
+            self.messages.append((src.file, line.number, kind, self._substitute(text)))
+        if line.dollar is not None:
+            run_dollar(self, line)
+            return False
+        words = [(letter, self._value(tree)) for letter, tree in line.words]
+        if line.assigns:
+            values = [(self._ref(target), self._value(tree)) for target, tree in line.assigns]
+            for ref, value in values:
+                self.params.write(ref, value)
+        if not words:
+            return False
+        return self.tr.run(make_block(line.number, words, self.machine), src.file)
+
+    def _ref(self, target):
+        return target[1] if target[0] == "#<" else self._value(target[1])
+
+    def _substitute(self, text: str) -> str:
+        import re
+
+        def one(match):
+            try:
+                ref = match.group(1).lower() if match.group(1) else float(match.group(2))
+                return f"{self._read(ref):.6g}"
+            except RuleError:
+                return match.group(0)
+        return re.sub(r"#<([^>]*)>|#(\d+)", one, text)
+
+    # -- O-words -------------------------------------------------------------------------------
+    def _oword(self, src: Source, pc: int, line, calls: list, repeats: dict):
+        name, kw, args = line.oword
+        if kw == "SUB":
+            return src, src.end[pc] + 1
+        if kw == "CALL":
+            return self._call(src, pc, name, [self._value(a) for a in args], calls)
+        if kw in ("ENDSUB", "RETURN"):
+            if args:
+                self.params.globals["_value"] = self._value(args[0])
+                self.params.globals["_value_returned"] = 1.0
+            if not calls:
+                raise RuleError(f"o{name} {kw.lower()} reached outside a call")
+            self.params.leave()
+            return calls.pop()
+        if kw == "IF":
+            for branch in src.branches[pc]:
+                _, bkw, bargs = src.lines[branch].oword
+                if bkw == "ELSE" or self._value(bargs[0]):
+                    return src, branch + 1
+            return src, src.end[pc] + 1
+        if kw in ("ELSEIF", "ELSE"):
+            opening = next(i for i, b in src.branches.items() if pc in b)
+            return src, src.end[opening] + 1
+        if kw in ("ENDIF", "DO"):
+            return src, pc + 1
+        if kw == "WHILE" and pc in src.start:            # the end of a do loop
+            return src, (src.start[pc] + 1 if self._value(args[0]) else pc + 1)
+        if kw == "WHILE":
+            return src, (pc + 1 if self._value(args[0]) else src.end[pc] + 1)
+        if kw == "ENDWHILE":
+            return src, src.start[pc]
+        if kw == "REPEAT":
+            count = self._value(args[0])
+            if count > MAX_STEPS:
+                raise RuleError(f"o{name} repeat [{count:g}]: more than {MAX_STEPS} times")
+            key = (len(calls), id(src), pc)
+            if count < 1:
+                return src, src.end[pc] + 1
+            repeats[key] = int(count)
+            return src, pc + 1
+        if kw == "ENDREPEAT":
+            key = (len(calls), id(src), src.start[pc])
+            repeats[key] = repeats.get(key, 1) - 1
+            return src, (src.start[pc] + 1 if repeats[key] > 0 else pc + 1)
+        loop = src.start[pc]                             # BREAK, CONTINUE
+        lkw = src.lines[loop].oword[1]
+        if kw == "BREAK":
+            repeats.pop((len(calls), id(src), loop), None)
+            return src, src.end[loop] + 1
+        return src, (loop if lkw == "WHILE" else src.end[loop])
+        # DO: continue evaluates the closing while; REPEAT: counts at endrepeat
+
+    def _call(self, src: Source, pc: int, name: str, args: list, calls: list):
+        if len(calls) >= MAX_CALL_DEPTH:
+            raise RuleError(f"o{name} call: subroutine calls nest deeper than {MAX_CALL_DEPTH}")
+        target = src if name in src.subs else self._sub_file(name, src)
+        start, _ = target.subs[name]
+        self.params.enter(args)
+        calls.append((src, pc + 1))
+        return target, start + 1
+
+    def _sub_file(self, name: str, src: Source) -> Source:
+        if name in self.sources:
+            return self.sources[name]
+        for folder in self.search_path:
+            path = folder / f"{name.strip('<>')}.ngc"
+            if path.is_file():
+                try:
+                    source = scan(Source(path.name, lex_lines(_read_text(path))))
+                except RuleError as exc:
+                    exc.file = path.name
+                    raise
+                if name not in source.subs:
+                    raise RuleError(f"o{name} call: {path.name} does not define o{name} sub")
+                self.sources[name] = source
+                return source
+        where = ", ".join(str(p) for p in self.search_path) or "no folder given"
+        raise RuleError(f"o{name} call: unknown subroutine o{name} (not in {src.file}, and no "
+                        f"{name.strip('<>')}.ngc in {where})")
+
+
+_PREDEFINED = {
+    "_metric": lambda s: 0.0 if s.inch else 1.0, "_imperial": lambda s: 1.0 if s.inch else 0.0,
+    "_absolute": lambda s: 0.0 if s.incremental else 1.0,
+    "_incremental": lambda s: 1.0 if s.incremental else 0.0,
+    "_current_tool": lambda s: float(s.tool), "_feed": lambda s: s.feed_mm_min,
+    "_rpm": lambda s: s.rpm,
+    **{f"_{a.lower()}": (lambda s, a=a: s.program_position(a) / (25.4 if s.inch else 1.0))
+       for a in "XYZABCUVW"},
+}
+
+
+def _read_text(path: Path) -> str:
+    try:
+        return path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise GcodeError("no such G-code file", str(path)) from None
+    except UnicodeDecodeError as exc:
+        raise GcodeError(f"not a UTF-8 text file (byte {exc.start})", path.name) from None
+    except OSError as exc:
+        raise GcodeError(f"cannot read the file ({exc.strerror})", str(path)) from None
 
 
 def compile_program(text: str, machine: Machine, file: str = "<string>",
-                    start_mm: dict | None = None) -> Program:
+                    start_mm: dict | None = None, *, tool_table=None, spindle_tool: int = 0,
+                    search_path=()) -> Program:
     """Translate G-code ``text`` for ``machine`` into retrofit commands.
 
-    The whole program is checked before anything is returned: on the first broken rule a
-    :class:`~retrofit.errors.GcodeError` names ``file:line`` and the rule, and no command at all
-    reaches the caller. ``start_mm`` is where the machine stands when the program starts
-    (axes not named there at 0 mm). Everything after M2 or M30 is ignored.
+    The whole program is run through the interpreter before anything is returned: on the first
+    broken rule a :class:`~retrofit.errors.GcodeError` names ``file:line`` (the subroutine file
+    where the line is) and the rule, and no command at all reaches the caller. ``start_mm`` is
+    where the machine stands when the program starts (axes not named there at 0 mm);
+    ``tool_table`` a :class:`~retrofit.tooltable.ToolTable` for G43 and G10 L1;
+    ``spindle_tool`` the tool in the spindle; ``search_path`` the folders where ``o<name> call``
+    finds ``name.ngc``.
 
     >>> from retrofit.config import load_machine
     >>> prog = compile_program("G0 X10 Z2\\nG1 Z-5 F100", load_machine("chivu-lathe"))
@@ -49,29 +267,31 @@ def compile_program(text: str, machine: Machine, file: str = "<string>",
         state = ModalState.start(machine, start_mm)
     except ValueError as exc:
         raise GcodeError(str(exc), file) from None
-    translator = Translator(machine, state)
-    for line, raw in iter_lines(text):
-        try:
-            words = lex_line(raw)
-            if words and translator.run(parse_block(line, words, machine)):
-                break
-        except RuleError as exc:
-            raise GcodeError(str(exc), file, line) from None
-    return Program(translator.commands, translator.lines, file)
+    state.tool = int(spindle_tool)
+    state.params.write(5400, float(spindle_tool))
+    translator = Translator(machine, state, tool_table)
+    interpreter = Interpreter(machine, translator, search_path)
+    try:
+        interpreter.run(scan(Source(file, lex_lines(text))))
+    except RuleError as exc:
+        raise GcodeError(str(exc), getattr(exc, "file", file), getattr(exc, "line", None)) from None
+    except RecursionError:
+        raise GcodeError("an expression nests too deeply", file) from None
+    return Program(translator.commands, translator.lines, file, translator.files,
+                   interpreter.messages)
 
 
-def load_program(path: str | Path, machine: Machine | str) -> Program:
+def load_program(path: str | Path, machine: Machine | str, *, tool_table=None,
+                 spindle_tool: int = 0, search_path=()) -> Program:
     """Read and compile a G-code file (``.ngc``); ``machine`` is a Machine or a machine name.
 
-    Errors name the file by its name, e.g. ``prog.ngc:12: ...``.
+    Errors name the file by its name, e.g. ``prog.ngc:12: ...``. Subroutine files are looked
+    for next to the program, then in ``search_path``.
     """
     path = Path(path)
     if not isinstance(machine, Machine):
         machine = load_machine(machine)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise GcodeError("no such G-code file", str(path)) from None
-    except UnicodeDecodeError as exc:
-        raise GcodeError(f"not a UTF-8 text file (byte {exc.start})", path.name) from None
-    return compile_program(text, machine, file=path.name)
+    text = _read_text(path)
+    return compile_program(text, machine, file=path.name, tool_table=tool_table,
+                           spindle_tool=spindle_tool,
+                           search_path=[path.parent, *search_path])

@@ -1,91 +1,150 @@
-"""G-code translation: parsed blocks run through the modal state into retrofit's command set.
+"""G-code translation: blocks run through the modal state into retrofit's command set.
 
-G0 is FMOV and G1 is PMOV, both naming every machine axis with its absolute target in mm; a
-G2/G3 arc becomes one PMOV per chord (:mod:`retrofit.motion.arcs`); F becomes a PFDR sent just
-before the next feed move when it changed; G4 is DELY, G28 ZMOV, G92 PSTN, M3/M4/M5 with S are
-SPIN and M7/M8/M9 are COOL; T, M6, G43 and G49 go to the tool changer (:mod:`retrofit.atc.gcode`);
-G33 and the G76 cycle become moves under the spindle's indexer (:mod:`retrofit.gcode.threading`).
-Within a block the words act in this order: plane, units and distance mode; feed; T and M6;
-spindle; coolant; dwell; G43/G49; G28/G92 or the motion; program end.
+G0 is FMOV and G1 is PMOV, both naming every machine axis with its target in machine
+coordinates (mm); a G2/G3 arc becomes one PMOV per chord (:mod:`retrofit.motion.arcs`); F
+becomes a PFDR sent just before the next feed move when it changed; G4 is DELY; M3/M4/M5 with S
+are SPIN, M7/M8/M9 COOL; M6 (and T on a machine that changes on T) is TOOL; M0/M1/M60 PAUS.
+Offsets (G5x, G92, G43) are kept here, never sent: see :mod:`retrofit.gcode.coords`.
+
+Within a block the words act in LinuxCNC's order: feed mode, F, S, T, M6, M3/M4/M5, M7/M8/M9,
+G4, plane, units, G40, G43/G49, G54.., G61/G64, G90/G91, G98/G99, then G10/G28/G30/G92 or the
+motion, then M0/M1/M2/M30/M60.
 """
 
 from __future__ import annotations
 
-from ..commands import Command, Cool, Dely, FMov, PFdr, PMov, Pstn, Spin, ZMov
+import math
+
+from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, Tool, ZMov
 from ..config import Machine
-from ..controller.settings import home_positions_mm
-from ..motion.arcs import arc_points
-from .arcwords import allowed_radius_mismatch, arc_center, plane_axes
-from .parser import ParsedBlock
+from ..motion.arcs import arc_extent, arc_points
+from . import coords, cycles
+from .arcwords import arc_center, plane_axes
+from .blocks import Block
+from .errors import RuleError
 from .state import ModalState, clean_mm
 from .threading import g33, g76, leave
-from .validate import RuleError, check_feed, check_soft_limits, check_word_use
+from .validate import check_arc, check_feed, check_soft_limits, check_word_use
+
+#: the longest dwell accepted (s): a day
+MAX_DWELL_S = 86400.0
+#: feed and spindle speed ceilings: values beyond them overflow what any machine represents
+MAX_FEED_MM_MIN = 1.0e6
+MAX_RPM = 1.0e6
+MAX_TOOL = 99999
+#: the only non-axis letter of a plain block
+_PLAIN_VALUES = frozenset("F")
 
 
 class Translator:
-    """Turns parsed blocks, in program order, into commands and the source line of each."""
+    """Turns blocks, in program order, into commands and the source line of each."""
 
-    def __init__(self, machine: Machine, state: ModalState):
+    def __init__(self, machine: Machine, state: ModalState, tool_table=None):
         self.machine = machine
         self.state = state
+        self.tool_table = tool_table
         self.commands: list[Command] = []
         self.lines: list[int] = []
+        self.files: list[str] = []
         self._line = 0
-        self.offset_mm = {name: 0.0 for name in machine.axis_names}   # machine - program (G92, G43)
+        self._file = ""
         self.indexing = False             # ISTP emitted and not yet ended by CSTP (a G33 chain)
+        self.names = machine.axis_names
+        atc = machine.parts.get("atc")
+        self.change_on_t = getattr(atc, "change_on", "M6") == "T"
 
-    def run(self, block: ParsedBlock) -> bool:
+    def run(self, block: Block, file: str = "") -> bool:
         """Translate one block; True when it ends the program (M2, M30)."""
-        self._line = block.line
-        mode = block.motion if block.motion is not None else self.state.motion
+        self._line, self._file = block.line, file
+        s = self.state
+        g = block.g
+        if not block.m and (not g or (len(g) == 1 and g.get("motion") in (0, 1))) \
+                and not block.values.keys() - _PLAIN_VALUES:
+            return self._plain(block)
+        mode = block.motion if block.motion is not None else s.motion
         check_word_use(block, mode)
-        self._modes(block)
+        if "feed mode" in g:
+            s.inverse_time = g["feed mode"] == 93
         if "F" in block.values:
-            self.state.feed_mm_min = clean_mm(self.state.to_mm(block.values["F"]))
-        if "T" in block.values or "tool change" in block.m:
-            from ..atc.gcode import change_tool       # T and M6 (machines with a tool changer)
-            change_tool(self, block)
+            self._feed_word(block.values["F"])
+        self._tool_words(block)
         self._spindle(block)
         self._coolant(block)
-        nonmodal = block.g.get("non-modal")
-        if nonmodal == 4:
-            self._emit(Dely(block.values["P"]))
-        if "tool length" in block.g:
-            from ..atc.gcode import tool_length       # G43 [H], G49 (machines with a tool table)
-            tool_length(self, block)
+        if g.get("non-modal") == 4:
+            self._dwell(block.values["P"])
+        self._modes(block)
+        if "tool length" in g:
+            coords.tool_length(self, block)
+        if "coordinate system" in g:
+            coords.select_system(self, g["coordinate system"])
         if block.motion is not None:
-            self.state.motion = block.motion
-        if nonmodal == 28:
-            self._home(block)
-        elif nonmodal == 92:
-            self._set_position(block)
+            s.motion = None if block.motion == 80 else block.motion
+            if s.motion not in cycles.CYCLES:
+                s.cycle_start = None
+        nonmodal = g.get("non-modal")
+        if nonmodal in coords.NONMODAL:
+            coords.NONMODAL[nonmodal](self, block)
         elif nonmodal == 76:
+            self._needs_encoder("G76")
             g76(self, block)
         else:
             self._motion(block, mode)
-        if "program end" in block.m:
+        stop = block.m.get("stopping")
+        if stop in (0, 1, 60):
+            self._emit(Paus(stop))
+        if stop in (2, 30):
             self._end()
             return True
         return False
 
-    # -- modes, spindle, coolant ----------------------------------------------------------------
-    def _modes(self, block: ParsedBlock) -> None:
-        g = block.g
-        if "plane" in g:
-            self.state.plane = g["plane"]
-        if "units" in g:
-            self.state.inch = g["units"] == 20
-        if "distance" in g:
-            self.state.incremental = g["distance"] == 91
+    def _plain(self, block: Block) -> bool:
+        """A block of axis words and F only, the bulk of CAM output: the same steps as
+        :meth:`run`, without the codes it does not have."""
+        if "F" in block.values:
+            self._feed_word(block.values["F"])
+        if block.g:
+            self.state.motion = block.g["motion"]
+            self.state.cycle_start = None
+        self._motion(block, self.state.motion)
+        return False
 
-    def _spindle(self, block: ParsedBlock) -> None:
+    # -- words acting before the motion ------------------------------------------------------
+    def _feed_word(self, value: float) -> None:
+        if value < 0.0 or value > MAX_FEED_MM_MIN:
+            raise RuleError(f"F{value:g}: a feed is from 0 to {MAX_FEED_MM_MIN:g}")
+        self.state.feed_mm_min = value if self.state.inverse_time else clean_mm(self.state.to_mm(value))
+
+    def _tool_words(self, block: Block) -> None:
+        s = self.state
+        if "T" in block.values:
+            number = block.values["T"]
+            if number < 0 or number != int(number) or number > MAX_TOOL:
+                raise RuleError(f"{block.texts['T']}: a tool number is a whole number from 0 to "
+                                f"{MAX_TOOL}")
+            s.selected = int(number)
+            if self.change_on_t and "tool change" not in block.m:
+                self._change_tool()
+        if "tool change" in block.m:
+            if s.selected is None:
+                s.selected = s.tool      # M6 without T: LinuxCNC changes to the tool in the spindle
+            self._change_tool()
+
+    def _change_tool(self) -> None:
+        leave(self)
+        self.state.tool = self.state.selected
+        self.state.params.write(5400, float(self.state.tool))
+        self._emit(Tool(self.state.tool))
+
+    def _spindle(self, block: Block) -> None:
         s = self.state
         if "S" in block.values:
-            s.rpm = block.values["S"]
+            rpm = block.values["S"]
+            if rpm < 0.0 or rpm > MAX_RPM:
+                raise RuleError(f"{block.texts['S']}: a spindle speed is from 0 to {MAX_RPM:g} rpm "
+                                f"(M3/M4 choose the direction)")
+            s.rpm = rpm
         code = block.m.get("spindle")
         if code in (3, 4):
-            if not s.rpm > 0.0:
-                raise RuleError(f"M{code} with spindle speed 0 (set S > 0, e.g. M{code} S800)")
             s.spindle = 1 if code == 3 else -1
             self._emit(Spin(s.rpm, s.spindle))
         elif code == 5:
@@ -94,11 +153,32 @@ class Translator:
         elif "S" in block.values and s.spindle:
             self._emit(Spin(s.rpm, s.spindle))      # new speed while the spindle turns
 
-    def _coolant(self, block: ParsedBlock) -> None:
+    def _coolant(self, block: Block) -> None:
         code = block.m.get("coolant")
         if code is not None:
             self.state.coolant = 0 if code == 9 else code
             self._emit(Cool(self.state.coolant))
+
+    def _dwell(self, seconds: float) -> None:
+        if not 0.0 <= seconds <= MAX_DWELL_S:
+            raise RuleError(f"G4 P{seconds:g}: a dwell is from 0 to {MAX_DWELL_S:g} s")
+        leave(self)
+        self._emit(Dely(seconds))
+
+    def _modes(self, block: Block) -> None:
+        s, g = self.state, block.g
+        if "plane" in g:
+            s.plane = g["plane"]
+        if "units" in g:
+            s.inch = g["units"] == 20
+        if "distance" in g:
+            s.incremental = g["distance"] == 91
+        if "arc distance" in g:
+            s.arc_incremental = g["arc distance"] == 91.1
+        if "lathe diameter" in g:
+            s.diameter = g["lathe diameter"] == 7
+        if "return mode" in g:
+            s.retract_r = g["return mode"] == 99
 
     def _end(self) -> None:
         """M2/M30: the spindle stops and the coolant goes off if they were on."""
@@ -110,83 +190,106 @@ class Translator:
             self.state.coolant = 0
             self._emit(Cool(0))
 
-    # -- G28, G92 ----------------------------------------------------------------------------
-    def _home(self, block: ParsedBlock) -> None:
-        """G28: rapid to the intermediate point if axis words are given, then home every axis;
-        machine zero is 0 mm on every axis (each axis's ``home_mm`` when it homes on switches)."""
-        leave(self)
-        if block.axes:
-            via = self.state.target(block.axes)
-            check_soft_limits(self.machine, via, " (G28 intermediate point)")
-            self._emit(FMov(self._axes(via)))
-        self._emit(ZMov())
-        self.state.position = home_positions_mm(self.machine)
-
-    def _set_position(self, block: ParsedBlock) -> None:
-        """G92: the named axes are now at the given values (absolute, whatever G90/G91 says)."""
-        named = {n: clean_mm(self.state.to_mm(v)) for n, v in block.axes.items()}
-        self._emit(Pstn(tuple((n, named[n]) for n in self.machine.axis_names if n in named)))
-        for n, value in named.items():
-            self.offset_mm[n] = clean_mm(self.offset_mm[n] + self.state.position[n] - value)
-        self.state.position.update(named)
-
     # -- motion ----------------------------------------------------------------------------
-    def _motion(self, block: ParsedBlock, mode: int | None) -> None:
+    def _motion(self, block: Block, mode) -> None:
         if not block.axes:
-            if block.motion is not None:
-                raise RuleError(f"G{block.motion} without an axis word")
+            if block.motion in (2, 3) and any(c in block.values for c in "IJK"):
+                self._arc(block, mode, dict(self.state.position))   # a full circle where it is
             return
         if mode is None:
-            raise RuleError("axis words without a motion mode (put G0, G1, G2 or G3 before them)")
-        end = self.state.target(block.axes)
+            raise RuleError("cannot use axis values without a G code that uses them (no motion "
+                            "mode: G80 is in force; give G0, G1, G2 or G3)")
+        machine_coords = block.g.get("non-modal") == 53
+        if machine_coords and mode not in (0, 1):
+            raise RuleError(f"G53 works with G0 or G1 only, not G{mode:g}")
+        if mode in cycles.CYCLES:
+            cycles.run(self, block, mode)
+            return
+        end = self.state.target(block.axes, machine_coords)
         if mode == 33:
+            self._needs_encoder("G33")
             g33(self, block, end)
             self.state.position = end
             return
         leave(self)
         if mode == 0:
-            check_soft_limits(self.machine, end)
-            self._emit(FMov(self._axes(end)))
+            self.rapid(end)
         elif mode == 1:
-            check_feed(mode, self.state.feed_mm_min)
-            check_soft_limits(self.machine, end)
-            self._send_feed()
-            self._emit(PMov(self._axes(end)))
+            self.feed_line(end, mode)
         else:
             self._arc(block, mode, end)
+
+    def _needs_encoder(self, code: str) -> None:
+        if "spindle" not in self.machine.parts:
+            raise RuleError(f"{code} needs a spindle encoder with an index pulse ([spindle] in the "
+                            f"machine file); machine {self.machine.name} has none")
+
+    def rapid(self, end: dict[str, float], where: str = "") -> None:
+        """A G0 move to ``end`` (machine mm)."""
+        check_soft_limits(self.machine, end, where)
+        self._emit(FMov(self._axes(end)))
         self.state.position = end
 
-    def _arc(self, block: ParsedBlock, mode: int, end: dict[str, float]) -> None:
+    def feed_line(self, end: dict[str, float], mode=1) -> None:
+        """A G1 move to ``end`` (machine mm) at the programmed feed."""
+        check_soft_limits(self.machine, end)
+        s = self.state
+        if s.inverse_time or s.feed_sent != s.feed_mm_min:
+            self._send_feed(math.dist(s.position.values(), end.values()), mode)
+        self._emit(PMov(self._axes(end)))
+        self.state.position = end
+
+    def _arc(self, block: Block, mode: int, end: dict[str, float]) -> None:
         s = self.state
         first, second = plane_axes(self.machine, s.plane, mode)
-        check_feed(mode, s.feed_mm_min)
         start = s.position
-        words_mm = {c: s.to_mm(block.values[c]) for c in "IJKR" if c in block.values}
+        words = {c: s.to_mm(block.values[c]) for c in "IJKR" if c in block.values}
+        if not s.arc_incremental:
+            words = coords.absolute_centre_words(self, words)
+        turns = block.values.get("P", 1.0)
+        if turns < 1 or turns != int(turns) or turns > 1000:
+            raise RuleError(f"{block.texts['P']}: the number of turns of an arc is a whole number "
+                            f"from 1 to 1000")
         center = arc_center(mode, s.plane, (start[first], start[second]), (end[first], end[second]),
-                            words_mm, block.texts, allowed_radius_mismatch(self.machine))
-        names = self.machine.axis_names
+                            words, block.texts, s.inch)
+        names = self.names
         plane = (names.index(first), names.index(second))
         center_all = [0.0] * len(names)
         center_all[plane[0]], center_all[plane[1]] = center
-        chords = arc_points(tuple(start[n] for n in names), tuple(end[n] for n in names),
-                            tuple(center_all), mode == 2, plane, self.machine.motion.arc_tolerance_mm)
-        points = [{n: clean_mm(v) for n, v in zip(names, p)} for p in chords]
-        for point in points:
-            check_soft_limits(self.machine, point, f" on the G{mode} arc")
-        self._send_feed()
-        for point in points:
-            self._emit(PMov(self._axes(point)))
+        args = (tuple(start[n] for n in names), tuple(end[n] for n in names), tuple(center_all),
+                mode == 2, plane)
+        tolerance = self.machine.motion.arc_tolerance_mm
+        try:
+            extent = arc_extent(*args, tolerance, int(turns) - 1)
+        except ValueError:
+            raise RuleError(f"G{mode}: the arc's centre or radius is not a finite number") from None
+        length = check_arc(self.machine, mode, *extent)
+        chords = arc_points(*args, tolerance, int(turns) - 1)
+        self._send_feed(length, mode)
+        for p in chords:
+            self._emit(PMov(tuple((n, clean_mm(v)) for n, v in zip(names, p))))
+        s.position = end
 
     # -- output ----------------------------------------------------------------------------
-    def _send_feed(self) -> None:
-        feed = self.state.feed_mm_min
-        if self.state.feed_sent != feed:
+    def _send_feed(self, length_mm: float = 0.0, mode=1) -> None:
+        s = self.state
+        feed = s.feed_mm_min
+        if s.inverse_time:
+            if not s.feed_mm_min > 0.0:
+                raise RuleError(f"G{mode:g} under G93 needs F on its line (moves per minute)")
+            feed = clean_mm(max(length_mm, 1e-9) * s.feed_mm_min)
+            s.feed_mm_min = 0.0           # G93: every feed move gives its own F
+        check_feed(mode, feed)
+        if s.feed_sent != feed:
             self._emit(PFdr(feed))
-            self.state.feed_sent = feed
+            s.feed_sent = feed
 
     def _axes(self, point: dict[str, float]) -> tuple[tuple[str, float], ...]:
-        return tuple((name, point[name]) for name in self.machine.axis_names)
+        return tuple([(name, point[name]) for name in self.names])
 
     def _emit(self, command: Command) -> None:
+        if self.state.pending and isinstance(command, (FMov, PMov, ZMov)):
+            self.state.pending = {}
         self.commands.append(command)
         self.lines.append(self._line)
+        self.files.append(self._file)

@@ -6,30 +6,58 @@ and raises it as a :class:`~retrofit.errors.GcodeError` (``prog.ngc:12: ...``).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 
 from ..config import Machine
+from .errors import RuleError
 
 #: slack on the soft limits for the float noise of unit conversion and chord points (mm)
 LIMIT_SLACK_MM = 1e-9
 
 
-class RuleError(Exception):
-    """A rule of the G-code front end is broken; the compiler adds file and line."""
-
-
 def check_soft_limits(machine: Machine, point_mm: Mapping[str, float], where: str = "") -> None:
-    """Every axis of ``point_mm`` within its soft limits ``min_mm..max_mm``.
+    """Every axis of ``point_mm`` within its soft limits ``min_mm..max_mm`` (NaN is outside).
 
     ``where`` is added to the message (e.g. ``" on the G2 arc"``).
     """
-    for axis in machine.axes:
-        value = point_mm.get(axis.name)
-        if value is None:
-            continue
-        if value < axis.min_mm - LIMIT_SLACK_MM or value > axis.max_mm + LIMIT_SLACK_MM:
-            raise RuleError(f"{axis.name} {value:.3f} mm{where} is outside the soft limits "
+    for name, low, high in _limits(machine):
+        value = point_mm.get(name)
+        if value is not None and not low <= value <= high:
+            axis = machine.axis(name)
+            if not math.isfinite(value):
+                raise RuleError(f"{name} {value} mm{where} is not a finite number")
+            raise RuleError(f"{name} {value:.3f} mm{where} is outside the soft limits "
                             f"{axis.min_mm:g}..{axis.max_mm:g} mm")
+
+
+_LIMITS: dict[int, tuple] = {}
+
+
+def _limits(machine: Machine) -> tuple:
+    limits = _LIMITS.get(id(machine))
+    if limits is None or limits[0] is not machine:
+        limits = _LIMITS[id(machine)] = (machine, tuple(
+            (a.name, a.min_mm - LIMIT_SLACK_MM, a.max_mm + LIMIT_SLACK_MM) for a in machine.axes))
+    return limits[1]
+
+
+#: the most chords one arc may become; more is refused before any chord is built
+MAX_CHORDS = 200_000
+
+
+def check_arc(machine: Machine, mode, lo: list, hi: list, chords: int, length: float) -> float:
+    """An arc whose lowest and highest points (``lo``, ``hi``, over the machine's axes) are within
+    the soft limits and whose chords are not too many; returns its length (mm)."""
+    for axis, low, high in zip(machine.axes, lo, hi):
+        for value in (low, high):
+            if value < axis.min_mm - LIMIT_SLACK_MM or value > axis.max_mm + LIMIT_SLACK_MM:
+                raise RuleError(f"{axis.name} {value:.3f} mm on the G{mode:g} arc is outside the "
+                                f"soft limits {axis.min_mm:g}..{axis.max_mm:g} mm")
+    if chords > MAX_CHORDS:
+        raise RuleError(f"G{mode:g}: the arc would be {chords} chords at the machine's arc "
+                        f"tolerance; at most {MAX_CHORDS} (split it or fewer turns P)")
+    return length
 
 
 def check_feed(mode: int, feed_mm_min: float) -> None:
@@ -38,28 +66,52 @@ def check_feed(mode: int, feed_mm_min: float) -> None:
         raise RuleError(f"G{mode} with feed 0 (set F > 0)")
 
 
-def check_word_use(block, mode: int | None) -> None:
-    """Words that need a particular code in the block: I/J/K/R need G2/G3, P needs G4,
-    and the axis words of G28/G92 cannot also feed a motion code of the same block.
+#: G codes of group 0 that take the block's axis words for themselves
+AXIS_NONMODAL = (10, 28, 30, 92)
+#: letters every block may carry
+_ALWAYS = frozenset("FST")
+#: canned cycles (motion group)
+CYCLE_CODES = (73, 81, 82, 83, 85, 89)
 
-    ``block`` is a :class:`~retrofit.gcode.parser.ParsedBlock`, ``mode`` the motion mode in force.
+
+def check_word_use(block, mode) -> None:
+    """Every word has a code in its block that uses it (LinuxCNC's "X word with no G code that
+    uses it"), and two codes do not both claim the axis words.
+
+    ``block`` is a :class:`~retrofit.gcode.blocks.Block`, ``mode`` the motion mode in force.
     """
-    nonmodal = block.g.get("non-modal")
-    if nonmodal in (28, 92) and block.motion is not None and block.axes:
-        raise RuleError(f"G{block.motion} and G{nonmodal} in one block both use the axis words; "
-                        "put them on separate lines")
-    moves = bool(block.axes) or block.motion is not None
-    thread = mode == 33 and nonmodal not in (28, 92) and moves       # G33 takes K, its pitch
-    arc_words = [block.texts[c] for c in "IJKR" if c in block.values and not (thread and c == "K")]
-    arc_applies = mode in (2, 3) and nonmodal not in (28, 92) and moves
-    if arc_words and not arc_applies and nonmodal != 76:
-        raise RuleError(f"{arc_words[0]} is an arc word but no G2/G3 arc is made in this block")
-    if "P" in block.values and nonmodal not in (4, 76):
-        raise RuleError(f"{block.texts['P']} without G4 (P is the dwell time of G4, in seconds)")
+    g = block.g
+    if not block.values.keys() - _ALWAYS and not g:
+        return                    # the common CAM block: axis words, F, S, T
+    nonmodal = g.get("non-modal")
+    if nonmodal in AXIS_NONMODAL and block.motion is not None and block.axes:
+        raise RuleError(f"cannot use two G codes that both use axis values: G{block.motion:g} and "
+                        f"G{nonmodal:g}; put them on separate lines")
+    moving = bool(block.axes) and nonmodal not in AXIS_NONMODAL
+    arc = mode in (2, 3) and (moving or (block.motion in (2, 3) and nonmodal not in AXIS_NONMODAL))
+    cycle = mode in CYCLE_CODES and moving
+    g76 = nonmodal == 76
+    uses = {
+        "I": arc or g76, "J": arc or g76, "K": arc or g76 or (mode == 33 and moving),
+        "R": arc or cycle or g76 or nonmodal == 10,
+        "P": nonmodal in (4, 10) or arc or g76 or (cycle and mode in (82, 89))
+        or g.get("path control") == 64,
+        "Q": g76 or (cycle and mode in (73, 83)) or g.get("path control") == 64,
+        "L": nonmodal == 10 or cycle or g76, "H": g.get("tool length") == 43 or g76, "E": g76,
+    }
+    for letter, used in uses.items():
+        if letter in block.values and not used:
+            raise RuleError(f"{block.texts[letter]}: {letter} word with no G code that uses it "
+                            f"({_USED_BY[letter]})")
+    if "D" in block.values:
+        raise RuleError(f"{block.texts['D']}: D word with no G code that uses it (D is G41/G42's "
+                        f"tool, not supported)")
     if nonmodal == 4 and "P" not in block.values:
         raise RuleError("G4 needs P<seconds>, e.g. G4 P0.5")
     if nonmodal == 92 and not block.axes:
-        raise RuleError("G92 without an axis word (G92 X0 sets the current X to 0)")
-    if "H" in block.values and block.g.get("tool length") != 43 and nonmodal != 76:
-        raise RuleError(f"{block.texts['H']} without G43 (H names the tool whose length offset "
-                        "G43 applies)")
+        raise RuleError("G92 with no axis words (G92 X0 sets the current X to 0)")
+
+
+_USED_BY = {"I": "G2/G3 arcs, G76", "J": "G2/G3 arcs, G76", "K": "G2/G3 arcs, G33, G76",
+            "R": "G2/G3 arcs, canned cycles, G10, G76", "P": "G4, G10, G2/G3 turns, G82, G89, G64, G76",
+            "Q": "G73, G83, G64, G76", "L": "G10, canned cycles, G76", "H": "G43, G76", "E": "G76"}

@@ -108,6 +108,43 @@ def arc_points(start: Sequence[float], end: Sequence[float], center: Sequence[fl
     return points
 
 
+def arc_extent(start: Sequence[float], end: Sequence[float], center: Sequence[float],
+               clockwise: bool, plane_axes: tuple[int, int], tolerance_mm: float,
+               full_turns: int = 0) -> tuple[list[float], list[float], int, float]:
+    """The arc's geometry before any chord is built: (lowest, highest) coordinate reached on
+    every axis, the number of chords :func:`arc_points` would make, and the path length (mm).
+
+    Limits can then be checked on the arc itself, and an arc of a million chords refused, in
+    constant time::
+
+        >>> lo, hi, n, length = arc_extent((10.0, 0.0), (0.0, 10.0), (0.0, 0.0), False, (0, 1), 0.5)
+        >>> [round(v, 6) for v in lo + hi], n, round(length, 4)
+        ([0.0, 0.0, 10.0, 10.0], 3, 15.708)
+    """
+    a, b = plane_axes
+    r0 = math.hypot(start[a] - center[a], start[b] - center[b])
+    r1 = math.hypot(end[a] - center[a], end[b] - center[b])
+    values = list(start) + list(end) + list(center) + [r0, r1]
+    if not all(math.isfinite(v) for v in values) or r0 == 0.0 or r1 == 0.0:
+        raise ValueError("arc geometry is not finite or its radius is 0")
+    sweep = arc_sweep(start, end, center, clockwise, plane_axes, full_turns)
+    lo = [min(s, e) for s, e in zip(start, end)]
+    hi = [max(s, e) for s, e in zip(start, end)]
+    a0 = math.atan2(start[b] - center[b], start[a] - center[a])
+    radius = max(r0, r1)
+    for quarter in range(4):
+        angle = quarter * math.pi / 2
+        travelled = ((a0 - angle) if clockwise else (angle - a0)) % (2.0 * math.pi)
+        if travelled <= sweep:
+            x, y = center[a] + radius * math.cos(angle), center[b] + radius * math.sin(angle)
+            lo[a], hi[a] = min(lo[a], x), max(hi[a], x)
+            lo[b], hi[b] = min(lo[b], y), max(hi[b], y)
+    chords = max(1, math.ceil(sweep / chord_angle(radius, tolerance_mm)))
+    off_plane = math.sqrt(sum((e - s) ** 2 for i, (s, e) in enumerate(zip(start, end))
+                              if i not in plane_axes))
+    return lo, hi, chords, math.hypot(sweep * (r0 + r1) / 2.0, off_plane)
+
+
 def _check(radius_mm: float, tolerance_mm: float) -> None:
     if not radius_mm > 0.0:
         raise ValueError(f"arc radius {radius_mm} mm: must be > 0")

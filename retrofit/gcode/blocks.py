@@ -1,0 +1,145 @@
+"""Blocks: the evaluated words of one line sorted into modal groups, axis words and values.
+
+Checks what one block can be judged on alone, in LinuxCNC's terms: every G and M code is known
+(and supported here), no modal group is named twice, no letter is given twice, every axis word
+names an axis of the machine, every value is a finite number.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from ..config import Machine
+from .errors import RuleError
+
+#: G codes by modal group, as LinuxCNC groups them
+G_GROUPS: dict[float, str] = {
+    **dict.fromkeys((4, 10, 28, 28.1, 30, 30.1, 53, 92, 92.1, 92.2, 92.3), "non-modal"),
+    **dict.fromkeys((0, 1, 2, 3, 33, 73, 80, 81, 82, 83, 85, 89), "motion"),
+    76: "non-modal",
+    **dict.fromkeys((17, 18, 19), "plane"), **dict.fromkeys((20, 21), "units"),
+    **dict.fromkeys((90, 91), "distance"), **dict.fromkeys((90.1, 91.1), "arc distance"),
+    **dict.fromkeys((93, 94), "feed mode"), 40: "cutter radius", 97: "spindle speed mode",
+    **dict.fromkeys((43, 43.1, 49), "tool length"), **dict.fromkeys((98, 99), "return mode"),
+    **dict.fromkeys((54, 55, 56, 57, 58, 59, 59.1, 59.2, 59.3), "coordinate system"),
+    **dict.fromkeys((61, 61.1, 64), "path control"), **dict.fromkeys((7, 8), "lathe diameter"),
+}
+#: M codes by group
+M_GROUPS: dict[float, str] = {
+    **dict.fromkeys((0, 1, 2, 30, 60), "stopping"), 6: "tool change",
+    **dict.fromkeys((3, 4, 5), "spindle"), **dict.fromkeys((7, 8, 9), "coolant"),
+    **dict.fromkeys((48, 49, 50, 51, 52, 53), "override"),
+}
+#: codes LinuxCNC knows that retrofit refuses, and why
+REFUSED: dict[str, str] = {
+    **dict.fromkeys(("G5", "G5.1", "G5.2", "G5.3"), "splines are not supported; let the CAM "
+                    "output lines and arcs"),
+    **dict.fromkeys(("G41", "G42", "G41.1", "G42.1"), "cutter radius compensation is not "
+                    "supported; let the CAM output the tool centre path (G40)"),
+    **dict.fromkeys(("G38.2", "G38.3", "G38.4", "G38.5"), "probing is not supported here"),
+    "G33.1": "rigid tapping is not supported", "G84": "the tapping cycle is not supported",
+    "G74": "the tapping cycle is not supported",
+    **dict.fromkeys(("G86", "G87", "G88"), "this canned cycle stops the spindle mid-cycle; not "
+                    "supported"),
+    "G95": "feed per revolution is not supported (the feed is not tied to the spindle outside "
+           "G33/G76)", "G96": "constant surface speed is not supported (use G97 S<rpm>)",
+    "G43.2": "G43.2 is not supported (use G43 H or G43.1)", "G52": "G52 is not supported (use G92)",
+    **dict.fromkeys(("M62", "M63", "M64", "M65"), "digital outputs: the machine file names no "
+                    "output pins"),
+    "M66": "waiting on inputs: the machine file names no input pins",
+    "M19": "spindle orientation is not supported",
+    **dict.fromkeys(("M70", "M71", "M72", "M73"), "saving modal state is not supported"),
+}
+#: 3D-printer codes seen in grbl-flavoured files: a CNC has no hot end, bed or extruder
+PRINTER: dict[str, str] = {
+    "M104": "hot-end temperature", "M109": "hot-end temperature wait", "M140": "bed temperature",
+    "M190": "bed temperature wait", "M106": "part fan", "M107": "part fan off",
+    "M82": "extruder absolute mode", "M83": "extruder relative mode", "M84": "motors off",
+    "G29": "bed levelling",
+}
+AXIS_LETTERS = "XYZABCUVW"
+#: the largest magnitude any word may have; larger values overflow what a machine can represent
+MAX_VALUE = 1.0e9
+
+
+@dataclass
+class Block:
+    """One block: its G and M codes by group, axis words and other values (as written)."""
+
+    line: int
+    g: dict[str, float] = field(default_factory=dict)        # group -> G code
+    m: dict[str, float] = field(default_factory=dict)        # group -> M code
+    axes: dict[str, float] = field(default_factory=dict)     # machine axis -> value, program units
+    values: dict[str, float] = field(default_factory=dict)   # other letters -> value
+
+    @property
+    def texts(self) -> dict[str, str]:
+        """Letter -> the word as evaluated (``'X12.5'``), for messages."""
+        return {letter: f"{letter}{value:g}" for letter, value in (*self.axes.items(), *self.values.items())}
+
+    @property
+    def motion(self) -> float | None:
+        """The motion G code written in this block, if any."""
+        return self.g.get("motion")
+
+
+def code_name(letter: str, value: float) -> str:
+    """``G1``, ``G59.1``: a code as LinuxCNC writes it."""
+    return f"{letter}{value:g}"
+
+
+def make_block(line: int, words: list[tuple[str, float]], machine: Machine) -> Block:
+    """Sort one block's evaluated words; raise RuleError on the first word that breaks a rule."""
+    block = Block(line)
+    axes, values = block.axes, block.values
+    names = _axis_names(machine)
+    for letter, value in words:
+        if not -MAX_VALUE <= value <= MAX_VALUE:          # also refuses NaN
+            raise RuleError(f"{letter}{value:g}: the value is not a finite number within "
+                            f"+-{MAX_VALUE:g}")
+        if letter == "G" or letter == "M":
+            _add_code(block, letter, value)
+        elif letter == "N":
+            raise RuleError("line number N must be the first word of the block")
+        elif letter in axes or letter in values:
+            raise RuleError(f"{letter} given twice in one block ({block.texts[letter]}, "
+                            f"{letter}{value:g})")
+        elif letter in AXIS_LETTERS:
+            if letter not in names:
+                raise RuleError(f"axis {letter} is not on machine {machine.name} "
+                                f"(axes: {', '.join(machine.axis_names)})")
+            axes[letter] = value
+        else:
+            values[letter] = value
+    return block
+
+
+_NAMES: dict[int, tuple] = {}
+
+
+def _axis_names(machine: Machine) -> frozenset:
+    names = _NAMES.get(id(machine))
+    if names is None or names[0] is not machine:      # an id can be reused by a new machine
+        names = _NAMES[id(machine)] = (machine, frozenset(machine.axis_names))
+    return names[1]
+
+
+def _add_code(block: Block, letter: str, value: float) -> None:
+    code = round(value, 4)
+    if code == int(code):
+        code = int(code)
+    name = code_name(letter, code)
+    groups = G_GROUPS if letter == "G" else M_GROUPS
+    if code not in groups:
+        if name in PRINTER:
+            raise RuleError(f"{name} ({PRINTER[name]}) is a 3D-printer code; a CNC machine "
+                            f"cannot do it")
+        if name in REFUSED:
+            raise RuleError(f"{name}: {REFUSED[name]}")
+        raise RuleError(f"unknown {'G' if letter == 'G' else 'M'} code used: {name}")
+    group = groups[code]
+    codes = block.g if letter == "G" else block.m
+    if group in codes:
+        raise RuleError(f"two {letter} codes used from the same modal group ({group}): "
+                        f"{code_name(letter, codes[group])} and {name}")
+    codes[group] = code

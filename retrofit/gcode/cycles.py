@@ -1,0 +1,105 @@
+"""Canned drilling cycles G73, G81, G82, G83, G85, G89 in the XY plane (G17), as LinuxCNC runs them.
+
+Words: X Y the hole, Z the bottom, R the retract plane, L repeats, P the dwell (G82, G89), Q the
+peck (G73, G83). Each hole: if Z is below R, rapid up to R first (once); rapid over the hole at
+the clearance height; rapid down to R; the cycle's cut; back to the clearance height -- the start
+height under G98, R under G99. Under G91, X and Y are steps from hole to hole (repeated L
+times), R is measured from the current Z and Z from R.
+"""
+
+from __future__ import annotations
+
+from .errors import RuleError
+from .state import clean_mm
+from .threading import leave
+
+CYCLES = (73, 81, 82, 83, 85, 89)
+#: G83's rapid stop above the last peck, and G73's chip-breaking retract (mm)
+PECK_CLEARANCE_MM = 0.254
+#: most holes one cycle block may drill (L)
+MAX_REPEATS = 10000
+
+
+def run(tr, block, mode) -> None:
+    """One canned-cycle block."""
+    s = tr.state
+    if s.plane != 17 or not {"X", "Y", "Z"} <= set(tr.machine.axis_names):
+        raise RuleError(f"G{mode:g}: canned cycles run in the XY plane (G17) of a machine with X, "
+                        f"Y and Z")
+    v = block.values
+    if "R" not in v and s.cycle_r is None:
+        raise RuleError(f"G{mode:g}: R clearance plane unspecified in cycle")
+    if mode in (73, 83) and "Q" not in v and s.cycle_q is None:
+        raise RuleError(f"G{mode:g}: Q word missing (the peck depth)")
+    repeats = v.get("L", 1.0)
+    if repeats != int(repeats) or not 0 <= repeats <= MAX_REPEATS:
+        raise RuleError(f"{block.texts['L']}: L repeats a cycle 0 to {MAX_REPEATS} times")
+    leave(tr)
+    s.cycle_r = v.get("R", s.cycle_r)
+    s.cycle_q = v.get("Q", s.cycle_q)
+    s.cycle_p = v.get("P", s.cycle_p)
+    s.cycle_z = block.axes.get("Z", s.cycle_z)
+    if s.cycle_z is None:
+        raise RuleError(f"G{mode:g}: Z value unspecified in XY plane canned cycle")
+    offset_z = s.offset("Z")
+    if s.cycle_start is None:                  # the initial level of this run of cycles
+        s.cycle_start = s.position["Z"]
+    old = s.cycle_start
+    if s.incremental:
+        r = old + s.to_mm(s.cycle_r)
+        bottom = r + s.to_mm(s.cycle_z)
+    else:
+        r = s.to_mm(s.cycle_r) + offset_z
+        bottom = s.to_mm(s.cycle_z) + offset_z
+    if r < bottom:
+        raise RuleError(f"G{mode:g}: R less than Z in cycle (R is the retract plane above the "
+                        f"bottom Z)")
+    if old < r:
+        tr.rapid({**s.position, "Z": clean_mm(r)})
+        old = r
+    clear = r if s.retract_r else old
+    if s.incremental:
+        step = {a: s.word_mm(a, block.axes.get(a, 0.0)) for a in "XY"}
+    hole = {a: block.axes[a] for a in "XY" if a in block.axes}
+    height = max(s.position["Z"], r)         # the first hole is reached at the current height
+    for _ in range(int(repeats)):
+        if s.incremental:
+            xy = {a: clean_mm(s.position[a] + step[a]) for a in "XY"}
+        else:
+            xy = s.target(hole)
+        tr.rapid({**s.position, "X": xy["X"], "Y": xy["Y"], "Z": clean_mm(height)})
+        if height != r:
+            tr.rapid({**s.position, "Z": clean_mm(r)})
+        _cut(tr, mode, r, bottom, clear)
+        height = clear
+
+
+def _cut(tr, mode, r: float, bottom: float, clear: float) -> None:
+    s = tr.state
+    at = lambda z: {**s.position, "Z": clean_mm(z)}  # noqa: E731
+    if mode in (73, 83):
+        peck = s.to_mm(s.cycle_q)
+        if not peck > 0.0:
+            raise RuleError(f"Q{s.cycle_q:g}: the peck depth Q must be > 0")
+        if (r - bottom) / peck > 100000:
+            raise RuleError(f"Q{s.cycle_q:g}: more than 100000 pecks; raise Q")
+        depth = r - peck
+        while depth > bottom:
+            tr.feed_line(at(depth), mode)
+            if mode == 83:
+                tr.rapid(at(r))
+                tr.rapid(at(depth + PECK_CLEARANCE_MM))
+            else:
+                tr.rapid(at(depth + PECK_CLEARANCE_MM))
+            depth -= peck
+    tr.feed_line(at(bottom), mode)
+    if mode in (82, 89):
+        tr._dwell(s.cycle_p or 0.0)
+    if mode == 85:
+        tr.feed_line(at(r), mode)
+        if clear != r:
+            tr.rapid(at(clear))
+    elif mode == 89:
+        tr.feed_line(at(clear), mode)
+    else:
+        tr.rapid(at(clear))

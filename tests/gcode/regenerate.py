@@ -1,0 +1,61 @@
+"""Regenerate the golden files: LinuxCNC's own interpreter (``rs274``) run on every corpus program.
+
+Usage: ``python3 tests/gcode/regenerate.py`` (needs ``/usr/bin/rs274``, Debian's linuxcnc-uspace).
+For each ``programs/*.ngc`` and ``linuxcnc/*.ngc`` it writes ``golden/<folder>/<name>.canon``:
+a first line ``# rs274 exit <code>: <error or ok>`` and then rs274's canonical calls as printed
+(``STRAIGHT_TRAVERSE(...)``, ``ARC_FEED(...)``, offsets, units). The tool table is ``tool.tbl``.
+The golden files are committed, so the differential test runs where LinuxCNC is not installed. rs274 without a configuration
+works in inches: the tool table it reads is ``tool.tbl`` converted (``golden/tool-inch.tbl``), and
+programs that write offset parameters (#5161.., #5211..) as numbers are kept out of the corpus.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+RS274 = "/usr/bin/rs274"
+FOLDERS = ("programs", "linuxcnc")
+
+
+def inch_tool_table() -> Path:
+    """``tool.tbl`` in inches: rs274 without a configuration reads tool tables in inches, and
+    prints the offsets in the program's units."""
+    out = HERE / "golden" / "tool-inch.tbl"
+    lines = []
+    for raw in (HERE / "tool.tbl").read_text().splitlines():
+        words = raw.split(";")[0].split()
+        lines.append(" ".join(w if w[0] in "TPD" else f"{w[0]}{float(w[1:]) / 25.4:.10f}" for w in words))
+    out.write_text("\n".join(lines) + "\n")
+    return out
+
+
+def run_rs274(program: Path) -> str:
+    """rs274's output for ``program``, with the exit line first."""
+    proc = subprocess.run([RS274, "-t", str(inch_tool_table()), "-g", str(program)],
+                          stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=60,
+                          cwd=program.parent)
+    errors = [line for line in proc.stderr.splitlines() if line.strip() and line != "executing"]
+    status = errors[0] if errors else "ok"
+    return f"# rs274 exit {proc.returncode}: {status}\n{proc.stdout}"
+
+
+def main() -> int:
+    if not Path(RS274).exists():
+        print(f"{RS274} not found: install linuxcnc-uspace", file=sys.stderr)
+        return 2
+    count = 0
+    for folder in FOLDERS:
+        out = HERE / "golden" / folder
+        out.mkdir(parents=True, exist_ok=True)
+        for program in sorted((HERE / folder).glob("*.ngc")):
+            (out / f"{program.stem}.canon").write_text(run_rs274(program))
+            count += 1
+    print(f"{count} golden files written")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
