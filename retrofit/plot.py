@@ -55,9 +55,12 @@ def plot_path(log: RunLog, sim: SimMachine, path: str | Path, title: str = "") -
     ax.grid(True, lw=0.3)
     ax.legend(loc="best")
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120, bbox_inches="tight")
-    plt.close(fig)
+    from .atomic import staged
+    try:
+        with staged(path) as tmp:          # complete or absent, even on Ctrl-C
+            fig.savefig(tmp, dpi=120, bbox_inches="tight")
+    finally:
+        plt.close(fig)
     return path
 
 

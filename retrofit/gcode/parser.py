@@ -26,10 +26,12 @@ M_GROUPS: dict[int, str] = {
     2: "program end", 30: "program end",
     3: "spindle", 4: "spindle", 5: "spindle",
     7: "coolant", 8: "coolant", 9: "coolant",
+    0: "stop", 1: "stop", 60: "stop",      # PAUS: the run pauses
+    6: "tool change",                      # TOOL: the changer, or a manual change
 }
 #: codes of a machine with a tool changer ([atc]: M6) or a tool table ([tools]: G43, G49)
 TOOL_G_GROUPS: dict[int, str] = {43: "tool length", 49: "tool length"}
-TOOL_M_GROUPS: dict[int, str] = {6: "tool change"}
+TOOL_M_GROUPS: dict[int, str] = {}
 #: spindle-synchronised motion, on a machine with a spindle encoder ([spindle]): G33 threads
 #: (modal, like G1), G76 the threading cycle (in its block only)
 THREAD_G_GROUPS: dict[int, str] = {33: "motion", 76: "non-modal"}
@@ -40,7 +42,7 @@ AXIS_LETTERS = "XYZABCUVW"
 #: other letters with a value: feed, spindle speed, dwell, arc radius, arc centre offsets
 VALUE_LETTERS = "FSPRIJK"
 #: tool words: T (tool number) needs a tool changer, H (G43's tool) a tool table
-TOOL_LETTERS = {"T": ("atc", "tool changer ([atc] section)"), "H": ("tools", "tool table ([tools] section)")}
+TOOL_LETTERS = {"T": (None, ""), "H": ("tools", "tool table ([tools] section)")}
 
 SUPPORTED_G = " ".join(f"G{c}" for c in sorted(G_GROUPS))
 SUPPORTED_M = " ".join(f"M{c}" for c in sorted(M_GROUPS))
@@ -83,7 +85,7 @@ def parse_block(line: int, words: tuple[Word, ...], machine: Machine) -> ParsedB
             _add_value(block, block.values, word)
         elif letter in TOOL_LETTERS:
             part, what = TOOL_LETTERS[letter]
-            if part not in machine.parts:
+            if part is not None and part not in machine.parts:
                 raise RuleError(f"{word.text}: machine {machine.name} has no {what}")
             _add_value(block, block.values, word)
         else:

@@ -32,13 +32,15 @@ class Program:
 
 
 def compile_program(text: str, machine: Machine, file: str = "<string>",
-                    start_mm: dict | None = None) -> Program:
+                    start_mm: dict | None = None, *, tool_table=None, spindle_tool: int = 0) -> Program:
     """Translate G-code ``text`` for ``machine`` into retrofit commands.
 
     The whole program is checked before anything is returned: on the first broken rule a
     :class:`~retrofit.errors.GcodeError` names ``file:line`` and the rule, and no command at all
     reaches the caller. ``start_mm`` is where the machine stands when the program starts
-    (axes not named there at 0 mm). Everything after M2 or M30 is ignored.
+    (axes not named there at 0 mm). Everything after M2 or M30 is ignored. ``tool_table``
+    (a :class:`retrofit.tooltable.ToolTable`) gives G43 its offsets; ``spindle_tool`` is the
+    tool in the spindle at the start.
 
     >>> from retrofit.config import load_machine
     >>> prog = compile_program("G0 X10 Z2\\nG1 Z-5 F100", load_machine("chivu-lathe"))
@@ -50,6 +52,7 @@ def compile_program(text: str, machine: Machine, file: str = "<string>",
     except ValueError as exc:
         raise GcodeError(str(exc), file) from None
     translator = Translator(machine, state)
+    translator.tool_table, translator.spindle_tool = tool_table, spindle_tool
     for line, raw in iter_lines(text):
         try:
             words = lex_line(raw)
@@ -60,7 +63,8 @@ def compile_program(text: str, machine: Machine, file: str = "<string>",
     return Program(translator.commands, translator.lines, file)
 
 
-def load_program(path: str | Path, machine: Machine | str) -> Program:
+def load_program(path: str | Path, machine: Machine | str, *, tool_table=None,
+                 spindle_tool: int = 0) -> Program:
     """Read and compile a G-code file (``.ngc``); ``machine`` is a Machine or a machine name.
 
     Errors name the file by its name, e.g. ``prog.ngc:12: ...``.
@@ -74,4 +78,5 @@ def load_program(path: str | Path, machine: Machine | str) -> Program:
         raise GcodeError("no such G-code file", str(path)) from None
     except UnicodeDecodeError as exc:
         raise GcodeError(f"not a UTF-8 text file (byte {exc.start})", path.name) from None
-    return compile_program(text, machine, file=path.name)
+    return compile_program(text, machine, file=path.name, tool_table=tool_table,
+                           spindle_tool=spindle_tool)

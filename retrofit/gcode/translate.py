@@ -3,7 +3,7 @@
 G0 is FMOV and G1 is PMOV, both naming every machine axis with its absolute target in mm; a
 G2/G3 arc becomes one PMOV per chord (:mod:`retrofit.motion.arcs`); F becomes a PFDR sent just
 before the next feed move when it changed; G4 is DELY, G28 ZMOV, G92 PSTN, M3/M4/M5 with S are
-SPIN and M7/M8/M9 are COOL; T, M6, G43 and G49 go to the tool changer (:mod:`retrofit.atc.gcode`);
+SPIN and M7/M8/M9 are COOL; T, M6, G43 and G49 become TOOL, M0/M1/M60 PAUS, G43/G49 PSTN (:mod:`retrofit.gcode.tools`);
 G33 and the G76 cycle become moves under the spindle's indexer (:mod:`retrofit.gcode.threading`).
 Within a block the words act in this order: plane, units and distance mode; feed; T and M6;
 spindle; coolant; dwell; G43/G49; G28/G92 or the motion; program end.
@@ -19,6 +19,7 @@ from .arcwords import allowed_radius_mismatch, arc_center, plane_axes
 from .parser import ParsedBlock
 from .state import ModalState, clean_mm
 from .threading import g33, g76, leave
+from .tools import change_tool, pause, tool_length
 from .validate import RuleError, check_feed, check_soft_limits, check_word_use
 
 
@@ -32,6 +33,10 @@ class Translator:
         self.lines: list[int] = []
         self._line = 0
         self.offset_mm = {name: 0.0 for name in machine.axis_names}   # machine - program (G92, G43)
+        self.tool_table = None            # retrofit.tooltable.ToolTable, for G43
+        self.spindle_tool = 0             # the tool in the spindle, followed through T / M6
+        self.selected_tool: int | None = None
+        self.length_offset_mm = 0.0       # the G43 offset in force
         self.indexing = False             # ISTP emitted and not yet ended by CSTP (a G33 chain)
 
     def run(self, block: ParsedBlock) -> bool:
@@ -43,7 +48,6 @@ class Translator:
         if "F" in block.values:
             self.state.feed_mm_min = clean_mm(self.state.to_mm(block.values["F"]))
         if "T" in block.values or "tool change" in block.m:
-            from ..atc.gcode import change_tool       # T and M6 (machines with a tool changer)
             change_tool(self, block)
         self._spindle(block)
         self._coolant(block)
@@ -51,7 +55,6 @@ class Translator:
         if nonmodal == 4:
             self._emit(Dely(block.values["P"]))
         if "tool length" in block.g:
-            from ..atc.gcode import tool_length       # G43 [H], G49 (machines with a tool table)
             tool_length(self, block)
         if block.motion is not None:
             self.state.motion = block.motion
@@ -63,6 +66,8 @@ class Translator:
             g76(self, block)
         else:
             self._motion(block, mode)
+        if "stop" in block.m:
+            pause(self, block)
         if "program end" in block.m:
             self._end()
             return True

@@ -8,7 +8,7 @@ the tool in the spindle and the tool table (``--state-dir``, default $RETROFIT_S
 
 from __future__ import annotations
 
-from .errors import RetrofitError
+from ..errors import RetrofitError
 
 
 def add_commands(sub) -> None:
@@ -54,12 +54,12 @@ class _Mill:
 
     def __init__(self, args):
         from pathlib import Path
-        from .atc.cell import SimCell
-        from .atc.changer import ToolChanger
-        from .atc.magazine import MagazineState
-        from .atc.state import SpindleStore
-        from .atc.tooltable import ToolTableStore
-        from .config import load_machine
+        from ..atc.cell import SimCell
+        from ..atc.changer import ToolChanger
+        from ..atc.magazine import MagazineState
+        from ..atc.state import SpindleStore
+        from ..atc.tooltable import ToolTableStore
+        from ..config import load_machine
         self.machine = load_machine(args.machine)
         name = self.machine.name
         folder = Path(args.state_dir) if args.state_dir else None
@@ -107,7 +107,7 @@ def cmd_tool(args) -> int:
 
 def cmd_setter(args) -> int:
     """``retrofit setter reference | measure T.. | table``."""
-    from .atc.measure import ToolSetter
+    from ..atc.measure import ToolSetter
     mill = _Mill(args)
     table = mill.tables.load()
     setter = ToolSetter(mill.machine, table)
@@ -136,8 +136,8 @@ def cmd_setter(args) -> int:
 def cmd_mill(args) -> int:
     """``retrofit mill PROGRAM``: compile with the spindle record, run, record every change."""
     from pathlib import Path
-    from .atc.gcode import ToolSession
-    from .gcode import compile_program
+    from ..atc.gcode import ToolSession
+    from ..gcode import compile_program
     mill = _Mill(args)
     path = Path(args.program)
     try:
