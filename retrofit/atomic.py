@@ -66,6 +66,8 @@ def staged(path: str | Path) -> Iterator[Path]:
         fsync_file(tmp)
         os.replace(tmp, path)
         fsync_dir(path.parent)
+    except OutputError as exc:
+        raise OutputError(str(exc).replace(str(tmp), str(path))) from None
     except OSError as exc:
         raise OutputError(f"{path}: cannot write the file: {reason(exc)}") from None
     finally:

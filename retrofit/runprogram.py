@@ -159,17 +159,18 @@ def execute(plan, reference: bool = False) -> RunLog:
 
 def deliver_outputs(run: Run, urls: list[str], wait, progress):
     """Frames to the frame outputs, commands to the command outputs; the simulated machine."""
-    from .runner import deliver
-    frame_urls, remote = command_outputs(urls, run.machine, run.expanded.commands)
-    run.report["remote"] = remote
-    pauses = [(pause_tick(run, e.index), f"line {e.line}: {e.says}") for e in run.expanded.pauses]
-    from .runner import is_real
-    real = [u for u in frame_urls if is_real(u)]
+    from .runner import deliver, is_real
+    exp = run.expanded
+    pauses = [(pause_tick(run, e.index), e.index, f"line {e.line}: {e.says}") for e in exp.pauses]
+    real = [u for u in urls if is_real(u)]
     if pauses and real and wait is None:
-        raise OutputError(f"{real[0]}: the program pauses ({pauses[0][1]}) and this output drives a "
+        raise OutputError(f"{real[0]}: the program pauses ({pauses[0][2]}) and this output drives a "
                           "machine: run it from a terminal, where Enter resumes after each pause")
+    frame_urls, remote = command_outputs(urls, run.machine, exp.commands,
+                                         [(i, says) for _, i, says in pauses], wait)
+    run.report["remote"] = remote
     total = max(int(run.log.ticks), 1)
-    return deliver(run.log, frame_urls, pauses, wait,
+    return deliver(run.log, frame_urls, [(t, says) for t, _, says in pauses], wait,
                    lambda tick: progress.fraction("outputs", tick / total))
 
 
@@ -181,12 +182,15 @@ def pause_tick(run: Run, index: int) -> int:
     return round(max(ends, default=0.0) / run.machine.tick_s)
 
 
-def command_outputs(urls: list[str], machine: Machine, commands) -> tuple[list[str], list[dict]]:
+def command_outputs(urls: list[str], machine: Machine, commands, pauses=(), wait=None
+                    ) -> tuple[list[str], list[dict]]:
     """Run ``commands`` on the command-level outputs among ``urls`` (``serial://``, ...).
 
     Such outputs (``takes_commands``) get the program's commands, not its port frames, and
-    report what the controller at the far end did. Returns the URLs left for the port frames
-    and one report part per command-level output (``remote`` in docs/report.md).
+    report what the controller at the far end did; at each pause (command index, words) the
+    commands before it are run to their end and ``wait(words)`` is called. Returns the URLs left
+    for the port frames and one report part per command-level output (``remote`` in
+    docs/report.md).
     """
     from .outputs import OutputURL, open_output, output_class
     frame_urls, remote = [], []
@@ -197,6 +201,17 @@ def command_outputs(urls: list[str], machine: Machine, commands) -> tuple[list[s
         if commands is None:
             raise OutputError(f"{url}: this output runs a program's commands; this run has only "
                               "port frames (use it with retrofit run)")
+        device = [c for c in commands if not c.host]
         with open_output(url, machine) as out:
-            remote.append(out.send_program([c for c in commands if not c.host]))
+            done, part, sent = 0, None, 0
+            for index, says in list(pauses) + [(len(device), None)]:
+                if index > done or says is None:
+                    part = out.send_program(device[done:index])
+                    sent += part["commands"]
+                    part["commands"] = sent
+                    out.opts["init"] = False          # INIT once, at the start of the program
+                    done = index
+                if says is not None:
+                    wait(says)
+            remote.append(part)
     return frame_urls, remote

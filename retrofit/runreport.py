@@ -100,6 +100,11 @@ def summary_lines(report: dict, title: str) -> list[str]:
     return out
 
 
+def fit(lines: list[str]) -> list[str]:
+    """``lines`` wrapped to 80 columns, continuation lines indented under their start."""
+    return [part for line in lines for part in _wrap(line)]
+
+
 def _wrap(text: str) -> list[str]:
     indent = " " * (len(text) - len(text.lstrip()) + 2)
     return textwrap.wrap(text, WIDTH, subsequent_indent=indent, break_on_hyphens=False) or [""]

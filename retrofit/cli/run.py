@@ -70,7 +70,7 @@ def cmd_demo(args) -> int:
     from ..motion.errorloop import PositionErrorLoop
     from ..report import build_report
     from ..runner import deliver
-    from ..runreport import summary_lines
+    from ..runreport import fit, summary_lines
     machine = load_machine(args.machine)
     if args.points < 1 or not args.radius > 0:
         raise RetrofitError(f"--points must be >= 1 and --radius > 0 (got {args.points}, {args.radius:g})")
@@ -84,7 +84,7 @@ def cmd_demo(args) -> int:
     comp = "off" if args.no_backlash_comp else "on"
     title = f"{machine.name}: circle r={args.radius:g} mm, {args.points} points, backlash comp {comp}"
     lines = summary_lines(report, title) + write_files(files, log, sim, report, title)
-    print("\n".join(lines))
+    print("\n".join(fit(lines)))
     return exit_code(report, args)
 
 
@@ -93,7 +93,7 @@ def cmd_run(args) -> int:
     from ..config import load_machine
     from ..progress import Progress
     from ..runprogram import STAGE_WEIGHTS, read_program, run_program
-    from ..runreport import summary_lines
+    from ..runreport import fit, summary_lines
     from ..tooltable import ToolTable
     machine = load_machine(args.machine)
     text, name = read_program(args.program)
@@ -110,7 +110,7 @@ def cmd_run(args) -> int:
     finally:
         progress.close()
     exp = run.expanded
-    if exp.events and exp.end_tool != start_tool:
+    if exp.events:
         store.save(exp.end_tool)
     title = f"{machine.name}: {name}, {len(run.program.commands)} commands, {run.how}"
     lines = summary_lines(run.report, title)
@@ -118,7 +118,7 @@ def cmd_run(args) -> int:
               f"(T{exp.end_tool} in the spindle)"] if exp.events or "atc" in machine.parts else []
     lines += remote_lines(run.report.get("remote") or [])
     lines += write_files(files, run.log, run.sim, run.report, title)
-    print("\n".join(lines))
+    print("\n".join(fit(lines)))
     return exit_code(run.report, args)
 
 
