@@ -91,7 +91,7 @@ def summary_lines(report: dict, title: str) -> list[str]:
     for pause in report.get("pauses", []):
         out += _wrap(f"  line {pause['line']}: paused: {pause['says']}")
     found = report["violations"]
-    out.append(f"  violations: {len(found) or 'none'}")
+    out.append(f"  violations: {len(found)}")
     shown = found[:10]
     for v in shown:
         out += _wrap("    " + violation_words(v))

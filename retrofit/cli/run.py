@@ -83,8 +83,8 @@ def cmd_demo(args) -> int:
         v.update(tick=int(v["tick"]), time_s=round(int(v["tick"]) * machine.tick_s, 6), line=None)
     comp = "off" if args.no_backlash_comp else "on"
     title = f"{machine.name}: circle r={args.radius:g} mm, {args.points} points, backlash comp {comp}"
-    lines = summary_lines(report, title) + write_files(files, log, sim, report, title)
-    print("\n".join(fit(lines)))
+    lines = fit(summary_lines(report, title)) + write_files(files, log, sim, report, title)
+    print("\n".join(lines))
     return exit_code(report, args)
 
 
@@ -117,8 +117,8 @@ def cmd_run(args) -> int:
     lines += [f"  tool table: {table_path}; spindle record: {spindle_path} "
               f"(T{exp.end_tool} in the spindle)"] if exp.events or "atc" in machine.parts else []
     lines += remote_lines(run.report.get("remote") or [])
-    lines += write_files(files, run.log, run.sim, run.report, title)
-    print("\n".join(fit(lines)))
+    files_lines = write_files(files, run.log, run.sim, run.report, title)   # a path is not wrapped
+    print("\n".join(fit(lines) + files_lines))
     return exit_code(run.report, args)
 
 
