@@ -25,8 +25,19 @@ from typing import Iterator
 
 from .errors import OutputError
 
-#: files a run meant to write and has not (yet) written: what an interrupted run names
-PENDING: list[Path] = []
+#: files a command means to write (it declares them with :func:`plan`) and those written so far
+PLANNED: list[Path] = []
+WRITTEN: list[Path] = []
+
+
+def plan(paths) -> None:
+    """Declare the files this command will write, so an interruption can name those it has not."""
+    PLANNED.extend(Path(p) for p in paths)
+
+
+def not_written() -> list[Path]:
+    """Files declared with :func:`plan` that have not been written (completely) yet."""
+    return [p for p in PLANNED if p not in WRITTEN]
 
 
 def reason(exc: OSError) -> str:
@@ -60,12 +71,12 @@ def staged(path: str | Path) -> Iterator[Path]:
     path = Path(path)
     check_target(path)
     tmp = _temp_name(path)
-    PENDING.append(path)
     try:
         yield tmp
         fsync_file(tmp)
         os.replace(tmp, path)
         fsync_dir(path.parent)
+        WRITTEN.append(path)
     except OutputError as exc:
         raise OutputError(str(exc).replace(str(tmp), str(path))) from None
     except OSError as exc:
@@ -75,8 +86,6 @@ def staged(path: str | Path) -> Iterator[Path]:
             tmp.unlink(missing_ok=True)
         except OSError:
             pass
-        if path in PENDING:
-            PENDING.remove(path)
 
 
 def fsync_file(path: Path) -> None:

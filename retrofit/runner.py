@@ -65,11 +65,21 @@ def deliver(log: RunLog, urls: Sequence[str], pauses: Sequence[tuple[int, str]] 
             if isinstance(out, SimOutput):
                 out.start_steps = log.start_steps
         stops = sorted(pauses) if wait is not None and any(is_real(u) for u in urls) else []
-        with ExitStack() as opened:
+        opened = []
+        try:
             for out in outputs:
                 out.open()
-                opened.callback(out.close)
+                opened.append(out)
             _write_slices(log.frames, outputs, stops, wait, progress)
+        except BaseException:
+            for out in opened:              # their files are discarded: a failing close adds nothing
+                try:
+                    out.close()
+                except Exception:
+                    pass
+            raise
+        for out in opened:
+            out.close()
         sim = next((seen["sim"] for seen in (out.observe() for out in outputs)
                     if seen and "sim" in seen), None)
     if sim is None:

@@ -98,16 +98,18 @@ def test_ctrl_c_at_random_moments_leaves_every_file_complete_or_absent(tmp_path)
     for attempt in range(20):
         folder = tmp_path / f"try{attempt}"
         folder.mkdir()
-        result = _run_interrupted(folder, rng.uniform(0.3, 9.0))
+        result = _run_interrupted(folder, 1.5 + rng.uniform(0.0, 6.5))
         assert result.returncode in (0, 130), result.stderr
         assert "Traceback" not in result.stderr
         for name, data in reference.items():
             path = folder / name
             assert not path.exists() or path.read_bytes() == data, (attempt, name)
-        assert sorted(p.name for p in folder.iterdir()) <= sorted(reference)     # no temporary file left
+        assert {p.name for p in folder.iterdir()} <= set(reference)      # no temporary file left
         if result.returncode == 130:
             missing = [n for n in reference if not (folder / n).exists()]
             assert result.stderr.startswith("retrofit: interrupted")
-            assert all(n in result.stderr for n in missing if n != "x.vcd" or "not written" in result.stderr)
+            if missing:
+                assert result.stderr.startswith("retrofit: interrupted; not written: ")
+                assert all(n in result.stderr for n in missing), result.stderr
         seen.add(tuple(sorted(p.name for p in folder.iterdir())))
     assert len(seen) >= 2                  # the interruptions fell at different moments of the run

@@ -40,19 +40,22 @@ def version() -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
-    from ..atomic import PENDING
-    parser = _parser()
-    args = parser.parse_args(argv)
-    if not getattr(args, "func", None):
-        parser.print_help()
-        return 2
+    from ..atomic import not_written
     try:
+        parser = _parser()
+        args = parser.parse_args(argv)
+        if not getattr(args, "func", None):
+            parser.print_help()
+            return 2
         return args.func(args) or 0
     except RetrofitError as exc:
         print(f"retrofit: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        lost = f"; not written: {', '.join(str(p) for p in PENDING)}" if PENDING else ""
+        import signal
+        signal.signal(signal.SIGINT, signal.SIG_IGN)      # one Ctrl-C ends the run, quietly
+        lost = ", ".join(str(p) for p in not_written())
+        lost = f"; not written: {lost}" if lost else ""
         print(f"retrofit: interrupted{lost}", file=sys.stderr)
         return 130
     except BrokenPipeError:                # output piped into `head` and the reader went away

@@ -149,6 +149,11 @@ def output_files(args) -> dict:
         files["report"] = Path(args.report)
     for path in files.values():
         check_target(path)
+    from ..atomic import plan
+    from ..outputs import OutputURL
+    from ..runner import FILE_SCHEMES
+    targets = [OutputURL.parse(u) for u in (getattr(args, "output", None) or [])]
+    plan([Path(u.target) for u in targets if u.scheme in FILE_SCHEMES and u.target] + list(files.values()))
     return files
 
 
