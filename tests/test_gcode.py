@@ -271,7 +271,7 @@ def test_errors_name_file_line_and_rule(lathe, engraver, machine_name, line, tex
     ("G0 X1 X2", "X given twice in one block (X1, X2)"),
     ("G0 G1 X1", "G0 and G1 in one block: both are motion codes"),
     ("M3 M5", "M3 and M5 in one block: both are spindle codes"),
-    ("M6", "M6 is not supported; supported: M2 M3 M4 M5 M7 M8 M9 M30"),
+    ("M48", "M48 is not supported; supported: M0 M1 M2 M3 M4 M5 M6 M7 M8 M9 M30 M60"),
     ("G92.1", "G92.1 is not supported"),
     ("G1 X1 F-5", "F-5: a feed cannot be negative"),
     ("G1 X1 I2", "I2 is an arc word but no G2/G3 arc is made in this block"),
