@@ -75,7 +75,8 @@ def resolve_program(name: str | Path) -> Path:
 def run_program(text: str, name: str, machine: Machine, opts, progress, wait=None,
                 tool_table=None, spindle_tool: int = 0) -> Run:
     """The whole run of program ``text`` (see the module doc); ``opts`` holds the command line's
-    choices (backlash_comp, reference, controller, urls)."""
+    choices (backlash_comp, reference, controller, urls; ``before_outputs(run)``, called when the
+    machine is about to move, e.g. to mark a tool change under way in the spindle record)."""
     from .atc.front import expand_host_commands
     from .gcode import compile_program
     run = Run(machine, name)
@@ -96,6 +97,8 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
         run.how = "reference path" if opts.reference else "fast path"
     progress.done("execute")
     # 4. outputs: frames to every output, stopping at pauses on a real machine
+    if getattr(opts, "before_outputs", None):
+        opts.before_outputs(run)
     run.sim = deliver_outputs(run, opts.urls, wait, progress)
     # 5. report: the log joined with what the machine did
     from .runreport import run_report

@@ -159,3 +159,18 @@ def test_disk_full_is_one_line_and_leaves_nothing(tmp_path):
                 full.write("x" * 100000)
                 full.flush()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["p.ngc"]
+
+
+def test_a_run_cut_short_during_tool_changes_leaves_the_record_untrusted(tmp_path):
+    from retrofit.atc.state import SpindleStore
+    from retrofit.config import load_machine
+    from retrofit.errors import ToolStateError
+    prog = write(tmp_path, "pick.ngc", "T3 M6\nM2\n")
+    record = tmp_path / "tul-mill.spindle.json"
+    SpindleStore("tul-mill", record).begin(0, 3)          # what a run cut short leaves behind
+    proc = retrofit("run", prog, "--machine", "tul-mill", cwd=tmp_path)
+    assert proc.returncode == 2
+    assert "the change from T0 to T3 was cut short" in proc.stderr
+    assert "retrofit tool T<n> --recover --machine tul-mill" in proc.stderr
+    with pytest.raises(ToolStateError):
+        SpindleStore("tul-mill", record, load_machine("tul-mill").parts["atc"].pockets).load()

@@ -102,8 +102,13 @@ def cmd_run(args) -> int:
     atc = machine.parts.get("atc")
     store = SpindleStore(machine.name, spindle_path, getattr(atc, "pockets", None))
     table, start_tool = ToolTable.load(table_path), store.load()
+
+    def mark(run) -> None:                 # the record says "changing" until the run has ended
+        if run.expanded.events:
+            store.begin(start_tool, run.expanded.end_tool)
     opts = SimpleNamespace(backlash_comp=not args.no_backlash_comp, reference=args.reference,
-                           controller=args.controller, urls=args.output or ["sim://"])
+                           controller=args.controller, urls=args.output or ["sim://"],
+                           before_outputs=mark)
     progress = Progress(STAGE_WEIGHTS, None if args.progress == "auto" else args.progress == "on")
     try:
         run = run_program(text, name, machine, opts, progress, operator_wait(), table, start_tool)
