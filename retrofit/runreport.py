@@ -86,10 +86,10 @@ def summary_lines(report: dict, title: str) -> list[str]:
         out += _wrap(f"  {name}: end {ax['carriage_mm']:.3f} mm (target {ax['target_mm']:.3f}), "
                      f"worst error {ax['max_carriage_error_mm']:.3f} mm, {ax['steps']} steps")
     tool = report.get("tool") or {}
-    for change in tool.get("changes", []):
-        out += _wrap(f"  line {change['line']}: {change['says']}")
-    for pause in report.get("pauses", []):
-        out += _wrap(f"  line {pause['line']}: paused: {pause['says']}")
+    events = [(c["line"] or 0, c["says"]) for c in tool.get("changes", [])]
+    events += [(p["line"] or 0, f"paused: {p['says']}") for p in report.get("pauses", [])]
+    for line, says in sorted(events, key=lambda e: e[0]):
+        out += _wrap(f"  line {line}: {says}")
     found = report["violations"]
     out.append(f"  violations: {len(found)}")
     shown = found[:10]

@@ -174,3 +174,31 @@ def test_a_run_cut_short_during_tool_changes_leaves_the_record_untrusted(tmp_pat
     assert "retrofit tool T<n> --recover --machine tul-mill" in proc.stderr
     with pytest.raises(ToolStateError):
         SpindleStore("tul-mill", record, load_machine("tul-mill").parts["atc"].pockets).load()
+
+
+@pytest.mark.skipif(not __import__("shutil").which("script"), reason="script (util-linux) is not installed")
+def test_a_manual_change_on_a_real_output_waits_for_enter_at_the_terminal(tmp_path):
+    from pathlib import Path
+    from tests.conformance.targets import McuTarget
+    root = Path(__file__).resolve().parents[1]
+    prog = write(tmp_path, "eng.ngc", "G0 X1 Y1\nT2 M6\nG0 X3 Y2\nM2\n")
+    typescript = tmp_path / "typescript"
+    with McuTarget("engraver") as mcu:
+        cmd = (f"stty cols 80 rows 24; env PYTHONPATH={root} python3 -m retrofit.cli run {prog} "
+               f"--machine engraver --output serial+socket://127.0.0.1:{mcu.port} --report r.json")
+        proc = subprocess.Popen(["script", "-qefc", cmd, str(typescript)], cwd=tmp_path,
+                                stdin=subprocess.PIPE, stdout=subprocess.DEVNULL)
+        import time
+        for _ in range(300):                       # the prompt comes when the moves before it are done
+            if "press Enter" in typescript.read_text(errors="replace") if typescript.exists() else False:
+                break
+            time.sleep(0.1)
+        text = typescript.read_text(errors="replace")
+        assert "paused: line 2: manual tool change (M6): put T2 in the spindle; press Enter to go on" in text
+        assert not (tmp_path / "r.json").exists()             # the run waits
+        proc.communicate(b"\n", timeout=60)
+    assert proc.returncode == 0
+    rep = json.loads((tmp_path / "r.json").read_text())
+    assert rep["remote"][0]["position_mm"]["X"] == 3.0 and rep["remote"][0]["position_mm"]["Y"] == 2.0
+    assert rep["pauses"] == [{"line": 2, "says": "manual tool change (M6): put T2 in the spindle"}]
+    assert json.loads((tmp_path / "engraver.spindle.json").read_text())["spindle_tool"] == 2
