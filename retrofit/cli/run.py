@@ -77,7 +77,9 @@ def cmd_demo(args) -> int:
     files = output_files(args)
     log = PositionErrorLoop(machine, backlash_comp=not args.no_backlash_comp).run(
         circle_targets(machine, args.radius, args.points))
-    sim = deliver(log, args.output or ["sim://"])
+    from ..runprogram import command_outputs
+    urls, _ = command_outputs(args.output or ["sim://"], machine, None)     # refuses serial://
+    sim = deliver(log, urls)
     report = build_report(log, sim)
     for v in report["violations"]:
         v.update(tick=int(v["tick"]), time_s=round(int(v["tick"]) * machine.tick_s, 6), line=None)
