@@ -144,20 +144,25 @@ def user_title(machine: Machine, what: str, backlash_comp: bool | None = None) -
     return title
 
 
-def plot_run(args, log: RunLog, sim: SimMachine, commands=None) -> Path:
-    """``--plot FILE.png`` of a ``retrofit run`` or ``retrofit demo``: its title in the user's words."""
-    program = getattr(args, "program", None)
+def plot_run(args, log: RunLog, sim: SimMachine, commands=None, target: Path | None = None,
+             program: tuple[str, str] | None = None) -> Path:
+    """``--plot FILE.png`` of a ``retrofit run`` or ``retrofit demo``: its title in the user's words.
+
+    ``program`` is the run's (name, G-code text) when the caller has read it already (stdin).
+    """
     source = ""
-    if program:
+    if program is not None:
+        what, source = program
+    elif getattr(args, "program", None):
         from .runprogram import resolve_program
-        path = resolve_program(program)
+        path = resolve_program(args.program)
         what, source = path.name, path.read_text(errors="replace")
     elif getattr(args, "which", "") == "circle":
         what = f"circle (r = {args.radius:g} mm, {args.points} points)"
     else:
         what = getattr(args, "which", "")
     title = user_title(log.machine, what, not getattr(args, "no_backlash_comp", False))
-    return plot_path(log, sim, args.plot, title, commands, source)
+    return plot_path(log, sim, target or args.plot, title, commands, source)
 
 
 def plot_path(log: RunLog, sim: SimMachine, path: str | Path, title: str = "", commands=None,
@@ -167,12 +172,15 @@ def plot_path(log: RunLog, sim: SimMachine, path: str | Path, title: str = "", c
     ``commands`` (the program's) let rapids be told from cuts; without them the commanded path
     is the controller's waypoints, drawn solid. ``source_text`` (the G-code) may name the stock.
     """
+    from .atomic import staged
     plt = _pyplot()
     fig = run_figure(log, sim, title, commands, source_text)
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120, bbox_inches="tight")
-    plt.close(fig)
+    try:
+        with staged(path) as tmp:          # complete or absent, even on Ctrl-C
+            fig.savefig(tmp, dpi=120, bbox_inches="tight", format=path.suffix.lstrip(".") or "png")
+    finally:
+        plt.close(fig)
     return path
 
 

@@ -2,11 +2,7 @@
 
 from __future__ import annotations
 
-import json
-import os
-import tempfile
-from pathlib import Path
-
+from .atomic import write_json_atomic  # noqa: F401  (callers import it from here)
 from .runlog import RunLog
 from .sim import SimMachine
 
@@ -37,21 +33,6 @@ def build_report(log: RunLog, sim: SimMachine) -> dict:
         "violations": [v.as_dict() for v in sim.violations],
         "max_following_error_steps": int(log.max_following_error_steps),
     }
-
-
-def write_json_atomic(path: str | Path, data: dict) -> None:
-    """Write JSON so that the file is either the old one or the whole new one, never half."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as fh:
-            json.dump(data, fh, indent=2)
-            fh.write("\n")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def summary_lines(report: dict) -> list[str]:

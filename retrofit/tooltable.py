@@ -25,12 +25,11 @@ instead of moving a machine by a wrong offset::
 from __future__ import annotations
 
 import math
-import os
 import re
-import tempfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from .atomic import write_text_atomic
 from .errors import RetrofitError
 
 #: offset words in the order LinuxCNC writes them
@@ -151,22 +150,6 @@ class ToolTable:
         write_text_atomic(target, self.format())
         self.path = target
         return target
-
-
-def write_text_atomic(path: str | Path, text: str) -> None:
-    """Replace ``path`` with ``text``: a temporary file beside it, flushed to disk, then renamed,
-    so a reader (or a power cut) sees the old file or the new one, never half of one."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def _parse_line(raw: str, where: str) -> Tool | None:

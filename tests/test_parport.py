@@ -93,7 +93,7 @@ def test_parport_section_is_read_strictly(tmp_path, section, message):
 
 
 def test_outputs_import_no_hardware_or_plot_library():
-    code = ("import sys, retrofit.outputs as o, retrofit.cli_outputs\n"
+    code = ("import sys, retrofit.outputs as o, retrofit.cli.outputs\n"
             "for s in ('parport', 'parport+record', 'vcd', 'sim'): o.output_class(s)\n"
             "print(sorted(m for m in ('parallel', 'serial', 'matplotlib', 'vcd') if m in sys.modules))")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)

@@ -51,6 +51,7 @@ def test_reference_path_writes_the_same_report(tmp_path):
         proc = retrofit("run", str(program), "--report", "r.json", *extra, cwd=tmp_path)
         assert proc.returncode == 0, proc.stderr
         reports.append(json.loads((tmp_path / "r.json").read_text()))
+    assert [r.pop("how") for r in reports] == ["fast path", "reference path"]
     assert reports[0] == reports[1]
 
 

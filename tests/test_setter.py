@@ -10,7 +10,6 @@ from hypothesis import given, settings, strategies as st
 from retrofit.atc import setter as st_
 from retrofit.atc.cell import SimCell
 from retrofit.atc.changer import ToolChanger
-from retrofit.atc.gcode import ToolSession
 from retrofit.atc.magazine import MagazineState
 from retrofit.atc.measure import ToolSetter
 from retrofit.atc.settings import SimTool, tools_of
@@ -106,17 +105,19 @@ def test_the_tool_table_survives_on_disk(tmp_path):
     again = store.load()
     assert again.reference == table.reference and again.tools == table.tools
     (tmp_path / "table.json").write_text("{\"tools\": {\"3\": 5}}")
-    with pytest.raises(ToolStateError, match="the tool table is unreadable"):
+    with pytest.raises(ToolStateError, match="the setter's record is unreadable"):
         store.load()
 
 
 @pytest.mark.parametrize("tool", [3, 8])
 def test_g43_puts_the_tip_where_the_reference_tool_would_be(tmp_path, tool):
     table, cell, changer = measured(MILL, [tool], tmp_path)
-    session = ToolSession(MILL, changer.spindle_tool, table)
-    with session.active():
-        program = compile_program("G43\nG0 X20 Y20 Z20\nG49\nG0 Z10", MILL,
-                                  start_mm=cell.commanded_mm())
+    store = ToolTableStore("tul-mill", tmp_path / "setter.json", tmp_path / "tul-mill.tbl")
+    store.save(table)                                      # the measurements go to tool.tbl
+    from retrofit.tooltable import ToolTable as Tbl
+    program = compile_program("G43\nG0 X20 Y20 Z20\nG49\nG0 Z10", MILL, start_mm=cell.commanded_mm(),
+                              tool_table=Tbl.load(tmp_path / "tul-mill.tbl"),
+                              spindle_tool=changer.spindle_tool)
     cell.run(program.commands[:-1])                        # up to the move under G43
     tip = cell.carriage_mm()["Z"] + tools_of(MILL).sim[tool].length_mm
     assert abs(tip - (20.0 + SETTER.reference_length_mm)) <= STEP + SLACK

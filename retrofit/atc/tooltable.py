@@ -2,8 +2,10 @@
 
 Lengths run from the spindle's gauge line to the tool tip. A tool's length offset (G43) is its
 length minus the reference tool's, so programs touched off with the reference tool cut at the
-same depth with any measured tool. The table is a JSON file replaced atomically, next to the
-spindle record (``<dir>/<machine>-tooltable.json``).
+same depth with any measured tool. The setter's own record (reference and measured lengths) is a
+JSON file beside the spindle record (``mill.setter.json``); every save also writes the machine's
+LinuxCNC tool table (``mill.tbl``): Z = length - reference length, D = diameter, so G43 in any
+program uses the measurements.
 """
 
 from __future__ import annotations
@@ -13,7 +15,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import ToolChangeError, ToolStateError
-from ..report import write_json_atomic
+import math
+
+from ..atomic import write_json_atomic
 from .state import default_state_dir
 
 
@@ -66,9 +70,10 @@ class ToolTable:
 class ToolTableStore:
     """Loads and saves one machine's tool table."""
 
-    def __init__(self, machine: str, path: str | Path | None = None):
+    def __init__(self, machine: str, path: str | Path | None = None, tbl: str | Path | None = None):
         self.machine = machine
         self.path = Path(path) if path is not None else default_state_dir() / f"{machine}-tooltable.json"
+        self.tbl = Path(tbl) if tbl is not None else None
 
     def load(self) -> ToolTable:
         """The saved table (empty when there is none yet); ToolStateError when it is unreadable."""
@@ -76,21 +81,53 @@ class ToolTableStore:
             return ToolTable(self.machine)
         try:
             data = json.loads(self.path.read_text(encoding="utf-8"))
+            if data.get("machine", self.machine) != self.machine:
+                raise ValueError(f"it belongs to machine {str(data.get('machine'))[:40]!r}")
             ref = data.get("reference")
-            reference = None if ref is None else Reference(int(ref["tool"]), float(ref["length_mm"]),
-                                                           float(ref["z_break_mm"]))
-            tools = {int(k): ToolEntry(_opt(v.get("length_mm")), _opt(v.get("diameter_mm")))
+            reference = None if ref is None else Reference(_tool(ref["tool"]), _opt(ref["length_mm"]),
+                                                           _opt(ref["z_break_mm"]))
+            tools = {_tool(k): ToolEntry(_opt(v.get("length_mm")), _opt(v.get("diameter_mm")))
                      for k, v in data.get("tools", {}).items()}
-        except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
-            raise ToolStateError(f"{self.path}: the tool table is unreadable ({type(exc).__name__}: "
-                                 f"{exc}); remove it and measure the tools again (retrofit setter "
+        except (OSError, ValueError, KeyError, TypeError, AttributeError, RecursionError) as exc:
+            raise ToolStateError(f"{self.path}: the setter's record is unreadable ({type(exc).__name__}: "
+                                 f"{str(exc)[:80]}); remove it and measure the tools again (retrofit setter "
                                  f"reference, then retrofit setter measure T1 T2 ...)") from None
         return ToolTable(self.machine, reference, tools)
 
     def save(self, table: ToolTable) -> None:
-        """Replace the file with ``table``, atomically."""
+        """Replace the file with ``table`` and update the tool table (``tbl``), atomically."""
+        self.path.parent.mkdir(parents=True, exist_ok=True)
         write_json_atomic(self.path, table.as_dict())
+        if self.tbl is None or table.reference is None:
+            return
+        from ..tooltable import ToolTable as Tbl
+        tbl = Tbl.load(self.tbl)
+        for number, entry in sorted(table.tools.items()):
+            if entry.length_mm is not None:
+                tbl = tbl.set_offset(number, "Z", table.length_offset(number))
+            if entry.diameter_mm is not None:
+                from dataclasses import replace
+                tbl = tbl.with_tool(replace(tbl[number] if number in tbl else _new(number),
+                                            diameter_mm=entry.diameter_mm))
+        tbl.save(self.tbl)
+
+
+def _new(number: int):
+    from ..tooltable import Tool
+    return Tool(number, pocket=number)
+
+
+def _tool(value) -> int:
+    number = int(value)
+    if str(value).strip() != str(number) or not 0 <= number <= 99999:
+        raise ValueError(f"{str(value)[:20]!r} is not a tool number")
+    return number
 
 
 def _opt(value) -> float | None:
-    return None if value is None else float(value)
+    if value is None:
+        return None
+    number = float(value)
+    if not math.isfinite(number) or abs(number) > 1e4:
+        raise ValueError(f"{value!r} is not a finite length in mm")
+    return number

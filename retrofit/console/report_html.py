@@ -28,24 +28,31 @@ MAX_FRAMES = 2_000_000
 BACKPLOT_POINTS = 20_000
 
 
-def write_html_report(args, log, sim, report: dict, commands=None) -> Path:
-    """``--html FILE`` of ``retrofit run`` or ``retrofit demo``: the report of this run."""
+def write_html_report(args, log, sim, report: dict, commands=None, target: Path | None = None,
+                      program: tuple[str, str] | None = None, compiled=None) -> Path:
+    """``--html FILE`` of ``retrofit run`` or ``retrofit demo``: the report of this run.
+
+    ``program`` is the run's (name, G-code text) and ``compiled`` its Program when the caller has them.
+    """
     from ..plot import user_title
-    program, source, what = None, "", getattr(args, "which", "")
-    if getattr(args, "program", None):
+    source, what = "", getattr(args, "which", "")
+    if program is not None:
+        what, source = program
+        compiled = compiled or waypoint_program(log, what)
+    elif getattr(args, "program", None):
         from ..gcode import load_program
         from ..runprogram import resolve_program
         path = resolve_program(args.program)
-        program, source, what = load_program(path, log.machine), path.read_text(errors="replace"), path.name
+        compiled, source, what = load_program(path, log.machine), path.read_text(errors="replace"), path.name
     else:                                # a demo: its commanded points, as cuts
-        program = waypoint_program(log, what)
+        compiled = waypoint_program(log, what)
+    program = compiled
     title = user_title(log.machine, what, not args.no_backlash_comp)
     text = html_report(log.machine, log.frames, sim, report, title, program, source, log.start_steps)
-    out = Path(args.html)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    tmp.replace(out)
+    from ..atomic import staged
+    out = Path(target or args.html)
+    with staged(out) as tmp:               # complete or absent, even on Ctrl-C
+        tmp.write_text(text, encoding="utf-8")
     return out
 
 

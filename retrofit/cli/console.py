@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 
-from .errors import RetrofitError
+from ..errors import RetrofitError
 
 #: how much a console that drives only sim:// lowers its own priority
 CONSOLE_NICENESS = 10
@@ -36,9 +36,9 @@ def listen_address(text: str) -> tuple[str, int]:
 
 def cmd_console(args) -> int:
     import uvicorn
-    from .config import load_machine
-    from .console.server import Console, create_app
-    from .outputs import OutputURL, output_class
+    from ..config import load_machine
+    from ..console.server import Console, create_app
+    from ..outputs import OutputURL, output_class
     host, port = listen_address(args.listen)
     machine = load_machine(args.machine)
     for url in args.output or []:

@@ -25,8 +25,8 @@ def add_commands(sub) -> None:
 
 
 def _cmd_mcu(args) -> int:
-    from .config import load_machine
-    from .mcu import McuLoop, PtyPort, TcpServerPort, make_controller, parse_listen
+    from ..config import load_machine
+    from ..mcu import McuLoop, PtyPort, TcpServerPort, make_controller, parse_listen
     machine = load_machine(args.machine)
     controller = make_controller(machine, backlash_comp=not args.no_backlash_comp, simulate=args.sim)
     if args.pty:

@@ -6,7 +6,7 @@ import os
 import tempfile
 from pathlib import Path
 
-from .errors import RetrofitError
+from ..errors import RetrofitError
 
 
 def add_commands(sub) -> None:
@@ -28,7 +28,7 @@ def add_commands(sub) -> None:
 
 
 def cmd_outputs(args) -> int:
-    from .outputs import REGISTRY, output_class
+    from ..outputs import REGISTRY, output_class
     for scheme in sorted(REGISTRY):
         cls = output_class(scheme)
         print(f"{cls.grammar}\n    {cls.summary}")
@@ -52,11 +52,11 @@ def timing_url(args, folder: str) -> str:
 
 
 def cmd_timing(args) -> int:
-    from .config import load_machine
-    from .demo import circle_targets
-    from .motion.errorloop import PositionErrorLoop
-    from .outputs import open_output
-    from .outputs.pacer import repeat_frames
+    from ..config import load_machine
+    from ..demo import circle_targets
+    from ..motion.errorloop import PositionErrorLoop
+    from ..outputs import open_output
+    from ..outputs.pacer import repeat_frames
     if not args.seconds > 0:
         raise RetrofitError(f"--seconds must be > 0 (got {args.seconds:g})")
     machine = load_machine(args.machine)

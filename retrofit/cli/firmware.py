@@ -42,7 +42,7 @@ def add_commands(sub) -> None:
 
 
 def _start_steps(specs: list[str], machine) -> dict[str, int]:
-    from .errors import ConfigError
+    from ..errors import ConfigError
     out = {}
     for spec in specs:
         name, _, value = spec.partition("=")
@@ -54,8 +54,8 @@ def _start_steps(specs: list[str], machine) -> dict[str, int]:
 
 
 def _cmd_sim(args) -> int:
-    from .config import load_machine
-    from .firmware_sim import Harness, build, report
+    from ..config import load_machine
+    from ..firmware_sim import Harness, build, report
     machine = load_machine(args.machine)
     start = _start_steps(args.start, machine)
     elf = build(machine.name)
@@ -94,7 +94,7 @@ def _print_report(r: dict) -> None:
 
 def firmware_size(machine_name: str) -> dict[str, int]:
     """Flash (text + data) and RAM (data + bss) bytes of the firmware for ``machine_name``."""
-    from .firmware_sim import build
+    from ..firmware_sim import build
     elf = build(machine_name)
     out = subprocess.run(["avr-size", "-A", str(elf)], capture_output=True, text=True, check=True).stdout
     sizes = {}
@@ -107,7 +107,7 @@ def firmware_size(machine_name: str) -> dict[str, int]:
 
 
 def _cmd_size(args) -> int:
-    from .firmware_sim import supported_machines
+    from ..firmware_sim import supported_machines
     names = args.machine or supported_machines()
     for name in names:
         s = firmware_size(name)

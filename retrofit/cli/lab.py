@@ -44,7 +44,7 @@ def _ascii_only() -> bool:
 
 
 def cmd_list(args) -> int:
-    from .labs import labs_dir, list_labs
+    from ..labs import labs_dir, list_labs
     root = labs_dir(args.labs)
     print(f"labs in {root}:")
     for lab in list_labs(root):
@@ -54,7 +54,7 @@ def cmd_list(args) -> int:
 
 
 def cmd_run(args) -> int:
-    from .labs import explain, find_lab, labs_dir, run_lab
+    from ..labs import explain, find_lab, labs_dir, run_lab
     lab = find_lab(labs_dir(args.labs), args.lab)
     file = lab.file(args.solution)
     print(f"Lab {lab.number}: {lab.title} — running {file.name}")
@@ -72,7 +72,7 @@ def cmd_run(args) -> int:
 
 
 def cmd_check(args) -> int:
-    from .labs import check_lab, find_lab, labs_dir, result_lines
+    from ..labs import check_lab, find_lab, labs_dir, result_lines
     lab = find_lab(labs_dir(args.labs), args.lab)
     file = lab.file(args.solution)
     print(f"Lab {lab.number}: {lab.title} — checking {file}")

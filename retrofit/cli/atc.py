@@ -1,18 +1,19 @@
-"""Sub-commands of the mill with the tool changer: ``retrofit tool``, ``retrofit setter``, ``retrofit mill``.
+"""Utilities of the mill with the tool changer: ``retrofit tool`` and ``retrofit setter``.
 
 Each runs on the simulated machine (``sim://``), which starts at home with the tools where the
-spindle record says they are, and each reads and updates the same records as the controller:
-the tool in the spindle and the tool table (``--state-dir``, default $RETROFIT_STATE_DIR or
-~/.local/state/retrofit).
+spindle record says they are, and each reads and updates the same records as ``retrofit run``:
+the tool table (``tool.tbl`` next to the machine file, or ``--tool-table``) and the spindle
+record beside it (:func:`retrofit.atc.state.state_paths`). Part programs run with
+``retrofit run PROGRAM --machine tul-mill``.
 """
 
 from __future__ import annotations
 
-from .errors import RetrofitError
+from ..errors import RetrofitError
 
 
 def add_commands(sub) -> None:
-    """Add ``tool``, ``setter`` and ``mill`` to the ``retrofit`` command line."""
+    """Add ``tool`` and ``setter`` to the ``retrofit`` command line."""
     t = sub.add_parser("tool", help="show or change the tool in the spindle (T0..T12 on tul-mill)",
                        description="Without a tool: show the tool in the spindle. With Tn: change to it "
                                    "on the simulated mill (T0 puts the tool back). With --recover: take "
@@ -31,20 +32,18 @@ def add_commands(sub) -> None:
     _common(s)
     s.set_defaults(func=cmd_setter)
 
-    m = sub.add_parser("mill", help="run a part program with tool changes (T, M6) and G43 on the simulated mill")
-    m.add_argument("program", help="G-code file (.ngc)")
-    _common(m)
-    m.set_defaults(func=cmd_mill)
 
 
 def _common(p) -> None:
     p.add_argument("--machine", default="tul-mill", help="shipped machine name or path to a .toml file")
-    p.add_argument("--state-dir", metavar="DIR", help="where the spindle record and the tool table live")
+    p.add_argument("--tool-table", metavar="FILE.tbl",
+                   help="LinuxCNC tool table (default: next to the machine file; for a shipped "
+                        "machine NAME.tbl in the current folder); the spindle record is beside it")
 
 
 def _tool_number(text: str) -> int:
     body = text[1:] if text[:1] in "Tt" else text
-    if not body.isdigit():
+    if not (body.isascii() and body.isdigit() and len(body) <= 5):
         raise RetrofitError(f"tool {text!r}: expected T followed by a number, e.g. T3 (T0: spindle empty)")
     return int(body)
 
@@ -53,18 +52,19 @@ class _Mill:
     """The machine, its records and a simulated cell that starts from what the records say."""
 
     def __init__(self, args):
-        from pathlib import Path
-        from .atc.cell import SimCell
-        from .atc.changer import ToolChanger
-        from .atc.magazine import MagazineState
-        from .atc.state import SpindleStore
-        from .atc.tooltable import ToolTableStore
-        from .config import load_machine
+        from ..atc.cell import SimCell
+        from ..atc.changer import ToolChanger
+        from ..atc.magazine import MagazineState
+        from ..atc.state import SpindleStore
+        from ..atc.tooltable import ToolTableStore
+        from ..config import load_machine
         self.machine = load_machine(args.machine)
+        from ..atc.state import state_paths
         name = self.machine.name
-        folder = Path(args.state_dir) if args.state_dir else None
-        self.store = SpindleStore(name, folder / f"{name}-spindle.json" if folder else None)
-        self.tables = ToolTableStore(name, folder / f"{name}-tooltable.json" if folder else None)
+        tbl, spindle = state_paths(self.machine, args.tool_table)
+        atc = self.machine.parts.get("atc")
+        self.store = SpindleStore(name, spindle, getattr(atc, "pockets", None))
+        self.tables = ToolTableStore(name, tbl.with_name(f"{tbl.stem}.setter.json"), tbl)
         recover = getattr(args, "recover", False)
         self.changer = ToolChanger(self.machine, self.store, read_record=not recover)
         tool = _tool_number(args.tool) if recover and args.tool else self.changer.spindle_tool
@@ -107,7 +107,7 @@ def cmd_tool(args) -> int:
 
 def cmd_setter(args) -> int:
     """``retrofit setter reference | measure T.. | table``."""
-    from .atc.measure import ToolSetter
+    from ..atc.measure import ToolSetter
     mill = _Mill(args)
     table = mill.tables.load()
     setter = ToolSetter(mill.machine, table)
@@ -130,26 +130,6 @@ def cmd_setter(args) -> int:
     else:
         _print_table(name, table, mill.tables.path)
         return 0
-    return mill.finish()
-
-
-def cmd_mill(args) -> int:
-    """``retrofit mill PROGRAM``: compile with the spindle record, run, record every change."""
-    from pathlib import Path
-    from .atc.gcode import ToolSession
-    from .gcode import compile_program
-    mill = _Mill(args)
-    path = Path(args.program)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise RetrofitError(f"{path}: cannot read the program ({exc.strerror})") from None
-    session = ToolSession(mill.machine, mill.changer.spindle_tool, mill.tables.load())
-    with session.active():
-        program = compile_program(text, mill.machine, file=path.name, start_mm=mill.cell.commanded_mm())
-    mill.changer.run_program(program.commands, session.changes, mill.cell)
-    print(f"{mill.machine.name}: {path.name}, {len(program.commands)} commands, "
-          f"{len(session.changes)} tool change(s), T{mill.changer.spindle_tool} in the spindle at the end")
     return mill.finish()
 
 

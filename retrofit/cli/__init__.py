@@ -1,0 +1,73 @@
+"""The ``retrofit`` command line: one module a group of sub-commands, discovered in this package.
+
+Each module ``retrofit/cli/<name>.py`` has ``add_commands(subparsers)`` and imports heavy
+libraries only inside its command functions, so building the parser stays cheap. Exit codes of
+every command: 0 done, 1 ran and the simulated machine reported violations, 2 refused input or
+an output that cannot be used, 130 interrupted (Ctrl-C).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from importlib import import_module
+
+from ..errors import RetrofitError
+
+#: modules of this package that are not sub-command groups
+_NOT_COMMANDS = {"__main__"}
+
+
+def command_modules() -> list[str]:
+    """Modules that add sub-commands: ``retrofit/cli/*.py``, each with ``add_commands(subparsers)``."""
+    import pkgutil
+    return sorted(f"{__name__}.{m.name}" for m in pkgutil.iter_modules(__path__)
+                  if m.name not in _NOT_COMMANDS and not m.name.startswith("_"))
+
+
+def version() -> str:
+    """The installed version of retrofit (the source tree's when it is not installed)."""
+    from importlib import metadata
+    try:
+        return metadata.version("retrofit")
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit code."""
+    from ..atomic import not_written
+    try:
+        parser = _parser()
+        args = parser.parse_args(argv)
+        if not getattr(args, "func", None):
+            parser.print_help()
+            return 2
+        return args.func(args) or 0
+    except RetrofitError as exc:
+        print(f"retrofit: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        import signal
+        signal.signal(signal.SIGINT, signal.SIG_IGN)      # one Ctrl-C ends the run, quietly
+        lost = ", ".join(str(p) for p in not_written())
+        lost = f"; not written: {lost}" if lost else ""
+        print(f"retrofit: interrupted{lost}", file=sys.stderr)
+        return 130
+    except BrokenPipeError:                # output piped into `head` and the reader went away
+        import os
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="retrofit", description="CNC retrofit toolkit: controller, simulator, outputs.")
+    p.add_argument("--version", action="version", version=f"retrofit {version()}")
+    sub = p.add_subparsers(metavar="COMMAND")
+    for module in command_modules():
+        import_module(module).add_commands(sub)
+    return p
+
+
+if __name__ == "__main__":
+    sys.exit(main())

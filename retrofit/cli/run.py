@@ -1,0 +1,200 @@
+"""``retrofit run`` (any program on any machine), ``retrofit demo circle``, ``retrofit machines``."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+from ..errors import RetrofitError
+
+
+def add_commands(sub) -> None:
+    """Add ``machines``, ``demo`` and ``run`` to the ``retrofit`` command line."""
+    m = sub.add_parser("machines", help="list the machine files that ship with retrofit")
+    m.set_defaults(func=cmd_machines)
+
+    d = sub.add_parser("demo", help="run a demo from the source papers")
+    d.add_argument("which", choices=["circle"], help="circle: the lathe paper's 100-point circle")
+    motion_options(d)
+    d.add_argument("--radius", type=float, default=15.0, help="circle radius in mm (default 15)")
+    d.add_argument("--points", type=int, default=100, help="points on the circle (default 100)")
+    d.set_defaults(func=cmd_demo)
+
+    r = sub.add_parser("run", help="run a G-code part program on a machine",
+                       description="Run PROGRAM on the machine: tool changes (the changer's sequences, "
+                                   "or a pause for a manual change), homing, threads, pauses. Exit 0: "
+                                   "clean; 1: the simulated machine reported violations; 2: refused "
+                                   "input or an unusable output; 130: interrupted.")
+    r.add_argument("program", help="G-code file (.ngc), a shipped example (lathe-profile.ngc, "
+                                   "engraving.ngc), or - for standard input")
+    motion_options(r)
+    r.add_argument("--tool-table", metavar="FILE.tbl",
+                   help="LinuxCNC tool table (default: next to the machine file; for a shipped "
+                        "machine NAME.tbl in the current folder); the spindle record is beside it")
+    r.add_argument("--reference", action="store_true",
+                   help="step by the readable per-tick reference path instead of the compiled fast path")
+    r.add_argument("--controller", action="store_true",
+                   help="run through the tick-by-tick 002 controller (automatic for threads and homing)")
+    r.add_argument("--progress", choices=["auto", "on", "off"], default="auto",
+                   help="progress bar on standard error (auto: only on a terminal)")
+    r.set_defaults(func=cmd_run)
+
+
+def motion_options(p: argparse.ArgumentParser) -> None:
+    """Options every command that moves axes takes."""
+    p.add_argument("--machine", default="chivu-lathe", help="shipped machine name or path to a .toml file")
+    p.add_argument("--output", action="append", metavar="URL",
+                   help="where the port frames go (repeatable; default sim://); see 'retrofit outputs'")
+    p.add_argument("--no-backlash-comp", action="store_true", help="turn backlash compensation off")
+    p.add_argument("--plot", metavar="FILE.png", help="save commanded vs carriage path as PNG "
+                                                      "(.png is added to a name without extension)")
+    p.add_argument("--report", metavar="FILE.json", help="write the run report (docs/report.md)")
+    p.add_argument("--html", metavar="FILE.html", help="write the run as an interactive page that opens offline")
+    p.add_argument("--allow-violations", action="store_true",
+                   help="exit 0 even when the simulated machine reported violations")
+
+
+def cmd_machines(args) -> int:
+    from ..config import list_machines, load_machine
+    for name in list_machines():
+        m = load_machine(name)
+        axes = ", ".join(f"{a.name} {a.steps_per_mm:g} steps/mm" for a in m.axes)
+        print(f"{name:16s} {m.description}  [{axes}; tick {m.tick_us:g} us]")
+    return 0
+
+
+def cmd_demo(args) -> int:
+    from ..config import load_machine
+    from ..demo import circle_targets
+    from ..motion.errorloop import PositionErrorLoop
+    from ..report import build_report
+    from ..runner import deliver
+    from ..runreport import fit, summary_lines
+    machine = load_machine(args.machine)
+    if args.points < 1 or not args.radius > 0:
+        raise RetrofitError(f"--points must be >= 1 and --radius > 0 (got {args.points}, {args.radius:g})")
+    files = output_files(args)
+    log = PositionErrorLoop(machine, backlash_comp=not args.no_backlash_comp).run(
+        circle_targets(machine, args.radius, args.points))
+    from ..runprogram import command_outputs
+    urls, _ = command_outputs(args.output or ["sim://"], machine, None)     # refuses serial://
+    sim = deliver(log, urls)
+    report = build_report(log, sim)
+    for v in report["violations"]:
+        v.update(tick=int(v["tick"]), time_s=round(int(v["tick"]) * machine.tick_s, 6), line=None)
+    comp = "off" if args.no_backlash_comp else "on"
+    title = f"{machine.name}: circle r={args.radius:g} mm, {args.points} points, backlash comp {comp}"
+    lines = fit(summary_lines(report, title)) + write_files(files, args, log, sim, report)
+    print("\n".join(lines))
+    return exit_code(report, args)
+
+
+def cmd_run(args) -> int:
+    from ..atc.state import SpindleStore, state_paths
+    from ..config import load_machine
+    from ..progress import Progress
+    from ..runprogram import STAGE_WEIGHTS, read_program, run_program
+    from ..runreport import fit, summary_lines
+    from ..tooltable import ToolTable
+    machine = load_machine(args.machine)
+    text, name = read_program(args.program)
+    files = output_files(args)
+    table_path, spindle_path = state_paths(machine, args.tool_table)
+    atc = machine.parts.get("atc")
+    store = SpindleStore(machine.name, spindle_path, getattr(atc, "pockets", None))
+    table, start_tool = ToolTable.load(table_path), store.load()
+
+    def mark(run) -> None:                 # the record says "changing" until the run has ended
+        if run.expanded.events:
+            store.begin(start_tool, run.expanded.end_tool)
+    opts = SimpleNamespace(backlash_comp=not args.no_backlash_comp, reference=args.reference,
+                           controller=args.controller, urls=args.output or ["sim://"],
+                           before_outputs=mark)
+    progress = Progress(STAGE_WEIGHTS, None if args.progress == "auto" else args.progress == "on")
+    try:
+        run = run_program(text, name, machine, opts, progress, operator_wait(), table, start_tool)
+    finally:
+        progress.close()
+    exp = run.expanded
+    if exp.events:
+        store.save(exp.end_tool)
+    title = f"{machine.name}: {name}, {len(run.program.commands)} commands, {run.how}"
+    lines = summary_lines(run.report, title)
+    lines += [f"  tool table: {table_path}; spindle record: {spindle_path} "
+              f"(T{exp.end_tool} in the spindle)"] if exp.events or "atc" in machine.parts else []
+    lines += remote_lines(run.report.get("remote") or [])
+    files_lines = write_files(files, args, run.log, run.sim, run.report,     # a path is not wrapped
+                              run.program.commands, (name, text), run.program)
+    print("\n".join(fit(lines) + files_lines))
+    return exit_code(run.report, args)
+
+
+def exit_code(report: dict, args) -> int:
+    """1 when the machine reported violations (0 with --allow-violations), else 0."""
+    return 1 if report["violations"] and not args.allow_violations else 0
+
+
+def operator_wait():
+    """How a pause on a real machine waits: a prompt on a terminal; None without one."""
+    if not sys.stdin.isatty():
+        return None
+
+    def wait(says: str) -> None:
+        print(f"paused: {says}; press Enter to go on", file=sys.stderr, flush=True)
+        sys.stdin.readline()
+    return wait
+
+
+def output_files(args) -> dict:
+    """The files ``--plot`` and ``--report`` will write, checked before any work is done."""
+    from ..atomic import check_target
+    files = {}
+    if args.plot:
+        plot = Path(args.plot)
+        files["plot"] = plot if plot.suffix else plot.with_name(plot.name + ".png")
+    if args.report:
+        files["report"] = Path(args.report)
+    if getattr(args, "html", None):
+        files["html"] = Path(args.html)
+    for path in files.values():
+        check_target(path)
+    from ..atomic import plan
+    from ..outputs import OutputURL
+    from ..runner import FILE_SCHEMES
+    targets = [OutputURL.parse(u) for u in (getattr(args, "output", None) or [])]
+    plan([Path(u.target) for u in targets if u.scheme in FILE_SCHEMES and u.target] + list(files.values()))
+    return files
+
+
+def write_files(files: dict, args, log, sim, report: dict, commands=None, program=None,
+                compiled=None) -> list[str]:
+    """Write the plot, the page and the report (each complete or absent); their summary lines.
+
+    ``program`` is the run's (name, G-code text), ``compiled`` its Program (None for a demo).
+    """
+    from ..atomic import write_json_atomic
+    lines = []
+    if "plot" in files:
+        from ..plot import plot_run
+        lines.append(f"  plot: {plot_run(args, log, sim, commands, files['plot'], program)}")
+    if "html" in files:
+        from ..console.report_html import write_html_report
+        path = write_html_report(args, log, sim, report, commands, files["html"], program, compiled)
+        lines.append(f"  html: {path}")
+    if "report" in files:
+        write_json_atomic(files["report"], report)
+        lines.append(f"  report: {files['report']}")
+    return lines
+
+
+def remote_lines(remote: list[dict]) -> list[str]:
+    """One summary line per remote controller: its final position (RDPS) and status."""
+    lines = []
+    for part in remote:
+        pos = ", ".join(f"{name} {mm:.3f}" for name, mm in part["position_mm"].items())
+        lines.append(f"  remote {part['url']}: RDPS {pos} mm; status {' '.join(part['status']) or '-'}"
+                     f"; {part['commands']} commands in {part['wall_s']:.2f} s")
+    return lines
+

@@ -1,0 +1,115 @@
+"""`retrofit run` on a terminal: the screen after a run, the progress bar's estimate, Ctrl-C."""
+
+import math
+import os
+import random
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+ENV = f"env PYTHONPATH={ROOT} MPLBACKEND=Agg"
+
+
+def spiral(path: Path, segments: int = 8000) -> Path:
+    """A long program: a spiral of short G1 segments on the lathe."""
+    lines = ["G21 G90", "G0 X0 Z0", "F300"]
+    for i in range(segments):
+        r = 1 + 12 * i / segments
+        lines.append(f"G1 X{r * math.sin(i * 0.05):.3f} Z{-r * math.cos(i * 0.05) - 14:.3f}")
+    path.write_text("\n".join(lines + ["M2"]) + "\n")
+    return path
+
+
+@pytest.mark.skipif(not shutil.which("tmux"), reason="tmux is not installed")
+def test_under_tmux_at_80_columns_only_the_summary_stays_on_the_screen(tmp_path):
+    plain = subprocess.run([sys.executable, "-m", "retrofit.cli", "run", "lathe-profile.ngc", "--progress", "off"],
+                           capture_output=True, text=True, cwd=tmp_path, env=dict(os.environ, PYTHONPATH=str(ROOT)))
+    assert plain.returncode == 0, plain.stderr
+    sock, name = f"retrofit-test-{os.getpid()}", "run"
+    tmux = ["tmux", "-L", sock, "-f", "/dev/null"]
+    subprocess.run(tmux + ["new-session", "-d", "-s", name, "-x", "80", "-y", "40", "-c", str(tmp_path),
+                           f"{ENV} python3 -m retrofit.cli run lathe-profile.ngc; echo EXIT=$?; sleep 60"],
+                   check=True)
+    try:
+        screen = ""
+        for _ in range(600):
+            screen = subprocess.run(tmux + ["capture-pane", "-p", "-t", name], capture_output=True,
+                                    text=True).stdout
+            if "EXIT=" in screen:
+                break
+            time.sleep(0.1)
+        width = subprocess.run(tmux + ["display", "-p", "-t", name, "#{pane_width}"], capture_output=True,
+                               text=True).stdout.strip()
+    finally:
+        subprocess.run(tmux + ["kill-server"], capture_output=True)
+    assert width == "80"
+    shown = [line.rstrip() for line in screen.splitlines() if line.strip()]
+    assert shown == plain.stdout.splitlines() + ["EXIT=0"]          # no bar, nothing glued on
+    assert all(len(line) <= 80 for line in shown)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not shutil.which("script"), reason="script (util-linux) is not installed")
+def test_under_script_the_eta_is_right_within_a_factor_of_two_after_the_first_tenth(tmp_path):
+    program = spiral(tmp_path / "spiral.ngc")
+    typescript = tmp_path / "typescript"
+    subprocess.run(["script", "-qec", f"stty cols 80 rows 24; {ENV} python3 -m retrofit.cli run {program}",
+                    str(typescript)], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, timeout=280, check=True)
+    text = typescript.read_text(errors="replace")
+    samples = [(int(p), int(eta), int(so_far)) for p, eta, so_far in
+               re.findall(r"(\d+)% \|[^|]*\| eta (\d+) s \((\d+) s so far\)", text)]
+    assert len(samples) > 10
+    total = samples[-1][2] + samples[-1][1]                       # the run's length, as the bar measured it
+    assert total >= 5, "the program is too short to judge an estimate"
+    late = [(p, eta, so_far) for p, eta, so_far in samples if p >= 10]
+    assert late
+    for p, eta, so_far in late:
+        assert total / 2 <= so_far + eta <= total * 2, (p, eta, so_far, total)
+    assert text.rstrip().splitlines()[-3].strip().startswith("violations: 0")     # bar cleared first
+
+
+def _run_interrupted(tmp_path: Path, delay_s: float) -> subprocess.CompletedProcess:
+    proc = subprocess.Popen([sys.executable, "-m", "retrofit.cli", "run", "lathe-profile.ngc",
+                             "--output", "vcd://x.vcd", "--report", "r.json", "--plot", "p.png"],
+                            cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg"))
+    time.sleep(delay_s)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
+
+
+@pytest.mark.slow
+def test_ctrl_c_at_random_moments_leaves_every_file_complete_or_absent(tmp_path):
+    whole = tmp_path / "whole"
+    whole.mkdir()
+    done = _run_interrupted(whole, 60.0)                           # long enough to finish
+    assert done.returncode == 0, done.stderr
+    reference = {name: (whole / name).read_bytes() for name in ("x.vcd", "r.json", "p.png")}
+    rng = random.Random(12)
+    seen = set()
+    for attempt in range(20):
+        folder = tmp_path / f"try{attempt}"
+        folder.mkdir()
+        result = _run_interrupted(folder, 1.5 + rng.uniform(0.0, 6.5))
+        assert result.returncode in (0, 130), result.stderr
+        assert "Traceback" not in result.stderr
+        for name, data in reference.items():
+            path = folder / name
+            assert not path.exists() or path.read_bytes() == data, (attempt, name)
+        assert {p.name for p in folder.iterdir()} <= set(reference)      # no temporary file left
+        if result.returncode == 130:
+            missing = [n for n in reference if not (folder / n).exists()]
+            assert result.stderr.startswith("retrofit: interrupted")
+            if missing:
+                assert result.stderr.startswith("retrofit: interrupted; not written: ")
+                assert all(n in result.stderr for n in missing), result.stderr
+        seen.add(tuple(sorted(p.name for p in folder.iterdir())))
+    assert len(seen) >= 2                  # the interruptions fell at different moments of the run
