@@ -24,7 +24,9 @@ from __future__ import annotations
 import importlib.util
 import os
 import re
+import signal
 import sys
+import threading
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
@@ -155,6 +157,10 @@ def explain(exc: BaseException, target: Path) -> str:
     """
     if isinstance(exc, CheckFailed):
         return str(exc)
+    if isinstance(exc, CheckTimeout):
+        where = _where(exc, target)
+        return (f"{exc}; a loop that never ends?" + (f" it was running {where}" if where else "")
+                + "; look at that loop's exit condition")
     if isinstance(exc, SyntaxError) and exc.filename and Path(exc.filename).name == target.name:
         return (f"{target.name} line {exc.lineno} does not read as Python: {exc.msg}; "
                 "fix that line, then check again")
@@ -178,6 +184,16 @@ def _where(exc: BaseException, target: Path) -> str:
     return f"{target.name} line {frame.lineno}, in {frame.name}"
 
 
+#: seconds one check may take before it is stopped as a hang (``RETROFIT_CHECK_SECONDS`` changes it)
+CHECK_SECONDS = 60.0
+CHECK_SECONDS_ENV = "RETROFIT_CHECK_SECONDS"
+_TODO = re.compile(r"\bTODO\s*(\d+)")
+
+
+class CheckTimeout(Exception):
+    """A check ran longer than its time limit (raised inside the student's code by an alarm)."""
+
+
 @dataclass(frozen=True)
 class CheckResult:
     """One check: its title (the first line of its docstring), passed / failed / skipped, and why."""
@@ -185,32 +201,98 @@ class CheckResult:
     title: str
     status: str
     message: str = ""
+    points: int = 1             # what the check is worth (``@pytest.mark.points(n)``)
+
+    @property
+    def todo(self) -> str:
+        """The TODO the check names ("TODO 2"), or "" when its title names none."""
+        match = _TODO.search(self.title)
+        return f"TODO {match[1]}" if match else ""
+
+    @property
+    def scored(self) -> int:
+        """Points earned: all of them when the check passed, none otherwise."""
+        return self.points if self.status == "passed" else 0
+
+    def as_dict(self) -> dict:
+        """The result as plain data for ``--json``: title, TODO, status, message, points."""
+        return {"title": self.title, "todo": self.todo, "status": self.status, "message": self.message,
+                "points": self.scored, "max_points": self.points}
+
+
+def check_seconds() -> float:
+    """The per-check time limit: ``RETROFIT_CHECK_SECONDS`` if set, else :data:`CHECK_SECONDS`."""
+    text = os.environ.get(CHECK_SECONDS_ENV, "")
+    try:
+        return float(text) if text else CHECK_SECONDS
+    except ValueError:
+        raise ConfigError(f"{CHECK_SECONDS_ENV}={text}: not a number; give the seconds one check may take, "
+                          "e.g. 10") from None
+
+
+class _Alarm:
+    """Stop a check that runs longer than ``seconds`` by raising :class:`CheckTimeout` inside it.
+
+    Uses the interval timer of the process (SIGALRM), so only in the main thread of a POSIX
+    process; elsewhere the check runs without a limit (the grader's process limits still hold).
+    """
+
+    def __init__(self, seconds: float, title: str):
+        self.seconds, self.title = seconds, title
+        self.usable = (hasattr(signal, "setitimer") and seconds > 0
+                       and threading.current_thread() is threading.main_thread())
+
+    def _fire(self, signum, frame):
+        raise CheckTimeout(f"{self.title}: did not finish within {self.seconds:g} s")
+
+    def __enter__(self):
+        if self.usable:
+            self.saved = signal.signal(signal.SIGALRM, self._fire)
+            signal.setitimer(signal.ITIMER_REAL, self.seconds)
+        return self
+
+    def __exit__(self, *exc):
+        if self.usable:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, self.saved)
+        return False
 
 
 def _collector(target: Path):
     """A pytest plugin that records each check's outcome with a student-facing message."""
     import pytest
 
+    seconds = check_seconds()
+
     class Collector:
         def __init__(self):
             self.results: list[CheckResult] = []
 
         @pytest.hookimpl(wrapper=True)
+        def pytest_runtest_setup(self, item):      # loading the file: a loop at module level
+            with _Alarm(seconds, _check_title(item)):
+                return (yield)
+
+        @pytest.hookimpl(wrapper=True)
+        def pytest_runtest_call(self, item):
+            with _Alarm(seconds, _check_title(item)):
+                return (yield)
+
+        @pytest.hookimpl(wrapper=True)
         def pytest_runtest_makereport(self, item, call):
             report = yield
             if report.when == "call" or not report.passed:
-                function = getattr(item, "function", None)
-                doc = (function.__doc__ or "").strip() if function is not None else ""
-                title = doc.splitlines()[0] if doc else item.name.removeprefix("test_").replace("_", " ")
-                if getattr(item, "callspec", None) is not None:
-                    title += f" [{item.callspec.id}]"
+                title = _check_title(item)
+                marker = item.get_closest_marker("points")
+                points = int(marker.args[0]) if marker and marker.args else 1
                 if report.skipped:
                     reason = report.longrepr[2] if isinstance(report.longrepr, tuple) else ""
-                    self.results.append(CheckResult(title, "skipped", reason.removeprefix("Skipped: ")))
+                    self.results.append(CheckResult(title, "skipped", reason.removeprefix("Skipped: "), points))
                 elif report.failed:
-                    self.results.append(CheckResult(title, "failed", explain(call.excinfo.value, target)))
+                    message = explain(call.excinfo.value, target)
+                    self.results.append(CheckResult(title, "failed", message, points))
                 else:
-                    self.results.append(CheckResult(title, "passed"))
+                    self.results.append(CheckResult(title, "passed", "", points))
             return report
 
         def pytest_collectreport(self, report):
@@ -219,6 +301,16 @@ def _collector(target: Path):
                 self.results.append(CheckResult("the checks load", "failed", text[-1] if text else ""))
 
     return Collector()
+
+
+def _check_title(item) -> str:
+    """A check's title: the first line of its docstring, else its name; with its parameters."""
+    function = getattr(item, "function", None)
+    doc = (function.__doc__ or "").strip() if function is not None else ""
+    title = doc.splitlines()[0] if doc else item.name.removeprefix("test_").replace("_", " ")
+    if getattr(item, "callspec", None) is not None:
+        title += f" [{item.callspec.id}]"
+    return title
 
 
 #: pytest plugins a lab check does without: its own report replaces the terminal's, nothing is
