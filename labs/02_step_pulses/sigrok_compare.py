@@ -78,7 +78,7 @@ def compare(capture, vcd) -> list[Match]:
     captured, sample_s = read_capture(capture)
     bits = {name: f"D{bit}" for name, bit in _BIT.findall(comment)}
     lab_edges = {s: edges(lab[s]) for s in lab}
-    cap_edges = {s: edges(captured.get(bits.get(s, s), [])) for s in lab}
+    cap_edges = {s: edges(captured.get(bits.get(s, s)) or captured.get(s, [])) for s in lab}   # Dn or the name
     lab_zero = min((e[0][0] for e in lab_edges.values() if e), default=0.0)
     cap_zero = min((e[0][0] for e in cap_edges.values() if e), default=0.0)
     results = []
