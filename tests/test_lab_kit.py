@@ -237,3 +237,13 @@ def test_grade_an_empty_folder_is_an_error(tmp_path, capsys):
     (tmp_path / "class").mkdir()
     assert main(["lab", "grade", "01", str(tmp_path / "class"), "--labs", str(tmp_path / "labs")]) == 2
     assert "no student folders" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("lab", LABS, ids=IDS)
+def test_teacher_notes_have_objectives_time_key_and_rubric(lab):
+    text = (lab.path / "teacher.md").read_text(encoding="utf-8")
+    for heading in ("## Learning objectives", "## Prerequisites", "## Expected time", "## Answer key",
+                    "## Marking rubric"):
+        assert heading in text, f"{lab.path.name}/teacher.md has no {heading}"
+    key = text.split("## Answer key")[1].split("## Marking rubric")[0]
+    assert sum(ch.isdigit() for ch in key) >= 6, "the answer key gives the expected numbers"
