@@ -14,7 +14,7 @@ from retrofit.link.framing import ESC, ESC_XOR, SOF
 from retrofit.link.simwire import FaultyWire, LinkBench
 
 MACHINE = "chivu-lathe"
-FLIP_RATES = [0.0, 0.002, 0.005, 0.01, 0.02, 0.05]   # chance that a byte arrives with one bit flipped
+FLIP_RATES = [0.0, 0.005, 0.01, 0.02, 0.03, 0.04]   # chance that a byte arrives with one bit flipped
 COMMANDS = 60
 
 
