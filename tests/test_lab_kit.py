@@ -247,3 +247,48 @@ def test_teacher_notes_have_objectives_time_key_and_rubric(lab):
         assert heading in text, f"{lab.path.name}/teacher.md has no {heading}"
     key = text.split("## Answer key")[1].split("## Marking rubric")[0]
     assert sum(ch.isdigit() for ch in key) >= 6, "the answer key gives the expected numbers"
+
+
+@pytest.mark.slow
+def test_grade_a_class_of_thirty_on_lab_10(tmp_path):
+    """30 submissions of a real lab: the reference, its 14 known-wrong files, endless loops and
+    files that do not parse; every row of the CSV says what that submission deserves."""
+    lab = find_lab(ROOT, "10")
+    solution = lab.file(solution=True).read_text(encoding="utf-8")
+    wrong = sorted((lab.path / "wrong").glob("*.py"))
+    endless = solution.replace("    for line in text.splitlines():", "    while True:\n        pass\n    for line in text.splitlines():")
+    broken = solution.replace("def target(state: State, words: dict[str, float])", "def target(state: State, words")
+    kinds = {}
+    for i in range(30):
+        kind = ("right", "wrong", "endless", "syntax")[i % 4] if i < 8 else ("wrong" if i < 24 else "right")
+        folder = tmp_path / "class" / f"s{i:02d}"
+        folder.mkdir(parents=True)
+        text = {"right": solution, "endless": endless, "syntax": broken}.get(kind)
+        if kind == "wrong":
+            source = wrong[i % len(wrong)]
+            text, kind = source.read_text(encoding="utf-8"), f"wrong:{source.stem}"
+        (folder / "student.py").write_text(text, encoding="utf-8")
+        kinds[folder.name] = kind
+    limits = Limits(cpu_seconds=60, memory_mb=2048, check_seconds=8.0, wall_seconds=240)
+    grades = grade(lab, tmp_path / "class", limits, jobs=2)
+    write_grades(grades, lab, tmp_path / "grades.csv", tmp_path / "grades.json")
+    rows = {r["student"]: r for r in csv.DictReader((tmp_path / "grades.csv").open(encoding="utf-8"))}
+    assert len(rows) == 30
+    full = int(rows["s00"]["max_points"])
+    for name, kind in kinds.items():
+        row, points = rows[name], int(rows[name]["points"])
+        if kind == "right":
+            assert (points, row["failed"], row["note"]) == (full, "", ""), json.dumps(
+                [c for c in json.loads((tmp_path / "grades.json").read_text())["students"] if c["student"] == name])
+        elif kind == "syntax":
+            assert points == 0 and row["failed"] == "TODO 1 TODO 2 TODO 3 TODO 4", row
+        elif kind == "endless":                  # only the checks of interpret() hang
+            assert row["failed"] == "TODO 4" and 0 < points < full, row
+        else:
+            todo = re.search(r"TODO (\d)", (lab.path / "wrong" / f"{kind[6:]}.py").read_text())[0]
+            assert todo in row["failed"].split(" TODO ") or todo in row["failed"], (kind, row)
+            assert points < full, row
+    data = json.loads((tmp_path / "grades.json").read_text(encoding="utf-8"))
+    hung = [c for s in data["students"] if kinds[s["student"]] == "endless" for c in s["checks"]
+            if c["status"] == "failed"]
+    assert hung and all("did not finish within 8 s" in c["message"] and "in interpret" in c["message"] for c in hung)
