@@ -202,13 +202,6 @@ def test_grade_four_students_one_of_each_kind(tmp_path):
     _grade_and_compare(tmp_path, 4, jobs=2)
 
 
-@pytest.mark.slow
-def test_grade_a_class_of_thirty(tmp_path):
-    """30 submissions: the run is bounded by the limits (30 x 3 checks x 1 s per check at most)."""
-    rows = _grade_and_compare(tmp_path, 30, jobs=2)
-    assert len(rows) == 30
-
-
 def test_grade_notes_a_missing_file_and_a_memory_hog(tmp_path):
     labs = make_lab(tmp_path)
     (tmp_path / "class" / "empty").mkdir(parents=True)
