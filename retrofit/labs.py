@@ -24,7 +24,9 @@ from __future__ import annotations
 import importlib.util
 import os
 import re
+import signal
 import sys
+import threading
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,9 +35,6 @@ from .errors import ConfigError
 
 LABS_ENV = "RETROFIT_LABS"
 TARGET_ENV = "RETROFIT_LAB_TARGET"
-SECONDS_ENV = "RETROFIT_LAB_CHECK_SECONDS"
-#: how long one check may run (seconds of the check's own process) before it fails as a hang
-CHECK_SECONDS = 20.0
 _LAB_DIR = re.compile(r"^(\d\d)_([A-Za-z0-9_]+)$")
 
 
@@ -150,53 +149,6 @@ def expect(ok: bool, what: str, *, expected, got, hint: str = "") -> None:
         raise CheckFailed(what, expected, got, hint)
 
 
-class CheckTimedOut(Exception):
-    """A check that ran past its time limit: most often a loop in the student's file that never ends."""
-
-
-def check_seconds() -> float:
-    """The per-check time limit: ``RETROFIT_LAB_CHECK_SECONDS`` if set, else :data:`CHECK_SECONDS`."""
-    text = os.environ.get(SECONDS_ENV, "")
-    try:
-        return float(text) if text else CHECK_SECONDS
-    except ValueError:
-        raise ConfigError(f"{SECONDS_ENV}={text}: not a number; give the seconds a check may run, e.g. 20") from None
-
-
-def _time_limit(seconds: float, title: str):
-    """A context manager: raise :class:`CheckTimedOut` in this (main) thread after ``seconds``.
-
-    The limit counts the processor time of this process (so a loaded machine does not fail a
-    check that is merely waiting its turn), with ten times as much wall time as a backstop for
-    code that hangs without computing.
-    """
-    import contextlib
-    import signal
-    import threading
-
-    @contextlib.contextmanager
-    def limit():
-        if seconds <= 0 or not hasattr(signal, "setitimer") or threading.current_thread() is not threading.main_thread():
-            yield
-            return
-
-        def stop(signum, frame):
-            todo = re.match(r"(TODOs? [\d, -]+)", title)
-            raise CheckTimedOut(f"{todo[1].rstrip(', ') if todo else 'this check'}: your code did not finish "
-                                f"within {seconds:g} s; look for a loop that never ends")
-        timers = ((signal.ITIMER_PROF, signal.SIGPROF, seconds), (signal.ITIMER_REAL, signal.SIGALRM, 10 * seconds))
-        previous = [signal.signal(number, stop) for _, number, _ in timers]
-        for timer, _, after in timers:
-            signal.setitimer(timer, after)
-        try:
-            yield
-        finally:
-            for (timer, number, _), handler in zip(timers, previous):
-                signal.setitimer(timer, 0)
-                signal.signal(number, handler)
-    return limit()
-
-
 def explain(exc: BaseException, target: Path) -> str:
     """A failure in words a student can act on, never a traceback.
 
@@ -205,12 +157,14 @@ def explain(exc: BaseException, target: Path) -> str:
     """
     if isinstance(exc, CheckFailed):
         return str(exc)
+    if isinstance(exc, CheckTimeout):
+        where = _where(exc, target)
+        return (f"{exc}; a loop that never ends?" + (f" it was running {where}" if where else "")
+                + "; look at that loop's exit condition")
     if isinstance(exc, SyntaxError) and exc.filename and Path(exc.filename).name == target.name:
         return (f"{target.name} line {exc.lineno} does not read as Python: {exc.msg}; "
                 "fix that line, then check again")
     where = _where(exc, target)
-    if isinstance(exc, CheckTimedOut):
-        return f"{exc}" + (f" (it was in {where})" if where else "")
     if isinstance(exc, NotImplementedError):
         return f"not written yet: {exc or 'a TODO'}" + (f" ({where})" if where else "")
     if type(exc) is AssertionError:
@@ -230,6 +184,16 @@ def _where(exc: BaseException, target: Path) -> str:
     return f"{target.name} line {frame.lineno}, in {frame.name}"
 
 
+#: processor seconds one check may take before it is stopped as a hang (``RETROFIT_CHECK_SECONDS`` changes it)
+CHECK_SECONDS = 20.0
+CHECK_SECONDS_ENV = "RETROFIT_CHECK_SECONDS"
+_TODO = re.compile(r"\bTODO\s*(\d+)")
+
+
+class CheckTimeout(Exception):
+    """A check ran longer than its time limit (raised inside the student's code by an alarm)."""
+
+
 @dataclass(frozen=True)
 class CheckResult:
     """One check: its title (the first line of its docstring), passed / failed / skipped, and why."""
@@ -237,38 +201,105 @@ class CheckResult:
     title: str
     status: str
     message: str = ""
+    points: int = 1             # what the check is worth (``@pytest.mark.points(n)``)
+
+    @property
+    def todo(self) -> str:
+        """The TODO the check names ("TODO 2"), or "" when its title names none."""
+        match = _TODO.search(self.title)
+        return f"TODO {match[1]}" if match else ""
+
+    @property
+    def scored(self) -> int:
+        """Points earned: all of them when the check passed, none otherwise."""
+        return self.points if self.status == "passed" else 0
+
+    def as_dict(self) -> dict:
+        """The result as plain data for ``--json``: title, TODO, status, message, points."""
+        return {"title": self.title, "todo": self.todo, "status": self.status, "message": self.message,
+                "points": self.scored, "max_points": self.points}
+
+
+def check_seconds() -> float:
+    """The per-check time limit: ``RETROFIT_CHECK_SECONDS`` if set, else :data:`CHECK_SECONDS`."""
+    text = os.environ.get(CHECK_SECONDS_ENV, "")
+    try:
+        return float(text) if text else CHECK_SECONDS
+    except ValueError:
+        raise ConfigError(f"{CHECK_SECONDS_ENV}={text}: not a number; give the seconds one check may take, "
+                          "e.g. 10") from None
+
+
+class _Alarm:
+    """Stop a check that runs longer than ``seconds`` by raising :class:`CheckTimeout` inside it.
+
+    The limit counts the processor time of this process (SIGPROF), so a loaded machine does not
+    fail a check that is only waiting its turn, with ten times as much wall time (SIGALRM) as a
+    backstop for code that hangs without computing. Only in the main thread of a POSIX process;
+    elsewhere the check runs without a limit (the grader's process limits still hold).
+    """
+
+    TIMERS = (("ITIMER_PROF", "SIGPROF", 1), ("ITIMER_REAL", "SIGALRM", 10))
+
+    def __init__(self, seconds: float, title: str):
+        self.seconds, self.title = seconds, title
+        self.usable = (hasattr(signal, "setitimer") and seconds > 0
+                       and threading.current_thread() is threading.main_thread())
+
+    def _fire(self, signum, frame):
+        raise CheckTimeout(f"{self.title}: did not finish within {self.seconds:g} s")
+
+    def __enter__(self):
+        if self.usable:
+            self.saved = []
+            for timer, sig, times in self.TIMERS:
+                self.saved.append(signal.signal(getattr(signal, sig), self._fire))
+                signal.setitimer(getattr(signal, timer), self.seconds * times)
+        return self
+
+    def __exit__(self, *exc):
+        if self.usable:
+            for (timer, sig, _), handler in zip(self.TIMERS, self.saved):
+                signal.setitimer(getattr(signal, timer), 0)
+                signal.signal(getattr(signal, sig), handler)
+        return False
 
 
 def _collector(target: Path):
     """A pytest plugin that records each check's outcome with a student-facing message."""
     import pytest
 
+    seconds = check_seconds()
+
     class Collector:
         def __init__(self):
             self.results: list[CheckResult] = []
 
         @pytest.hookimpl(wrapper=True)
-        def pytest_runtest_setup(self, item):
-            with _time_limit(check_seconds(), _title_of(item)):
+        def pytest_runtest_setup(self, item):      # loading the file: a loop at module level
+            with _Alarm(seconds, _check_title(item)):
                 return (yield)
 
         @pytest.hookimpl(wrapper=True)
         def pytest_runtest_call(self, item):
-            with _time_limit(check_seconds(), _title_of(item)):
+            with _Alarm(seconds, _check_title(item)):
                 return (yield)
 
         @pytest.hookimpl(wrapper=True)
         def pytest_runtest_makereport(self, item, call):
             report = yield
             if report.when == "call" or not report.passed:
-                title = _title_of(item)
+                title = _check_title(item)
+                marker = item.get_closest_marker("points")
+                points = int(marker.args[0]) if marker and marker.args else 1
                 if report.skipped:
                     reason = report.longrepr[2] if isinstance(report.longrepr, tuple) else ""
-                    self.results.append(CheckResult(title, "skipped", reason.removeprefix("Skipped: ")))
+                    self.results.append(CheckResult(title, "skipped", reason.removeprefix("Skipped: "), points))
                 elif report.failed:
-                    self.results.append(CheckResult(title, "failed", explain(call.excinfo.value, target)))
+                    message = explain(call.excinfo.value, target)
+                    self.results.append(CheckResult(title, "failed", message, points))
                 else:
-                    self.results.append(CheckResult(title, "passed"))
+                    self.results.append(CheckResult(title, "passed", "", points))
             return report
 
         def pytest_collectreport(self, report):
@@ -279,8 +310,8 @@ def _collector(target: Path):
     return Collector()
 
 
-def _title_of(item) -> str:
-    """A check's title: the first line of its docstring, and its parameters."""
+def _check_title(item) -> str:
+    """A check's title: the first line of its docstring, else its name; with its parameters."""
     function = getattr(item, "function", None)
     doc = (function.__doc__ or "").strip() if function is not None else ""
     title = doc.splitlines()[0] if doc else item.name.removeprefix("test_").replace("_", " ")

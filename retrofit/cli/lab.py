@@ -1,4 +1,4 @@
-"""Sub-commands for students: ``retrofit lab list``, ``retrofit lab run NN``, ``retrofit lab check NN``."""
+"""Sub-commands for students and teachers: ``retrofit lab list|run|check|export|grade``."""
 
 from __future__ import annotations
 
@@ -27,7 +27,30 @@ def add_commands(sub) -> None:
     c = actions.add_parser("check", parents=[which, where], help="check a lab's file; exit 1 when a check fails",
                            description="Run the lab's checks against student.py (or --solution): one line per "
                                        "check, what was expected and what your code gave when one fails.")
+    c.add_argument("--json", action="store_true",
+                   help="print one result per check as JSON (title, todo, status, message, points)")
+    c.add_argument("--file", metavar="PY", help="check this file instead of the lab's student.py")
     c.set_defaults(func=cmd_check)
+    e = actions.add_parser("export", parents=[where], help="write a lab's handout, stub and checks, no solution",
+                           description="Copy what a student gets into DIR/NN_topic/: README.md, student.py, "
+                                       "checks.py, notebook.py and data files; never solution.py, wrong/ "
+                                       "or teacher.md.")
+    e.add_argument("lab", help="lab number (01), folder name or topic")
+    e.add_argument("dir", help="the folder to write into")
+    e.set_defaults(func=cmd_export)
+    g = actions.add_parser("grade", parents=[where], help="grade a folder of student folders into CSV and JSON",
+                           description="Check every student folder (holding student.py) in SUBMISSIONS, each "
+                                       "in its own process with time and memory limits; write grades.csv "
+                                       "and grades.json.")
+    g.add_argument("lab", help="lab number (01), folder name or topic")
+    g.add_argument("submissions", help="a folder holding one folder per student")
+    g.add_argument("--out", metavar="DIR", help="where grades.csv and grades.json go (default: SUBMISSIONS)")
+    g.add_argument("--cpu", type=int, default=120, metavar="S", help="CPU seconds per student (default 120)")
+    g.add_argument("--memory", type=int, default=2048, metavar="MIB", help="memory per student (default 2048)")
+    g.add_argument("--check-seconds", type=float, default=20.0, metavar="S",
+                   help="seconds one check may take before it counts as a hang (default 20)")
+    g.add_argument("--jobs", type=int, default=1, metavar="N", help="students checked at once (default 1)")
+    g.set_defaults(func=cmd_grade)
 
 
 def _help(parser) -> int:
@@ -72,11 +95,52 @@ def cmd_run(args) -> int:
 
 
 def cmd_check(args) -> int:
+    import json
+    from pathlib import Path
+    from ..errors import ConfigError
     from ..labs import check_lab, find_lab, labs_dir, result_lines
     lab = find_lab(labs_dir(args.labs), args.lab)
-    file = lab.file(args.solution)
+    file = Path(args.file) if args.file else lab.file(args.solution)
+    if not file.is_file():
+        raise ConfigError(f"{file}: no such file; give the .py file to check")
+    if args.json:
+        results = check_lab(lab, target=file)
+        print(json.dumps({"lab": lab.path.name, "file": str(file), "checks": [r.as_dict() for r in results],
+                          "points": sum(r.scored for r in results),
+                          "max_points": sum(r.points for r in results)}, indent=1, ensure_ascii=False))
+        return 1 if any(r.status == "failed" for r in results) else 0
     print(f"Lab {lab.number}: {lab.title} — checking {file}")
-    results = check_lab(lab, args.solution)
+    results = check_lab(lab, target=file)
     for line in result_lines(results, ascii_only=_ascii_only()):
         print(line)
     return 1 if any(r.status == "failed" for r in results) else 0
+
+
+def cmd_export(args) -> int:
+    from ..labkit import export_lab
+    from ..labs import find_lab, labs_dir
+    lab = find_lab(labs_dir(args.labs), args.lab)
+    written = export_lab(lab, args.dir)
+    print(f"Lab {lab.number}: {lab.title} — {len(written)} files for students in {args.dir}/{lab.path.name}")
+    for path in written:
+        print(f"  {path}")
+    print(f"students check their work with 'retrofit lab check {lab.number} --labs {args.dir}'")
+    return 0
+
+
+def cmd_grade(args) -> int:
+    from pathlib import Path
+    from ..labkit import Limits, grade, write_grades
+    from ..labs import find_lab, labs_dir
+    lab = find_lab(labs_dir(args.labs), args.lab)
+    limits = Limits(cpu_seconds=args.cpu, memory_mb=args.memory, check_seconds=args.check_seconds,
+                    wall_seconds=max(60.0, 3.0 * args.cpu))
+    grades = grade(lab, args.submissions, limits, jobs=args.jobs)
+    out = Path(args.out or args.submissions)
+    out.mkdir(parents=True, exist_ok=True)
+    write_grades(grades, lab, out / "grades.csv", out / "grades.json")
+    print(f"Lab {lab.number}: {lab.title} — {len(grades)} students")
+    for g in grades:
+        print(f"  {g.student:20s} {g.points:3d} / {g.max_points:<3d} {g.note or ' '.join(g.failed_todos())}")
+    print(f"wrote {out / 'grades.csv'} and {out / 'grades.json'}")
+    return 0

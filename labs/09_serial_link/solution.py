@@ -1,0 +1,136 @@
+"""Lab 09 (reference solution): the serial link of the turning-machine controller — framing, CRC,
+NAK and resend, measured on a noisy simulated line."""
+
+from __future__ import annotations
+
+import random
+from pathlib import Path
+
+from retrofit.commands import PMov
+from retrofit.config import load_machine
+from retrofit.labs import pyplot, save_figure
+from retrofit.link import DeviceEndpoint, Frame, FrameDecoder, HostEndpoint, crc16_ccitt_false
+from retrofit.link.framing import ESC, ESC_XOR, SOF
+from retrofit.link.simwire import FaultyWire, LinkBench
+
+MACHINE = "chivu-lathe"
+FLIP_RATES = [0.0, 0.005, 0.01, 0.02, 0.03, 0.04]   # chance that a byte arrives with one bit flipped
+COMMANDS = 60
+
+
+def stuff(body: bytes) -> bytes:
+    """``body`` with every SOF and ESC byte replaced by ESC and the byte XOR ESC_XOR."""
+    out = bytearray()
+    for byte in body:
+        if byte in (SOF, ESC):
+            out += bytes((ESC, byte ^ ESC_XOR))
+        else:
+            out.append(byte)
+    return bytes(out)
+
+
+def frame(seq: int, payload: bytes) -> bytes:
+    """The wire bytes of one frame: SOF, then the stuffed LEN, SEQ, payload and CRC (high byte first)."""
+    body = bytes((len(payload), seq)) + bytes(payload)
+    crc = crc16_ccitt_false(body)
+    return bytes((SOF,)) + stuff(body + bytes((crc >> 8, crc & 0xFF)))
+
+
+def send_raw(payloads: list[bytes], wire: FaultyWire) -> list[bytes]:
+    """Without a protocol: write each payload on the wire in turn; what arrives of each."""
+    return [wire.carry(payload) for payload in payloads]
+
+
+def count_wrong(sent: list[bytes], received: list[bytes]) -> int:
+    """How many commands arrived different from what was sent (cut short, or with a byte changed)."""
+    return sum(a != b for a, b in zip(sent, received))
+
+
+def crc_catches(seq: int, payload: bytes) -> tuple[int, int]:
+    """Flip every bit of the frame, one at a time: (flips the receiver refused, flips tried)."""
+    good = frame(seq, payload)
+    caught = 0
+    for bit in range(8 * len(good)):
+        damaged = bytearray(good)
+        damaged[bit // 8] ^= 1 << (bit % 8)
+        events = FrameDecoder().feed(bytes(damaged) + bytes((SOF,)))
+        if Frame(seq, payload) not in events:
+            caught += 1
+    return caught, 8 * len(good)
+
+
+def run_protocol(commands: list, flip: float, seed: int = 1):
+    """With the protocol: send ``commands`` over two noisy wires; (commands delivered, host stats)."""
+    machine = load_machine(MACHINE)
+    delivered = []
+    host = HostEndpoint(machine)
+    device = DeviceEndpoint(machine, lambda cmd: delivered.append(cmd))
+    rng = random.Random(seed)
+    bench = LinkBench(host, device, to_device=FaultyWire(rng, flip=flip), to_host=FaultyWire(rng, flip=flip),
+                      rng=rng)
+    for cmd in commands:
+        host.send(cmd, bench.now)
+    bench.run()
+    return delivered, host.stats
+
+
+def moves(count: int = COMMANDS) -> list:
+    """``count`` short moves of X and Z, each one different."""
+    return [PMov((("X", round(0.025 * (i % 40), 3)), ("Z", round(-0.02 * i, 3)))) for i in range(count)]
+
+
+def plot_losses(out_dir) -> Path:
+    """Commands that arrive wrong without the protocol, and with it, against the flip rate."""
+    plt = pyplot()
+    machine = load_machine(MACHINE)
+    from retrofit.link import encode_command
+    payloads = [encode_command(cmd, machine) for cmd in moves()]
+    raw = [count_wrong(payloads, send_raw(payloads, FaultyWire(random.Random(1), flip=f))) for f in FLIP_RATES]
+    framed = []
+    for f in FLIP_RATES:
+        delivered, _ = run_protocol(moves(), f)
+        framed.append(sum(a != b for a, b in zip(moves(), delivered)) + abs(len(delivered) - COMMANDS))
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    rates = [100 * f for f in FLIP_RATES]
+    ax.plot(rates, raw, "o-", color="tab:red", label="without the protocol: wrong, and nobody knows")
+    ax.plot(rates, framed, "s-", color="tab:green", label="with framing, CRC, NAK and resend")
+    ax.set_xlabel("bytes with a flipped bit (%)")
+    ax.set_ylabel(f"commands wrong of {COMMANDS}")
+    ax.set_title("What a noisy line does to the commands")
+    ax.legend(loc="upper left")
+    ax.grid(alpha=0.3)
+    return save_figure(fig, out_dir, "losses.png")
+
+
+def plot_cost(out_dir) -> Path:
+    """What the guarantee costs: frames sent per command, and NAKs, against the flip rate."""
+    plt = pyplot()
+    sent, naks = [], []
+    for f in FLIP_RATES:
+        _, stats = run_protocol(moves(), f)
+        sent.append(stats.frames_sent / COMMANDS)
+        naks.append(stats.naks)
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    rates = [100 * f for f in FLIP_RATES]
+    ax.plot(rates, sent, "o-", color="tab:blue", label="frames sent per command")
+    ax.set_xlabel("bytes with a flipped bit (%)")
+    ax.set_ylabel("frames per command")
+    ax.set_title("The price of the guarantee: resends")
+    right = ax.twinx()
+    right.plot(rates, naks, "s--", color="tab:orange", label="NAKs received")
+    right.set_ylabel("NAKs (count)")
+    fig.legend(loc="upper center", bbox_to_anchor=(0.35, 0.85))
+    ax.grid(alpha=0.3)
+    return save_figure(fig, out_dir, "cost.png")
+
+
+def main(out_dir="out") -> list[Path]:
+    """Measure the line with and without the protocol; draw both plots."""
+    caught, tried = crc_catches(5, bytes(range(0x70, 0x80)))
+    print(f"single-bit flips refused by the receiver: {caught} of {tried}")
+    return [plot_losses(out_dir), plot_cost(out_dir)]
+
+
+if __name__ == "__main__":
+    for written in main(Path(__file__).parent / "out"):
+        print(f"saved {written}")

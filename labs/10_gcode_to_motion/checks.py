@@ -1,0 +1,146 @@
+"""Checks of lab 10 (G-code to motion): run with `retrofit lab check 10`, or pytest on this file.
+
+The oracles: retrofit's own G-code interpreter for the programs it runs, and for the canned cycle
+(which it does not run yet) the moves LinuxCNC's interpreter gave, recorded in programs/*.canon.
+"""
+
+import re
+from pathlib import Path
+
+import pytest
+
+from retrofit.labs import expect, load_target
+
+PROGRAMS = Path(__file__).resolve().parent / "programs"
+NAMES = sorted(p.stem for p in PROGRAMS.glob("*.ngc"))
+_CANON = re.compile(r"(STRAIGHT_TRAVERSE|STRAIGHT_FEED|SET_FEED_RATE)\(([^)]*)\)")
+
+
+@pytest.fixture(scope="module")
+def lab():
+    """The file under check: student.py, or what RETROFIT_LAB_TARGET names."""
+    return load_target(__file__)
+
+
+def recorded(name):
+    """(kind, x, y, z, feed) of every move LinuxCNC's interpreter made of programs/NAME.ngc."""
+    moves, feed = [], 0.0
+    for call, args in _CANON.findall((PROGRAMS / f"{name}.canon").read_text(encoding="utf-8")):
+        numbers = [float(a) for a in args.split(",")]
+        if call == "SET_FEED_RATE":
+            feed = numbers[0]
+        else:
+            kind = "rapid" if call == "STRAIGHT_TRAVERSE" else "feed"
+            moves.append((kind, *numbers[:3], feed if kind == "feed" else 0.0))
+    return moves
+
+
+def by_retrofit(name):
+    """The same moves from retrofit's interpreter on the mill, or None where it refuses the program."""
+    from retrofit.commands import FMov, PFdr, PMov
+    from retrofit.config import load_machine
+    from retrofit.errors import RetrofitError
+    from retrofit.gcode.program import compile_program
+    try:
+        program = compile_program((PROGRAMS / f"{name}.ngc").read_text(encoding="utf-8"), load_machine("tul-mill"))
+    except RetrofitError:
+        return None
+    moves, feed = [], 0.0
+    for cmd in program.commands:
+        if isinstance(cmd, PFdr):
+            feed = cmd.feed
+        elif isinstance(cmd, (FMov, PMov)):
+            axes = dict(cmd.axes)
+            kind = "rapid" if isinstance(cmd, FMov) else "feed"
+            moves.append((kind, axes["X"], axes["Y"], axes["Z"], feed if kind == "feed" else 0.0))
+    return moves
+
+
+def _same(got, want):
+    return len(got) == len(want) and all(
+        g[0] == w[0] and all(abs(a - b) < 1e-6 for a, b in zip(g[1:], w[1:])) for g, w in zip(got, want))
+
+
+def _moves(lab, name):
+    return [(m.kind, m.x, m.y, m.z, m.feed) for m in lab.interpret((PROGRAMS / f"{name}.ngc").read_text())]
+
+
+def test_words_of_a_block(lab):
+    """TODO 1: parse_words reads letters and signed decimal numbers, with or without spaces"""
+    for line, want in [("G1 X10 F200", [("G", 1.0), ("X", 10.0), ("F", 200.0)]),
+                       ("g81x-5.5y.5 z-3 r2", [("G", 81.0), ("X", -5.5), ("Y", 0.5), ("Z", -3.0), ("R", 2.0)]),
+                       ("G91 X-5 Y+5", [("G", 91.0), ("X", -5.0), ("Y", 5.0)])]:
+        got = lab.parse_words(line)
+        expect([(a, float(b)) for a, b in got] == want, f"parse_words({line!r})", expected=want, got=got,
+               hint="lower case letters count too; a number may start with a sign or a point")
+
+
+def test_target_absolute_and_incremental(lab):
+    """TODO 2: target() in G90 replaces the named axes, in G91 adds to them; the others stay"""
+    state = lab.State(x=5.0, y=-2.0, z=7.0)
+    got = tuple(lab.target(state, {"X": 1.0, "Z": -3.0}))
+    expect(got == (1.0, -2.0, -3.0), "target() in G90 from (5, -2, 7) with X1 Z-3", expected=(1.0, -2.0, -3.0), got=got)
+    state.absolute = False
+    got = tuple(lab.target(state, {"X": 1.0, "Z": -3.0}))
+    expect(got == (6.0, -2.0, 4.0), "target() in G91 from (5, -2, 7) with X1 Z-3", expected=(6.0, -2.0, 4.0), got=got,
+           hint="in G91 a number is a distance from where the tool is")
+
+
+HOLES = [  # state (x, y, z, r, depth, G98?), hole (x, y), moves worked by hand
+    ((0, 0, 5, 2, -3, False), (10, 5), [("rapid", 10, 5, 5), ("rapid", 10, 5, 2), ("feed", 10, 5, -3), ("rapid", 10, 5, 2)]),
+    ((0, 0, 8, 1, -2, True), (5, 5), [("rapid", 5, 5, 8), ("rapid", 5, 5, 1), ("feed", 5, 5, -2), ("rapid", 5, 5, 8)]),
+    ((0, 0, -1, 3, -5, True), (4, 0), [("rapid", 0, 0, 3), ("rapid", 4, 0, 3), ("feed", 4, 0, -5), ("rapid", 4, 0, 3)]),
+    ((10, 5, 2, 2, -3, False), (20, 5), [("rapid", 20, 5, 2), ("feed", 20, 5, -3), ("rapid", 20, 5, 2)]),
+]
+
+
+@pytest.mark.parametrize("start,hole,want", HOLES, ids=["above-G99", "above-G98", "below-R", "at-R"])
+def test_one_hole_worked_by_hand(lab, start, hole, want):
+    """TODO 3: g81_moves gives the hole's moves: XY at a safe height, R, feed to depth, retract"""
+    x, y, z, r, depth, g98 = start
+    state = lab.State(motion="G81", retract_to_start=g98, feed=100.0, x=x, y=y, z=z, r=r, depth=depth)
+    got = [(m.kind, m.x, m.y, m.z) for m in lab.g81_moves(state, *hole)]
+    hint = ("G98 retracts to the higher of the starting Z and R; G99 to R" if len(got) == len(want) else
+            "below R the tool first rises to R; at R there is no rapid down to it")
+    expect(_same([g + (0,) for g in got], [w + (0,) for w in want]),
+           f"the moves of a G81 hole at {hole} from Z{z} with R{r} Z{depth} {'G98' if g98 else 'G99'}",
+           expected=want, got=got, hint=hint)
+    feeds = [m.feed for m in lab.g81_moves(state, *hole) if m.kind == "feed"]
+    expect(feeds == [100.0], "the drilling move's feed", expected="[100.0], the modal F", got=feeds)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_program_moves_match_the_interpreter(lab, name):
+    """TODO 4: interpret() gives the moves of each program, as retrofit's or LinuxCNC's interpreter"""
+    want, oracle = by_retrofit(name), "retrofit's interpreter"
+    if want is None:
+        want, oracle = recorded(name), "LinuxCNC's interpreter (programs/*.canon)"
+    got = _moves(lab, name)
+    first = next((i for i, (g, w) in enumerate(zip(got, want)) if not _same([g], [w])), min(len(got), len(want)))
+    expect(_same(got, want), f"the moves of {name}.ngc against {oracle}",
+           expected=f"{len(want)} moves; move {first + 1}: {want[first] if first < len(want) else 'none'}",
+           got=f"{len(got)} moves; move {first + 1}: {got[first] if first < len(got) else 'none'}",
+           hint="modal: G0/G1/G81, G90/G91, G98/G99 and F stay until changed; a block with only "
+                "X/Y repeats the cycle there; G80 ends it")
+
+
+def test_g80_ends_the_cycle(lab):
+    """TODO 4: after G80, axis words with no G0 or G1 are refused (ValueError), as LinuxCNC refuses them"""
+    text = "G90 G99 G0 X0 Y0 Z5\nF100\nG81 X1 Y1 Z-1 R1\nG80\nX5\n"
+    try:
+        moves = lab.interpret(text)
+    except ValueError:
+        return
+    expect(False, "interpret() of a program that names X5 after G80", expected="ValueError: no motion mode",
+           got=f"{len(moves)} moves, the last {moves[-1] if moves else None}",
+           hint="G80 cancels the motion mode; a block with only axis words then has nothing to do")
+
+
+@pytest.mark.points(0)       # checks the checks, not the student
+def test_recorded_and_retrofit_agree_where_both_run():
+    """The two oracles agree on the programs retrofit runs (a check of the checks)"""
+    for name in NAMES:
+        ours = by_retrofit(name)
+        if ours is not None:
+            expect(_same(ours, recorded(name)), f"{name}: retrofit against LinuxCNC",
+                   expected=recorded(name), got=ours)

@@ -1,0 +1,138 @@
+"""Lab 10, a known-wrong solution (TODO 1: numbers without sign): from G-code to motion — modal state and the G81 drilling cycle,
+worked by hand and checked against an interpreter."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from retrofit.labs import pyplot, save_figure
+
+PROGRAMS = Path(__file__).resolve().parent / "programs"
+_WORD = re.compile(r"([A-Z])\s*(\d+\.?\d*)")
+
+
+@dataclass(frozen=True)
+class Move:
+    """One straight move to (x, y, z) in mm: a rapid (G0) or a feed move (G1) at ``feed`` mm/min."""
+
+    kind: str           # "rapid" or "feed"
+    x: float
+    y: float
+    z: float
+    feed: float = 0.0
+
+
+@dataclass
+class State:
+    """The modal state the interpreter carries from block to block."""
+
+    motion: str = "G0"          # G0, G1, G81 or "" after G80
+    absolute: bool = True       # G90 / G91
+    retract_to_start: bool = True    # G98 (back to the Z the cycle started from) / G99 (to R)
+    feed: float = 0.0
+    x: float = 0.0
+    y: float = 0.0
+    z: float = 0.0
+    r: float = 0.0              # the cycle's R plane and depth, modal while G81 is
+    depth: float = 0.0
+
+
+def parse_words(line: str) -> list[tuple[str, float]]:
+    """The words of a block: ``"G1 X10 F200"`` -> [("G", 1.0), ("X", 10.0), ("F", 200.0)]."""
+    return [(letter, float(value)) for letter, value in _WORD.findall(line.upper())]
+
+
+def target(state: State, words: dict[str, float]) -> tuple[float, float, float]:
+    """Where a move of this block ends: X, Y, Z given are absolute (G90) or added (G91); others stay."""
+    point = []
+    for axis in "XYZ":
+        now = getattr(state, axis.lower())
+        given = words.get(axis)
+        point.append(now if given is None else (given if state.absolute else now + given))
+    return tuple(point)
+
+
+def g81_moves(state: State, x: float, y: float) -> list[Move]:
+    """One G81 hole at (x, y), from where the tool stands, with the state's R, depth and retract mode."""
+    moves = []
+    z, r = state.z, state.r
+    clear = max(z, r) if state.retract_to_start else r
+    if z < r:                                   # below the R plane: up to it first
+        moves.append(Move("rapid", state.x, state.y, r))
+        z = r
+    moves.append(Move("rapid", x, y, z))
+    if z != r:
+        moves.append(Move("rapid", x, y, r))
+    moves.append(Move("feed", x, y, state.depth, state.feed))
+    moves.append(Move("rapid", x, y, clear))
+    return moves
+
+
+def interpret(text: str) -> list[Move]:
+    """Every move of a program (G0, G1, G80, G81, G90, G91, G98, G99, F, X, Y, Z, R; cycles in G90).
+
+    Axis words after G80 with no new G0 or G1 raise ValueError, as in LinuxCNC.
+    """
+    state, moves = State(), []
+    for line in text.splitlines():
+        words = parse_words(line)
+        codes = {value for letter, value in words if letter == "G"}
+        values = {letter: value for letter, value in words if letter != "G"}
+        state.absolute = False if 91 in codes else True if 90 in codes else state.absolute
+        state.retract_to_start = False if 99 in codes else True if 98 in codes else state.retract_to_start
+        for code in (0, 1, 80, 81):
+            if code in codes:
+                state.motion = {0: "G0", 1: "G1", 80: "", 81: "G81"}[code]
+        state.feed = values.get("F", state.feed)
+        if not any(axis in values for axis in "XYZ"):
+            continue
+        if state.motion == "G81":
+            state.r = values.get("R", state.r)
+            state.depth = values.get("Z", state.depth)
+            x, y, _ = target(state, values)
+            moves += g81_moves(state, x, y)
+            last = moves[-1]
+        elif state.motion in ("G0", "G1"):
+            kind = "rapid" if state.motion == "G0" else "feed"
+            last = Move(kind, *target(state, values), state.feed if kind == "feed" else 0.0)
+            moves.append(last)
+        else:       # LinuxCNC refuses this too: axis words with no motion mode
+            raise ValueError(f"{line.strip()!r}: X, Y or Z after G80 with no G0 or G1 to say how to move")
+        state.x, state.y, state.z = last.x, last.y, last.z
+    return moves
+
+
+def plot_program(name: str, out_dir) -> Path:
+    """The moves of one program in X-Z (side view) and X-Y (top view): rapids dashed, feeds solid."""
+    plt = pyplot()
+    moves = interpret((PROGRAMS / f"{name}.ngc").read_text(encoding="utf-8"))
+    fig, (side, top) = plt.subplots(1, 2, figsize=(11, 4.5))
+    x = y = z = 0.0
+    for m in moves:
+        style = dict(color="tab:red", linestyle="--") if m.kind == "rapid" else dict(color="tab:blue")
+        side.plot([x, m.x], [z, m.z], **style)
+        top.plot([x, m.x], [y, m.y], **style)
+        x, y, z = m.x, m.y, m.z
+    side.plot([], [], color="tab:red", linestyle="--", label="rapid (G0)")
+    side.plot([], [], color="tab:blue", label="feed (G1)")
+    side.set(xlabel="X (mm)", ylabel="Z (mm)", title=f"{name}.ngc, side view")
+    top.set(xlabel="X (mm)", ylabel="Y (mm)", title=f"{name}.ngc, top view")
+    side.legend(loc="lower left")
+    for ax in (side, top):
+        ax.grid(alpha=0.3)
+    return save_figure(fig, out_dir, f"{name}.png")
+
+
+def main(out_dir="out") -> list[Path]:
+    """Interpret the drilling programs and draw their moves."""
+    for name in ("drill_g98", "drill_g99"):
+        moves = interpret((PROGRAMS / f"{name}.ngc").read_text(encoding="utf-8"))
+        print(f"{name}: {len(moves)} moves, {sum(m.kind == 'feed' for m in moves)} of them drilling feeds")
+    return [plot_program("drill_g98", out_dir), plot_program("drill_g99", out_dir)]
+
+
+if __name__ == "__main__":
+    for written in main(Path(__file__).parent / "out"):
+        print(f"saved {written}")
