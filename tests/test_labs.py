@@ -36,7 +36,8 @@ def figure_defects(fig) -> list[str]:
     suptitle = fig._suptitle.get_text() if fig._suptitle is not None else ""
     panels = [ax for ax in fig.axes if ax.get_visible() and ax.get_label() != "<colorbar>"]
     for k, ax in enumerate(panels):
-        if not (ax.get_title() or suptitle):
+        twin = any(o.get_position().bounds == ax.get_position().bounds for o in panels[:k])
+        if not (ax.get_title() or suptitle or twin):     # a twin y axis shares its panel's title
             defects.append(f"panel {k} has no title")
         if ax.name == "polar":
             continue
