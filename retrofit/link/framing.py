@@ -1,24 +1,26 @@
 """Frames on the byte stream: start byte, length, sequence byte, payload, CRC, with byte stuffing.
 
-On the wire a frame is ``SOF`` followed by the stuffed body ``LEN SEQ PAYLOAD[LEN] CRC_HI CRC_LO``
-(CRC-16/CCITT-FALSE over LEN, SEQ and PAYLOAD, high byte first). Inside the body every ``0x7E``
+On the wire a frame is ``SOF`` followed by the stuffed body ``LEN SEQ PAYLOAD[LEN] CRC[4]``
+(CRC-32 over LEN, SEQ and PAYLOAD, most significant byte first). Inside the body every ``0x7E``
 or ``0x7D`` is sent as ``0x7D`` followed by the byte XOR ``0x20``, so ``0x7E`` on the wire always
 starts a frame: a receiver that lost, gained or garbled bytes is back in step at the next frame.
 
     >>> encode_frame(0x01, bytes([0x80])).hex(" ")
-    '7e 01 01 80 59 15'
+    '7e 01 01 80 0a 20 01 44'
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .crc import crc16_ccitt_false
+from .crc import crc32
 
 SOF = 0x7E          # start of frame; never appears inside a stuffed body
 ESC = 0x7D          # escape: the next byte is the data byte XOR ESC_XOR
 ESC_XOR = 0x20
 MAX_PAYLOAD = 32    # bytes of payload a receiver must buffer (LEN is 1..MAX_PAYLOAD)
+CRC_BYTES = 4       # the CRC-32 ends the body, most significant byte first
+OVERHEAD = 2 + CRC_BYTES    # body bytes besides the payload: LEN, SEQ, CRC
 
 # The sequence byte: bit 7 = channel, bits 6..0 = sequence number (wraps 127 -> 0).
 QUEUED, IMMEDIATE = 0, 1    # channel of queued commands / of commands that jump the queue
@@ -77,8 +79,7 @@ def encode_frame(seq: int, payload: bytes) -> bytes:
     if not 1 <= len(payload) <= MAX_PAYLOAD:
         raise ValueError(f"frame payload of {len(payload)} bytes: must be 1..{MAX_PAYLOAD}")
     body = bytes((len(payload), seq)) + bytes(payload)
-    crc = crc16_ccitt_false(body)
-    return bytes((SOF,)) + stuff(body + bytes((crc >> 8, crc & 0xFF)))
+    return bytes((SOF,)) + stuff(body + crc32(body).to_bytes(CRC_BYTES, "big"))
 
 
 class FrameDecoder:
@@ -124,7 +125,7 @@ class FrameDecoder:
         body.append(byte)
         if len(body) == 1 and not 1 <= byte <= MAX_PAYLOAD:
             return self._refuse("length")
-        if len(body) >= 4 and len(body) == body[0] + 4:
+        if len(body) >= OVERHEAD and len(body) == body[0] + OVERHEAD:
             return self._finish(bytes(body))
         return None
 
@@ -135,6 +136,6 @@ class FrameDecoder:
 
     def _finish(self, body: bytes) -> Frame | BadFrame:
         self._body = None
-        if crc16_ccitt_false(body[:-2]) != (body[-2] << 8 | body[-1]):
+        if crc32(body[:-CRC_BYTES]) != int.from_bytes(body[-CRC_BYTES:], "big"):
             return BadFrame("crc", body)
-        return Frame(body[1], body[2:-2])
+        return Frame(body[1], body[2:-CRC_BYTES])

@@ -15,7 +15,7 @@ from retrofit.config import Machine
 from retrofit.link import (IMMEDIATE, QUEUED, BadFrame, FrameDecoder, Position, Reply, Status,
                            StatusFlags, decode_reply, encode_command, encode_frame, seq_byte)
 
-SYNC = bytes((0x7F,))
+SYNC = bytes((0x7F,))        # then the 32-bit session number
 
 
 class RawLink:
@@ -28,6 +28,7 @@ class RawLink:
         self.decoder = FrameDecoder()
         self.pending: list = []
         self.next = {QUEUED: 0, IMMEDIATE: 0}
+        self.session = 0x5E550000
 
     def close(self) -> None:
         self.port.close()
@@ -75,7 +76,8 @@ class RawLink:
         return got.seq, decode_reply(got.payload, self.machine)
 
     def sync(self, channel: int, number: int = 0) -> Reply:
-        seq, reply = self.exchange(channel, number, SYNC)
+        self.session += 1                   # a new session each time, as a host does
+        seq, reply = self.exchange(channel, number, SYNC + self.session.to_bytes(4, "big"))
         assert seq == seq_byte(channel, number)
         self.next[channel] = (number + 1) % 128
         return reply
