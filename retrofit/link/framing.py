@@ -86,56 +86,80 @@ class FrameDecoder:
     """Turns byte chunks of any size into Frame and BadFrame events, in order.
 
     Bytes outside a frame (before the first SOF, after a refused frame) are counted in
-    ``noise_bytes`` and otherwise ignored.
+    ``noise_bytes`` and otherwise ignored. The rules are those of docs/protocol.md §2.4, applied
+    byte by byte (``_walk``); a frame without escapes takes a shortcut with the same outcome.
     """
 
+    crc_bytes = CRC_BYTES                       # the check ending a body, and its function
+    check = staticmethod(crc32)
+
     def __init__(self) -> None:
-        self._body: bytearray | None = None     # None: hunting for SOF
-        self._escaped = False
+        self._raw: bytearray | None = None      # stuffed bytes since the SOF; None: hunting
+        self._overhead = 2 + self.crc_bytes
         self.noise_bytes = 0
 
     def feed(self, data: bytes) -> list[Frame | BadFrame]:
         """Consume ``data``; return the frames it completed or refused."""
         events: list[Frame | BadFrame] = []
-        for byte in data:
-            event = self._byte(byte)
-            if event is not None:
-                events.append(event)
+        pos, n = 0, len(data)
+        while pos < n:
+            nxt = data.find(SOF, pos)
+            end = n if nxt < 0 else nxt
+            if self._raw is None:
+                self.noise_bytes += end - pos
+            else:
+                self._raw += data[pos:end]
+                event = self._parse()
+                if event is not None:
+                    events.append(event)
+            if nxt < 0:
+                break
+            if self._raw:                        # a SOF inside a frame: that frame was cut
+                events.append(BadFrame("truncated", self._walk(bytes(self._raw))[1]))
+            self._raw, pos = bytearray(), nxt + 1
         return events
 
-    def _byte(self, byte: int) -> Frame | BadFrame | None:
-        if byte == SOF:
-            cut = self._body
-            self._body, self._escaped = bytearray(), False
-            if cut:
-                return BadFrame("truncated", bytes(cut))
+    def _parse(self) -> Frame | BadFrame | None:
+        """A complete or refused frame at the start of the buffer, or None (need more bytes)."""
+        raw = self._raw
+        if not raw:
             return None
-        body = self._body
-        if body is None:
-            self.noise_bytes += 1
+        if ESC in raw:
+            event, body, used = self._walk(bytes(raw))
+        elif not 1 <= raw[0] <= MAX_PAYLOAD:
+            event, body, used = "length", bytes(raw[:1]), 1
+        elif len(raw) >= raw[0] + self._overhead:
+            used = raw[0] + self._overhead
+            event, body = "complete", bytes(raw[:used])
+        else:
             return None
-        if self._escaped:
-            self._escaped = False
-            byte ^= ESC_XOR
-            if byte not in (SOF, ESC):
-                return self._refuse("escape")
-        elif byte == ESC:
-            self._escaped = True
+        if event is None:
             return None
-        body.append(byte)
-        if len(body) == 1 and not 1 <= byte <= MAX_PAYLOAD:
-            return self._refuse("length")
-        if len(body) >= OVERHEAD and len(body) == body[0] + OVERHEAD:
-            return self._finish(bytes(body))
-        return None
+        self._raw = None
+        self.noise_bytes += len(raw) - used
+        return self._finish(body) if event == "complete" else BadFrame(event, body)
 
-    def _refuse(self, reason: str) -> BadFrame:
-        body = bytes(self._body or b"")
-        self._body = None
-        return BadFrame(reason, body)
+    def _walk(self, raw: bytes) -> tuple[str | None, bytes, int]:
+        """§2.4 byte by byte over a frame's stuffed bytes: (outcome or None, body, bytes used)."""
+        body, escaped = bytearray(), False
+        for used, byte in enumerate(raw, 1):
+            if escaped:
+                escaped = False
+                byte ^= ESC_XOR
+                if byte not in (SOF, ESC):
+                    return "escape", bytes(body), used
+            elif byte == ESC:
+                escaped = True
+                continue
+            body.append(byte)
+            if len(body) == 1 and not 1 <= byte <= MAX_PAYLOAD:
+                return "length", bytes(body), used
+            if len(body) >= self._overhead and len(body) == body[0] + self._overhead:
+                return "complete", bytes(body), used
+        return None, bytes(body), len(raw)
 
     def _finish(self, body: bytes) -> Frame | BadFrame:
-        self._body = None
-        if crc32(body[:-CRC_BYTES]) != int.from_bytes(body[-CRC_BYTES:], "big"):
+        n = self.crc_bytes
+        if self.check(body[:-n]) != int.from_bytes(body[-n:], "big"):
             return BadFrame("crc", body)
-        return Frame(body[1], body[2:-CRC_BYTES])
+        return Frame(body[1], body[2:-n])
