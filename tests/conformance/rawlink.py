@@ -6,6 +6,7 @@ them, so this client sends exactly the frames it is told to and hands back every
 
 from __future__ import annotations
 
+import random
 import time
 
 import serial
@@ -28,7 +29,7 @@ class RawLink:
         self.decoder = FrameDecoder()
         self.pending: list = []
         self.next = {QUEUED: 0, IMMEDIATE: 0}
-        self.session = 0x5E550000
+        self.session = random.getrandbits(32)    # each connection a session of its own
 
     def close(self) -> None:
         self.port.close()
@@ -76,7 +77,7 @@ class RawLink:
         return got.seq, decode_reply(got.payload, self.machine)
 
     def sync(self, channel: int, number: int = 0) -> Reply:
-        self.session += 1                   # a new session each time, as a host does
+        self.session = (self.session + 1) & 0xFFFFFFFF     # a new session each SYNC, as a host does
         seq, reply = self.exchange(channel, number, SYNC + self.session.to_bytes(4, "big"))
         assert seq == seq_byte(channel, number)
         self.next[channel] = (number + 1) % 128
