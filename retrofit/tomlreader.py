@@ -11,17 +11,38 @@ from typing import Any
 from .errors import ConfigError
 
 _MISSING = object()
+#: the largest magnitude a number read from a file may have unless its getter sets its own range:
+#: every quantity of a machine (mm, mm/s, ms, Hz, rpm ...) is far below it, and anything below it
+#: stays finite when turned into ticks or steps
+MAGNITUDE = 1e9
+
+_BOMS = ((b"\xff\xfe", "UTF-16"), (b"\xfe\xff", "UTF-16"), (b"\xef\xbb\xbf", "UTF-8 with a BOM"))
 
 
 def load_toml(path: Path) -> dict:
-    """Parse a TOML file, turning syntax errors into a one-line ConfigError."""
+    """Parse a TOML file, turning every reading or syntax problem into a one-line ConfigError."""
     try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
+        raw = Path(path).read_bytes()
     except FileNotFoundError:
         raise ConfigError(f"{path}: no such machine file") from None
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read it ({exc.strerror or exc}); expected a readable "
+                          "TOML file") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        found = next((name for bom, name in _BOMS if raw.startswith(bom)), None)
+        what = f"it is {found}" if found else f"byte 0x{raw[exc.start]:02x} at offset {exc.start}"
+        raise ConfigError(f"{path}: not UTF-8 text ({what}); TOML files are UTF-8: save it as "
+                          "UTF-8") from None
+    if text.startswith("\ufeff"):
+        text = text[1:]                     # a UTF-8 byte-order mark is harmless: skip it
+    try:
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise ConfigError(f"{path}: not valid TOML: nested too deeply") from None
 
 
 class Section:
@@ -61,10 +82,14 @@ class Section:
         value = self._raw(key, default)
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise self.error(key, f"must be a number, not {type(value).__name__}")
-        value = float(value)
+        try:
+            value = float(value)
+        except OverflowError:               # a TOML integer too large for a float
+            value = math.inf
         if not math.isfinite(value):
             raise self.error(key, "must be a finite number")
         self._check_range(key, value, minval, maxval, above)
+        self._check_magnitude(key, value, minval, maxval)
         return value
 
     def get_int(self, key: str, default: Any = _MISSING, *, minval: int | None = None,
@@ -73,6 +98,7 @@ class Section:
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.error(key, f"must be a whole number, not {type(value).__name__}")
         self._check_range(key, value, minval, maxval, None)
+        self._check_magnitude(key, value, minval, maxval)
         return value
 
     def get_bool(self, key: str, default: Any = _MISSING) -> bool:
@@ -115,6 +141,12 @@ class Section:
             key = unread[0]
             known = ", ".join(sorted(self._read)) or "none"
             raise ConfigError(f"{self.file} [{self.name}] {key}: unknown key; known keys here: {known}")
+
+    def _check_magnitude(self, key, value, minval, maxval) -> None:
+        """Without a range of its own, a number must stay within +-MAGNITUDE."""
+        if maxval is None and value > MAGNITUDE or minval is None and value < -MAGNITUDE:
+            raise self.error(key, f"must be within +-{MAGNITUDE:g} (larger values cannot be "
+                                  "turned into ticks or steps)")
 
     def _check_range(self, key, value, minval, maxval, above) -> None:
         if above is not None and not value > above:
