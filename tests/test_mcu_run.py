@@ -123,3 +123,24 @@ def test_with_a_simulated_machine_homing_and_a_thread_run(tmp_path):
             assert link.position() == {"X": 2000, "Z": -800}
         finally:
             link.close()
+
+
+def test_a_position_the_link_cannot_carry_is_err_3_and_the_device_keeps_serving():
+    """PSTN X8388607 (the top of the 24-bit space), ZMOV, RDPS: the homing move runs X past what
+    a POS answer can carry. The device answers ERR 3 and goes on; it must never exit."""
+    from tests.conformance.rawlink import RawLink
+    from retrofit.link import IMMEDIATE, QUEUED, Ack, Err, Status
+    with McuTarget(MACHINE) as mcu:
+        link = RawLink(mcu.url, load_machine(MACHINE))
+        try:
+            link.sync_both()
+            assert link.send("INIT") == Ack()
+            assert link.exchange(QUEUED, 2, bytes.fromhex("0C 01 7FFFFF")) == (0x02, Ack())  # PSTN
+            assert link.exchange(QUEUED, 3, bytes.fromhex("03 00")) == (0x03, Ack())         # ZMOV
+            answers = [link.exchange(IMMEDIATE, n, b"\x0d") for n in (1, 2, 3)]             # RDPS
+            assert (0x83, Err(3, 0x0D)) in answers
+            seq, status = link.exchange(IMMEDIATE, 4, b"\x0e")                               # RDST
+            assert seq == 0x84 and isinstance(status, Status)
+            assert mcu.proc.poll() is None
+        finally:
+            link.close()
