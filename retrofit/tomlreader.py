@@ -15,6 +15,9 @@ _MISSING = object()
 #: every quantity of a machine (mm, mm/s, ms, Hz, rpm ...) is far below it, and anything below it
 #: stays finite when turned into ticks or steps
 MAGNITUDE = 1e9
+#: the smallest magnitude a non-zero number may have: below it a quotient (a time over a tick, a
+#: distance over a speed) would overflow
+TINY = 1e-9
 
 _BOMS = ((b"\xff\xfe", "UTF-16"), (b"\xfe\xff", "UTF-16"), (b"\xef\xbb\xbf", "UTF-8 with a BOM"))
 
@@ -143,10 +146,13 @@ class Section:
             raise ConfigError(f"{self.file} [{self.name}] {key}: unknown key; known keys here: {known}")
 
     def _check_magnitude(self, key, value, minval, maxval) -> None:
-        """Without a range of its own, a number must stay within +-MAGNITUDE."""
+        """Without a range of its own, a number stays within +-MAGNITUDE; none is tinier than TINY."""
         if maxval is None and value > MAGNITUDE or minval is None and value < -MAGNITUDE:
             raise self.error(key, f"must be within +-{MAGNITUDE:g} (larger values cannot be "
                                   "turned into ticks or steps)")
+        if value != 0 and abs(value) < TINY:
+            raise self.error(key, f"must be 0 or at least {TINY:g} in size (smaller values "
+                                  "overflow when divided by)")
 
     def _check_range(self, key, value, minval, maxval, above) -> None:
         if above is not None and not value > above:
