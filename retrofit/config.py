@@ -20,8 +20,10 @@ from .tomlreader import Section, load_toml
 DB25_DATA_PINS = tuple(range(2, 10))
 #: what the step / direction pins of a machine are wired to
 PORT_KINDS = ("db25", "ramps", "none")
-#: the axis letters of RS274 (LinuxCNC's XYZABCUVW): an axis is named by one of them
+#: the axis letters of RS274 (LinuxCNC's XYZABCUVW): an axis is named by one of them ...
 AXIS_NAMES = "XYZABCUVW"
+#: ... or by E, the drive of a tool carousel (an axis no G-code word moves; [atc] axis = "E")
+AUX_AXIS_NAMES = "E"
 #: the largest step count a position may have: a signed 32-bit count, as the firmware keeps it
 STEPS_MAX = 2**31 - 1
 
@@ -201,9 +203,10 @@ def load_machine(name_or_path: str | Path) -> Machine:
 
 def _check_axis_name(file: str, key: str) -> None:
     """An [axis.*] key is one RS274 axis letter (either case)."""
-    if len(key) != 1 or key.upper() not in AXIS_NAMES:
+    if len(key) != 1 or key.upper() not in AXIS_NAMES + AUX_AXIS_NAMES:
         raise ConfigError(f"{file} [axis.{key}]: {key!r} is not an axis name; an axis is named by "
-                          f"one letter of {AXIS_NAMES} (either case), e.g. [axis.x]")
+                          f"one letter of {AXIS_NAMES} (either case; E for a tool carousel), "
+                          "e.g. [axis.x]")
 
 
 def _check_axis_names(file: str, axes_section: Section) -> None:

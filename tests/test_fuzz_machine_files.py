@@ -67,7 +67,7 @@ def check_one(path) -> str:
         assert "\n" not in message and path.name in message.split(": ")[0], message
         return "refused"
     for axis in machine.axes:                   # everything the core derives stays representable
-        assert axis.name in "XYZABCUVW" and len(axis.name) == 1
+        assert axis.name in "XYZABCUVWE" and len(axis.name) == 1
         assert isinstance(axis.min_steps, int) and isinstance(axis.max_steps, int)
         assert abs(axis.min_steps) < 2**31 and abs(axis.max_steps) < 2**31
         assert axis.max_velocity_mm_s * axis.steps_per_mm < float("inf")
