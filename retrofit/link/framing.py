@@ -63,13 +63,7 @@ def split_seq(byte: int) -> tuple[int, int]:
 
 def stuff(body: bytes) -> bytes:
     """Escape every SOF and ESC byte in ``body``."""
-    out = bytearray()
-    for byte in body:
-        if byte in (SOF, ESC):
-            out += bytes((ESC, byte ^ ESC_XOR))
-        else:
-            out.append(byte)
-    return bytes(out)
+    return bytes(body).replace(b"\x7d", b"\x7d\x5d").replace(b"\x7e", b"\x7d\x5e")   # ESC first
 
 
 def encode_frame(seq: int, payload: bytes) -> bytes:
