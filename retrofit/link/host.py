@@ -197,8 +197,8 @@ class HostEndpoint:
     def _resend(self, ch: _Channel, now: float) -> None:
         if ch.tries >= self.max_tries:
             ch.current.unacknowledged = True
-            self._fail(ch, f"{MAY_HAVE_RUN} ({ch.tries} tries, {self.timeout_s:g} s timeout each); "
-                       "is the device on, at the same baud rate, running the same protocol?", now)
+            self._fail(ch, f"{MAY_HAVE_RUN} ({ch.tries} tries, {self.timeout_s:g} s timeout each; "
+                       "is the device on, at the same baud rate, running the same protocol?)", now)
         else:
             self._transmit(ch, now)
 

@@ -19,7 +19,7 @@ from ..commands import Command, Rdps
 from ..config import Machine
 from ..errors import LinkError
 from .device import DeviceEndpoint, Handler
-from .host import HostEndpoint, Transaction
+from .host import MAY_HAVE_RUN, HostEndpoint, Transaction
 from .replies import Position, Reply
 
 
@@ -110,7 +110,8 @@ class HostLink:
         if t.error is None:
             return t.reply
         if t.unacknowledged and not isinstance(t.cmd, Rdps):
-            raise LinkError(f"{t.error}; RDPS says {self._where()}") from t.error
+            said = f"{MAY_HAVE_RUN}; RDPS says {self._where()}"
+            raise LinkError(str(t.error).replace(MAY_HAVE_RUN, said, 1)) from t.error
         raise t.error
 
     def _where(self) -> str:
