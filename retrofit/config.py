@@ -14,7 +14,7 @@ from pathlib import Path
 from importlib import import_module
 
 from .errors import ConfigError
-from .tomlreader import Section, load_toml
+from .tomlreader import Section, load_toml, shown_key
 
 #: DB25 data pins 2..9 drive data register bits 0..7 (003, Table 1).
 DB25_DATA_PINS = tuple(range(2, 10))
@@ -204,8 +204,8 @@ def load_machine(name_or_path: str | Path) -> Machine:
 def _check_axis_name(file: str, key: str) -> None:
     """An [axis.*] key is one RS274 axis letter (either case)."""
     if len(key) != 1 or key.upper() not in AXIS_NAMES + AUX_AXIS_NAMES:
-        raise ConfigError(f"{file} [axis.{key}]: {key!r} is not an axis name; an axis is named by "
-                          f"one letter of {AXIS_NAMES} (either case; E for a tool carousel), "
+        raise ConfigError(f"{file} [axis.{shown_key(key)}]: {key!r} is not an axis name; an axis "
+                          f"is named by one letter of {AXIS_NAMES} (either case; E for a tool carousel), "
                           "e.g. [axis.x]")
 
 

@@ -22,6 +22,12 @@ TINY = 1e-9
 _BOMS = ((b"\xff\xfe", "UTF-16"), (b"\xfe\xff", "UTF-16"), (b"\xef\xbb\xbf", "UTF-8 with a BOM"))
 
 
+def shown_key(key: str) -> str:
+    """A key as an error line shows it: as written if it is plain, quoted if it has spaces,
+    control characters or nothing at all (so an error stays one readable line)."""
+    return key if key and key.isprintable() and not any(c.isspace() for c in key) else repr(key)
+
+
 def load_toml(path: Path) -> dict:
     """Parse a TOML file, turning every reading or syntax problem into a one-line ConfigError."""
     try:
@@ -63,7 +69,7 @@ class Section:
         """A ConfigError worded `file [section] key = value: message`."""
         value = self._data.get(key, None)
         shown = "" if value is None or isinstance(value, dict) else f" = {value!r}"
-        return ConfigError(f"{self.file} [{self.name}] {key}{shown}: {message}")
+        return ConfigError(f"{self.file} [{self.name}] {shown_key(key)}{shown}: {message}")
 
     # -- getters ----------------------------------------------------------------------------
     def has(self, key: str) -> bool:
@@ -76,7 +82,8 @@ class Section:
         if default is _MISSING:
             typo = difflib.get_close_matches(key, [k for k in self._data if k not in self._read], 1)
             if typo:
-                raise ConfigError(f"{self.file} [{self.name}] {typo[0]}: unknown key (did you mean {key}?)")
+                raise ConfigError(f"{self.file} [{self.name}] {shown_key(typo[0])}: unknown key "
+                                  f"(did you mean {key}?)")
             raise ConfigError(f"{self.file} [{self.name}] {key}: missing (required)")
         return default
 
@@ -131,7 +138,8 @@ class Section:
             return None
         if not isinstance(value, dict):
             raise self.error(key, "must be a table")
-        return Section(self.file, f"{self.name}.{key}" if self.name else key, value)
+        shown = shown_key(key)
+        return Section(self.file, f"{self.name}.{shown}" if self.name else shown, value)
 
     def subsections(self) -> list[tuple[str, "Section"]]:
         """Every key of this table as a sub-section, in file order."""
@@ -143,7 +151,8 @@ class Section:
         if unread:
             key = unread[0]
             known = ", ".join(sorted(self._read)) or "none"
-            raise ConfigError(f"{self.file} [{self.name}] {key}: unknown key; known keys here: {known}")
+            raise ConfigError(f"{self.file} [{self.name}] {shown_key(key)}: unknown key; known keys "
+                              f"here: {known}")
 
     def _check_magnitude(self, key, value, minval, maxval) -> None:
         """Without a range of its own, a number stays within +-MAGNITUDE; none is tinier than TINY."""

@@ -114,17 +114,25 @@ def test_a_time_that_cannot_become_ticks_is_refused(tmp_path):
 
 
 @pytest.mark.parametrize("header, expected", [
-    ('[axis.""]', "[axis.]: '' is not an axis name; an axis is named by one letter of XYZABCUVW"),
-    ('[axis."X Y"]', "[axis.X Y]: 'X Y' is not an axis name"),
+    ('[axis.""]', "[axis.'']: '' is not an axis name; an axis is named by one letter of XYZABCUVW"),
+    ('[axis."X Y"]', "[axis.'X Y']: 'X Y' is not an axis name"),
+    ('[axis."z\\n"]', "[axis.'z\\n']: 'z\\n' is not an axis name"),
     ("[axis.1]", "[axis.1]: '1' is not an axis name"),
     ("[axis.Q]", "[axis.Q]: 'Q' is not an axis name"),
     ("[axis.X]", "[axis.X]: axis X is already defined by [axis.x]; each axis is defined once"),
-], ids=["empty", "two-letters", "digit", "not-rs274", "twice-by-case"])
+], ids=["empty", "two-letters", "newline", "digit", "not-rs274", "twice-by-case"])
 def test_axes_are_one_rs274_letter_each_defined_once(tmp_path, header, expected):
     assert "[axis.z]" in LATHE_TEXT
     with pytest.raises(ConfigError) as err:
         load_machine(broken(tmp_path, "[axis.z]", header))
-    assert f"bad-lathe.toml {expected}" in str(err.value)
+    assert f"bad-lathe.toml {expected}" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_a_key_with_a_newline_is_shown_quoted_on_one_line(tmp_path):
+    with pytest.raises(ConfigError) as err:
+        load_machine(broken(tmp_path, "steps_per_mm = 40.0", 'steps_per_mm = 40.0\n"a\\nb" = 1'))
+    assert "bad-lathe.toml [axis.x] 'a\\nb': unknown key" in str(err.value)
+    assert "\n" not in str(err.value)
 
 
 def test_a_directory_in_place_of_the_file_is_one_line(tmp_path):
