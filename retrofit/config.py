@@ -205,8 +205,8 @@ def _check_axis_name(file: str, key: str) -> None:
     """An [axis.*] key is one RS274 axis letter (either case)."""
     if len(key) != 1 or key.upper() not in AXIS_NAMES + AUX_AXIS_NAMES:
         raise ConfigError(f"{file} [axis.{shown_key(key)}]: {key!r} is not an axis name; an axis "
-                          f"is named by one letter of {AXIS_NAMES} (either case; E for a tool carousel), "
-                          "e.g. [axis.x]")
+                          f"is named by one letter of {AXIS_NAMES} (either case; E for a tool "
+                          "carousel), e.g. [axis.x]")
 
 
 def _check_axis_names(file: str, axes_section: Section) -> None:
