@@ -136,6 +136,12 @@ uint8_t interp_position_answer(uint8_t *answer)
     for (uint8_t i = 0; i < N_AXES; i++) {
         answer[1] |= (uint8_t)(1 << bits[i]);
         int32_t steps = now[i] - offset[i];
+        if (steps > 8388607L || steps < -8388607L) {   /* POS cannot carry it: ERR 3 */
+            answer[0] = ANS_ERR;
+            answer[1] = ERR_VALUE;
+            answer[2] = OP_RDPS;
+            return 3;
+        }
         answer[n++] = (uint8_t)(steps >> 16);          /* signed 24-bit, big-endian */
         answer[n++] = (uint8_t)(steps >> 8);
         answer[n++] = (uint8_t)steps;

@@ -1,14 +1,15 @@
 /* link.c - frames on the byte stream and the device's rules (docs/protocol.md §2, §4, §5).
  *
- * A frame is SOF 0x7E, then the stuffed body LEN SEQ PAYLOAD[LEN] CRC_HI CRC_LO; inside the
- * body 0x7E and 0x7D travel as 0x7D, byte ^ 0x20. The receiver below is §2.4 step by step.
- * For each good frame the device applies §5: SYNC starts a channel, a repeated sequence number
+ * A frame is SOF 0x7E, then the stuffed body LEN SEQ PAYLOAD[LEN] CRC[4] (CRC-32, most
+ * significant byte first); inside the body 0x7E and 0x7D travel as 0x7D, byte ^ 0x20. The
+ * receiver below is §2.4 step by step. For each good frame the device applies §5: SYNC of a new
+ * session starts a channel (one of the running session changes nothing), a repeated sequence number
  * is a duplicate (answered again, not delivered), a number out of step is ERR 5, and the answer
  * that consumes a number is kept for duplicates. BUSY consumes nothing. */
 #include <string.h>
-#include <util/crc16.h>
 
 #include "config.h"
+#include "crc32.h"
 #include "link.h"
 #include "uart.h"
 
@@ -17,9 +18,11 @@
 #define ESC_XOR  0x20
 #define NONE     0xFF                /* `last` before the channel's first SYNC */
 #define ANSWER_MAX (2 + 3 * 8)       /* the longest answer kept: POS of eight axes */
+#define CRC_BYTES 4
+#define SYNC_LEN  5                  /* SYNC and its 32-bit session number */
 
 /* Receiver state (§2.4): hunting for SOF, or inside a frame with `count` body bytes. */
-static uint8_t body[MAX_PAYLOAD + 4];
+static uint8_t body[MAX_PAYLOAD + 2 + CRC_BYTES];
 static uint8_t count;
 static uint8_t in_frame, escaped;
 
@@ -27,15 +30,14 @@ static uint8_t in_frame, escaped;
 static uint8_t last[2];
 static uint8_t answer[2][ANSWER_MAX];
 static uint8_t answer_len[2];
+static uint8_t session[2][SYNC_LEN - 1];  /* session number of the channel's last SYNC */
 
-/* CRC-16/CCITT-FALSE: polynomial 0x1021, initial 0xFFFF, not reflected. avr-libc's
- * _crc_xmodem_update is this polynomial, unreflected; XMODEM only starts from 0 instead. */
-static uint16_t crc16(const uint8_t *p, uint8_t n)
+static uint32_t crc32(const uint8_t *p, uint8_t n)
 {
-    uint16_t crc = 0xFFFF;
+    uint32_t crc = CRC32_INIT;
     while (n--)
-        crc = _crc_xmodem_update(crc, *p++);
-    return crc;
+        crc = crc32_update(crc, *p++);
+    return crc32_final(crc);
 }
 
 static void put_stuffed(uint8_t byte)
@@ -51,19 +53,19 @@ static void put_stuffed(uint8_t byte)
 /* Send one frame: SOF, then LEN SEQ PAYLOAD CRC, stuffed. */
 static void send_frame(uint8_t seq, const uint8_t *payload, uint8_t len)
 {
-    uint8_t head[2] = { len, seq };
-    uint16_t crc = 0xFFFF;
-    crc = _crc_xmodem_update(crc, len);
-    crc = _crc_xmodem_update(crc, seq);
+    uint32_t crc = CRC32_INIT;
+    crc = crc32_update(crc, len);
+    crc = crc32_update(crc, seq);
     for (uint8_t i = 0; i < len; i++)
-        crc = _crc_xmodem_update(crc, payload[i]);
+        crc = crc32_update(crc, payload[i]);
+    crc = crc32_final(crc);
     uart_putc(SOF);
-    put_stuffed(head[0]);
-    put_stuffed(head[1]);
+    put_stuffed(len);
+    put_stuffed(seq);
     for (uint8_t i = 0; i < len; i++)
         put_stuffed(payload[i]);
-    put_stuffed((uint8_t)(crc >> 8));
-    put_stuffed((uint8_t)crc);
+    for (int8_t shift = 24; shift >= 0; shift -= 8)
+        put_stuffed((uint8_t)(crc >> shift));
 }
 
 static void send_err(uint8_t seq, uint8_t code, uint8_t detail)
@@ -96,11 +98,16 @@ static void good_frame(uint8_t seq, const uint8_t *payload, uint8_t len)
     uint8_t reply[MAX_PAYLOAD];
 
     if (payload[0] == OP_SYNC) {                           /* rule 1: SYNC starts the channel */
-        if (len != 1) {
+        if (len != SYNC_LEN) {
             send_err(seq, ERR_LENGTH, OP_SYNC);
             return;
         }
         reply[0] = ANS_ACK;
+        if (last[channel] != NONE && memcmp(session[channel], payload + 1, SYNC_LEN - 1) == 0) {
+            send_frame(seq, reply, 1);                     /* the running session: no rewind */
+            return;
+        }
+        memcpy(session[channel], payload + 1, SYNC_LEN - 1);
         answered(channel, number, seq, reply, 1);
         return;
     }
@@ -128,9 +135,11 @@ static void good_frame(uint8_t seq, const uint8_t *payload, uint8_t len)
 static void frame_complete(void)
 {
     uint8_t len = body[0];
-    uint16_t crc = ((uint16_t)body[len + 2] << 8) | body[len + 3];
+    uint32_t crc = 0;
+    for (uint8_t i = 0; i < CRC_BYTES; i++)
+        crc = (crc << 8) | body[len + 2 + i];
     in_frame = 0;
-    if (crc16(body, len + 2) != crc) {
+    if (crc32(body, len + 2) != crc) {
         send_nak();                                        /* bad (CRC) */
         return;
     }
@@ -172,6 +181,6 @@ void link_receive(uint8_t byte)
         send_nak();                     /* bad (length) */
         return;
     }
-    if (count >= 4 && count == body[0] + 4)
+    if (count >= 2 + CRC_BYTES && count == body[0] + 2 + CRC_BYTES)
         frame_complete();
 }

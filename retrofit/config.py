@@ -14,12 +14,18 @@ from pathlib import Path
 from importlib import import_module
 
 from .errors import ConfigError
-from .tomlreader import Section, load_toml
+from .tomlreader import Section, load_toml, shown_key
 
 #: DB25 data pins 2..9 drive data register bits 0..7 (003, Table 1).
 DB25_DATA_PINS = tuple(range(2, 10))
 #: what the step / direction pins of a machine are wired to
 PORT_KINDS = ("db25", "ramps", "none")
+#: the axis letters of RS274 (LinuxCNC's XYZABCUVW): an axis is named by one of them ...
+AXIS_NAMES = "XYZABCUVW"
+#: ... or by E, the drive of a tool carousel (an axis no G-code word moves; [atc] axis = "E")
+AUX_AXIS_NAMES = "E"
+#: the largest step count a position may have: a signed 32-bit count, as the firmware keeps it
+STEPS_MAX = 2**31 - 1
 
 
 @dataclass(frozen=True)
@@ -175,6 +181,7 @@ def load_machine(name_or_path: str | Path) -> Machine:
     port = head.get_str("port", "db25", choices=PORT_KINDS)
     head.finish()
     axes_section = root.section("axis")
+    _check_axis_names(path.name, axes_section)
     axes = tuple(_read_axis(key, sec, port, i) for i, (key, sec) in enumerate(axes_section.subsections()))
     axes_section.finish()
     if not axes:
@@ -194,9 +201,29 @@ def load_machine(name_or_path: str | Path) -> Machine:
                    axes=axes, sim=sim, motion=motion, parts=parts)
 
 
+def _check_axis_name(file: str, key: str) -> None:
+    """An [axis.*] key is one RS274 axis letter (either case)."""
+    if len(key) != 1 or key.upper() not in AXIS_NAMES + AUX_AXIS_NAMES:
+        raise ConfigError(f"{file} [axis.{shown_key(key)}]: {key!r} is not an axis name; an axis "
+                          f"is named by one letter of {AXIS_NAMES} (either case; E for a tool "
+                          "carousel), e.g. [axis.x]")
+
+
+def _check_axis_names(file: str, axes_section: Section) -> None:
+    """Each axis once: [axis.x] and [axis.X] name the same axis."""
+    seen: dict[str, str] = {}
+    for key, _ in axes_section.subsections():
+        _check_axis_name(file, key)
+        if key.upper() in seen:
+            raise ConfigError(f"{file} [axis.{key}]: axis {key.upper()} is already defined by "
+                              f"[axis.{seen[key.upper()]}]; each axis is defined once")
+        seen[key.upper()] = key
+
+
 def _read_axis(key: str, sec: Section, port: str, index: int) -> Axis:
     """One [axis.*] table. On a DB25 port the pins choose the data bits (pin 2 = bit 0);
     elsewhere axis i uses bits 2i (step) and 2i + 1 (direction) of the frame byte."""
+    _check_axis_name(sec.file, key)
     if port == "db25":
         step_pin = sec.get_int("step_pin", minval=2, maxval=9)
         dir_pin = sec.get_int("dir_pin", minval=2, maxval=9)
@@ -206,14 +233,16 @@ def _read_axis(key: str, sec: Section, port: str, index: int) -> Axis:
         step_pin = sec.get_int("step_pin", minval=0, maxval=255) if required else None
         dir_pin = sec.get_int("dir_pin", minval=0, maxval=255) if required else None
         step_bit, dir_bit = 2 * index, 2 * index + 1
-    min_mm = sec.get_float("min_mm")
-    max_mm = sec.get_float("max_mm")
+    steps_per_mm = sec.get_float("steps_per_mm", above=0.0, maxval=1e6)
+    reach = STEPS_MAX / steps_per_mm            # the travel a signed 32-bit step count covers
+    min_mm = sec.get_float("min_mm", minval=-reach, maxval=reach)
+    max_mm = sec.get_float("max_mm", minval=-reach, maxval=reach)
     if not max_mm > min_mm:
         raise sec.error("max_mm", f"must be > min_mm ({min_mm:g})")
     axis = Axis(
         name=key.upper(),
         label=sec.get_str("label", key.upper()),
-        steps_per_mm=sec.get_float("steps_per_mm", above=0.0, maxval=1e6),
+        steps_per_mm=steps_per_mm,
         min_mm=min_mm,
         max_mm=max_mm,
         pulse_high_ticks=sec.get_int("pulse_high_ticks", 1, minval=1, maxval=10_000),
@@ -221,8 +250,8 @@ def _read_axis(key: str, sec: Section, port: str, index: int) -> Axis:
         dir_setup_ticks=sec.get_int("dir_setup_ticks", 1, minval=0, maxval=10_000),
         dir_hold_ticks=sec.get_int("dir_hold_ticks", 1, minval=0, maxval=10_000),
         backlash_mm=sec.get_float("backlash_mm", 0.0, minval=0.0, maxval=10.0),
-        max_velocity_mm_s=sec.get_float("max_velocity_mm_s", 50.0, above=0.0),
-        max_accel_mm_s2=sec.get_float("max_accel_mm_s2", 500.0, above=0.0),
+        max_velocity_mm_s=sec.get_float("max_velocity_mm_s", 50.0, above=0.0, maxval=10_000.0),
+        max_accel_mm_s2=sec.get_float("max_accel_mm_s2", 500.0, above=0.0, maxval=1e6),
         step_bit=step_bit,
         dir_bit=dir_bit,
         step_pin=step_pin,

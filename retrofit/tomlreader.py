@@ -11,17 +11,47 @@ from typing import Any
 from .errors import ConfigError
 
 _MISSING = object()
+#: the largest magnitude a number read from a file may have unless its getter sets its own range:
+#: every quantity of a machine (mm, mm/s, ms, Hz, rpm ...) is far below it, and anything below it
+#: stays finite when turned into ticks or steps
+MAGNITUDE = 1e9
+#: the smallest magnitude a non-zero number may have: below it a quotient (a time over a tick, a
+#: distance over a speed) would overflow
+TINY = 1e-9
+
+_BOMS = ((b"\xff\xfe", "UTF-16"), (b"\xfe\xff", "UTF-16"), (b"\xef\xbb\xbf", "UTF-8 with a BOM"))
+
+
+def shown_key(key: str) -> str:
+    """A key as an error line shows it: as written if it is plain, quoted if it has spaces,
+    control characters or nothing at all (so an error stays one readable line)."""
+    return key if key and key.isprintable() and not any(c.isspace() for c in key) else repr(key)
 
 
 def load_toml(path: Path) -> dict:
-    """Parse a TOML file, turning syntax errors into a one-line ConfigError."""
+    """Parse a TOML file, turning every reading or syntax problem into a one-line ConfigError."""
     try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
+        raw = Path(path).read_bytes()
     except FileNotFoundError:
         raise ConfigError(f"{path}: no such machine file") from None
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read it ({exc.strerror or exc}); expected a readable "
+                          "TOML file") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        found = next((name for bom, name in _BOMS if raw.startswith(bom)), None)
+        what = f"it is {found}" if found else f"byte 0x{raw[exc.start]:02x} at offset {exc.start}"
+        raise ConfigError(f"{path}: not UTF-8 text ({what}); TOML files are UTF-8: save it as "
+                          "UTF-8") from None
+    if text.startswith("\ufeff"):
+        text = text[1:]                     # a UTF-8 byte-order mark is harmless: skip it
+    try:
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise ConfigError(f"{path}: not valid TOML: nested too deeply") from None
 
 
 class Section:
@@ -39,7 +69,7 @@ class Section:
         """A ConfigError worded `file [section] key = value: message`."""
         value = self._data.get(key, None)
         shown = "" if value is None or isinstance(value, dict) else f" = {value!r}"
-        return ConfigError(f"{self.file} [{self.name}] {key}{shown}: {message}")
+        return ConfigError(f"{self.file} [{self.name}] {shown_key(key)}{shown}: {message}")
 
     # -- getters ----------------------------------------------------------------------------
     def has(self, key: str) -> bool:
@@ -52,7 +82,8 @@ class Section:
         if default is _MISSING:
             typo = difflib.get_close_matches(key, [k for k in self._data if k not in self._read], 1)
             if typo:
-                raise ConfigError(f"{self.file} [{self.name}] {typo[0]}: unknown key (did you mean {key}?)")
+                raise ConfigError(f"{self.file} [{self.name}] {shown_key(typo[0])}: unknown key "
+                                  f"(did you mean {key}?)")
             raise ConfigError(f"{self.file} [{self.name}] {key}: missing (required)")
         return default
 
@@ -61,10 +92,14 @@ class Section:
         value = self._raw(key, default)
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise self.error(key, f"must be a number, not {type(value).__name__}")
-        value = float(value)
+        try:
+            value = float(value)
+        except OverflowError:               # a TOML integer too large for a float
+            value = math.inf
         if not math.isfinite(value):
             raise self.error(key, "must be a finite number")
         self._check_range(key, value, minval, maxval, above)
+        self._check_magnitude(key, value, minval, maxval)
         return value
 
     def get_int(self, key: str, default: Any = _MISSING, *, minval: int | None = None,
@@ -73,6 +108,7 @@ class Section:
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.error(key, f"must be a whole number, not {type(value).__name__}")
         self._check_range(key, value, minval, maxval, None)
+        self._check_magnitude(key, value, minval, maxval)
         return value
 
     def get_bool(self, key: str, default: Any = _MISSING) -> bool:
@@ -102,7 +138,8 @@ class Section:
             return None
         if not isinstance(value, dict):
             raise self.error(key, "must be a table")
-        return Section(self.file, f"{self.name}.{key}" if self.name else key, value)
+        shown = shown_key(key)
+        return Section(self.file, f"{self.name}.{shown}" if self.name else shown, value)
 
     def subsections(self) -> list[tuple[str, "Section"]]:
         """Every key of this table as a sub-section, in file order."""
@@ -114,7 +151,17 @@ class Section:
         if unread:
             key = unread[0]
             known = ", ".join(sorted(self._read)) or "none"
-            raise ConfigError(f"{self.file} [{self.name}] {key}: unknown key; known keys here: {known}")
+            raise ConfigError(f"{self.file} [{self.name}] {shown_key(key)}: unknown key; known keys "
+                              f"here: {known}")
+
+    def _check_magnitude(self, key, value, minval, maxval) -> None:
+        """Without a range of its own, a number stays within +-MAGNITUDE; none is tinier than TINY."""
+        if maxval is None and value > MAGNITUDE or minval is None and value < -MAGNITUDE:
+            raise self.error(key, f"must be within +-{MAGNITUDE:g} (larger values cannot be "
+                                  "turned into ticks or steps)")
+        if value != 0 and abs(value) < TINY:
+            raise self.error(key, f"must be 0 or at least {TINY:g} in size (smaller values "
+                                  "overflow when divided by)")
 
     def _check_range(self, key, value, minval, maxval, above) -> None:
         if above is not None and not value > above:

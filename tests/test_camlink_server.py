@@ -260,3 +260,55 @@ def test_retrofit_serve_prints_its_port_and_retrofit_send_streams_a_program(tmp_
     finally:
         proc.terminate()
         proc.wait(timeout=10)
+
+
+def read_all(sock) -> bytes:
+    """Everything the server sends until it closes the connection."""
+    data = b""
+    while True:
+        chunk = sock.recv(4096)
+        if not chunk:
+            return data
+        data += chunk
+
+
+def test_a_silent_client_is_dropped_with_a_message_and_the_next_one_is_served():
+    mill = CamMill(MILL)
+    with CamLinkServer(mill, "127.0.0.1", 0, idle_timeout_s=0.3) as server:
+        silent = socket.create_connection(server.address, timeout=5.0)
+        # while the silent one holds the link, another is refused ...
+        with socket.create_connection(server.address, timeout=5.0) as other:
+            assert read_all(other).startswith(b"!busy:")
+        # ... until the server gives the silent one up, saying why
+        said = read_all(silent)
+        silent.close()
+        assert said.startswith(b"!idle: no message for 0.3 s;") and said.endswith(b"\n")
+        assert mill.stops and mill.stops[-1].reason == "client idle for 0.3 s"
+        with connect(server) as client:
+            assert roundtrip(client, "A") == "A"
+
+
+def test_a_client_that_keeps_talking_is_not_dropped_as_idle():
+    mill = CamMill(MILL)
+    with CamLinkServer(mill, "127.0.0.1", 0, idle_timeout_s=0.3) as server:
+        with connect(server) as client:
+            for _ in range(12):                     # 12 exchanges 0.05 s apart: 0.6 s in all
+                assert roundtrip(client, "A") == "A"
+                time.sleep(0.05)
+        assert not mill.stops or mill.stops[-1].reason != "client idle for 0.3 s"
+
+
+def test_a_reconnect_right_after_a_close_is_accepted(served):
+    _, server = served
+    for _ in range(40):
+        sock = socket.create_connection(server.address, timeout=5.0)
+        sock.sendall(b"A@")
+        assert sock.recv(16) == b"A\n"
+        sock.close()                                # and at once the next connection
+    with connect(server) as client:
+        assert roundtrip(client, "JX") == "JX"
+
+
+def test_the_idle_timeout_must_be_positive():
+    with pytest.raises(LinkError, match="idle timeout -1 s: must be > 0"):
+        CamLinkServer(CamMill(MILL), "127.0.0.1", 0, idle_timeout_s=-1)

@@ -66,3 +66,85 @@ def test_cli_prints_config_error_in_one_line_exit_2(tmp_path):
     assert proc.stderr.strip().count("\n") == 0
     assert "Traceback" not in proc.stderr
     assert "bad-lathe.toml [axis.x] steps_per_mm = -5: must be > 0" in proc.stderr
+
+
+# -- hostile and careless machine files: one line naming file [section] key and the rule --------
+
+MITIC_TEXT = (machines_dir() / "mitic-lathe.toml").read_text()
+
+
+def test_a_utf16_file_is_named_with_the_encoding_to_use(tmp_path):
+    path = tmp_path / "wide.toml"
+    path.write_text(LATHE_TEXT, encoding="utf-16")
+    with pytest.raises(ConfigError, match=r"wide.toml: not UTF-8 text \(it is UTF-16\); "
+                                          r"TOML files are UTF-8: save it as UTF-8"):
+        load_machine(path)
+
+
+def test_a_utf8_byte_order_mark_is_accepted(tmp_path):
+    path = tmp_path / "bom.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + LATHE_TEXT.encode())
+    assert load_machine(path).axis("X").steps_per_mm == 40.0
+
+
+@pytest.mark.parametrize("old, new, expected", [
+    ("min_mm = -40.0", "min_mm = -1e308",
+     "[axis.x] min_mm = -1e+308: must be >= -5.36871e+07"),           # 2**31-1 steps / 40 per mm
+    ("max_velocity_mm_s = 25.0", "max_velocity_mm_s = 1.8e308",
+     "[axis.z] max_velocity_mm_s = inf: must be a finite number"),
+    ("max_velocity_mm_s = 25.0", "max_velocity_mm_s = 1.7e308",
+     "[axis.z] max_velocity_mm_s = 1.7e+308: must be <= 10000"),
+    ("steps_per_mm = 40.0", "steps_per_mm = nan", "[axis.x] steps_per_mm = nan: must be a finite"),
+    ("tick_us = 50.0", "tick_us = 1" + "0" * 400, "[machine] tick_us = 1000"),
+], ids=["min-mm-huge", "velocity-overflows-to-inf", "velocity-huge", "nan", "integer-400-digits"])
+def test_numbers_must_be_finite_and_fit_what_the_machine_represents(tmp_path, old, new, expected):
+    with pytest.raises(ConfigError) as err:
+        load_machine(broken(tmp_path, old, new))
+    assert "bad-lathe.toml" in str(err.value) and expected in str(err.value)
+    assert "\n" not in str(err.value)
+
+
+def test_a_time_that_cannot_become_ticks_is_refused(tmp_path):
+    path = tmp_path / "noisy.toml"
+    assert "noise_interval_ms = 200.0" in MITIC_TEXT
+    path.write_text(MITIC_TEXT.replace("noise_interval_ms = 200.0", "noise_interval_ms = 1e308"))
+    with pytest.raises(ConfigError, match=r"noisy.toml \[spindle.sim\] noise_interval_ms = 1e\+308: "
+                                          r"must be within \+-1e\+09"):
+        load_machine(path)
+
+
+@pytest.mark.parametrize("header, expected", [
+    ('[axis.""]', "[axis.'']: '' is not an axis name; an axis is named by one letter of XYZABCUVW"),
+    ('[axis."X Y"]', "[axis.'X Y']: 'X Y' is not an axis name"),
+    ('[axis."z\\n"]', "[axis.'z\\n']: 'z\\n' is not an axis name"),
+    ("[axis.1]", "[axis.1]: '1' is not an axis name"),
+    ("[axis.Q]", "[axis.Q]: 'Q' is not an axis name"),
+    ("[axis.X]", "[axis.X]: axis X is already defined by [axis.x]; each axis is defined once"),
+], ids=["empty", "two-letters", "newline", "digit", "not-rs274", "twice-by-case"])
+def test_axes_are_one_rs274_letter_each_defined_once(tmp_path, header, expected):
+    assert "[axis.z]" in LATHE_TEXT
+    with pytest.raises(ConfigError) as err:
+        load_machine(broken(tmp_path, "[axis.z]", header))
+    assert f"bad-lathe.toml {expected}" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_a_key_with_a_newline_is_shown_quoted_on_one_line(tmp_path):
+    with pytest.raises(ConfigError) as err:
+        load_machine(broken(tmp_path, "steps_per_mm = 40.0", 'steps_per_mm = 40.0\n"a\\nb" = 1'))
+    assert "bad-lathe.toml [axis.x] 'a\\nb': unknown key" in str(err.value)
+    assert "\n" not in str(err.value)
+
+
+def test_a_directory_in_place_of_the_file_is_one_line(tmp_path):
+    (tmp_path / "dir.toml").mkdir()
+    with pytest.raises(ConfigError, match=r"dir.toml: cannot read it"):
+        load_machine(tmp_path / "dir.toml")
+
+
+def test_cli_on_a_utf16_machine_file_is_one_line_exit_2(tmp_path):
+    path = tmp_path / "wide.toml"
+    path.write_text(LATHE_TEXT, encoding="utf-16")
+    proc = subprocess.run([sys.executable, "-m", "retrofit.cli", "demo", "circle", "--machine",
+                           str(path)], capture_output=True, text=True)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert proc.stderr.strip() .endswith("save it as UTF-8")

@@ -22,7 +22,7 @@ from retrofit.link import (FEED_UNIT_MM, IMMEDIATE, POS_MAX, QUEUED, Ack, BadFra
                            DeviceLink, Err, Frame, FrameDecoder, HostLink, Nak, PayloadError,
                            Position, Status, StatusFlags, decode_command, decode_reply,
                            encode_command, encode_frame, encode_reply, seq_byte)
-from retrofit.link.crc import CHECK, crc16_bitwise, crc16_ccitt_false
+from retrofit.link.crc import CHECK, crc16_ccitt_false, crc32, crc32_bitwise
 
 LATHE = load_machine("chivu-lathe")
 DOCS = Path(__file__).resolve().parents[1] / "docs" / "protocol.md"
@@ -41,40 +41,47 @@ def hexs(data: bytes) -> str:
 
 # -- CRC ---------------------------------------------------------------------------------------
 
-def test_crc_is_ccitt_false_with_its_check_value():
-    assert crc16_ccitt_false(b"123456789") == CHECK == 0x29B1
-    assert crc16_bitwise(b"123456789") == 0x29B1
+def test_crc_is_crc32_iso_hdlc_with_its_catalogue_check_value():
+    assert crc32(b"123456789") == CHECK == 0xCBF43926
+    assert crc32_bitwise(b"123456789") == 0xCBF43926
+    assert crc16_ccitt_false(b"123456789") == 0x29B1      # version 1's check, kept for the bench
 
 
 @given(st.binary(max_size=64))
-def test_crc_table_matches_bitwise_and_appended_crc_leaves_zero(data):
-    crc = crc16_ccitt_false(data)
-    assert crc == crc16_bitwise(data)
-    assert crc16_ccitt_false(data + crc.to_bytes(2, "big")) == 0
+def test_crc_bitwise_form_matches_zlib_and_appended_crc_gives_the_residue(data):
+    crc = crc32(data)
+    assert crc == crc32_bitwise(data)
+    # the CRC-32 residue: the CRC of data followed by its CRC (little-endian) is constant
+    assert crc32(data + crc.to_bytes(4, "little")) == 0x2144DF1C
 
 
 # -- worked examples of docs/protocol.md ------------------------------------------------------
 
 EXAMPLES = [
     ("PMOV", lambda: encode_frame(seq_byte(QUEUED, 1), encode_command(parse_command("PMOV X12.5 Z-3"), LATHE)),
-     "7E 08 01 04 05 00 01 F4 FF FF 6A C8 06"),
+     "7E 08 01 04 05 00 01 F4 FF FF 6A 85 EB F4 05"),
     ("stuffed FMOV", lambda: encode_frame(seq_byte(QUEUED, 5),
                                           encode_command(parse_command("FMOV X-3.25 Z2.52"), LATHE)),
-     "7E 08 05 02 05 FF FF 7D 5E 00 00 7D 5E 5B D9"),
-    ("ACK", lambda: encode_frame(0x01, encode_reply(Ack())), "7E 01 01 80 59 15"),
-    ("SYNC queued", lambda: encode_frame(0x00, bytes([0x7F])), "7E 01 00 7F 74 D4"),
-    ("SYNC answer", lambda: encode_frame(0x00, encode_reply(Ack())), "7E 01 00 80 6A 24"),
-    ("SYNC immediate", lambda: encode_frame(0x80, bytes([0x7F])), "7E 01 80 7F 6F 4C"),
+     "7E 08 05 02 05 FF FF 7D 5E 00 00 7D 5E B8 2A A2 C3"),
+    ("ACK", lambda: encode_frame(0x01, encode_reply(Ack())), "7E 01 01 80 0A 20 01 44"),
+    ("SYNC queued", lambda: encode_frame(0x00, bytes.fromhex("7F 00000001")),
+     "7E 05 00 7F 00 00 00 01 C3 D1 B7 51"),
+    ("SYNC answer", lambda: encode_frame(0x00, encode_reply(Ack())), "7E 01 00 80 13 3B 30 05"),
+    ("SYNC immediate", lambda: encode_frame(0x80, bytes.fromhex("7F 00000002")),
+     "7E 05 80 7F 00 00 00 02 44 68 F2 33"),
+    ("SYNC immediate answer", lambda: encode_frame(0x80, encode_reply(Ack())),
+     "7E 01 80 80 28 B8 A8 4E"),
     ("RDPS", lambda: encode_frame(seq_byte(IMMEDIATE, 0), encode_command(Rdps(), LATHE)),
-     "7E 01 80 0D 31 99"),
+     "7E 01 80 0D BB B1 57 D3"),
     ("POS", lambda: encode_frame(0x80, encode_reply(Position((("X", 500), ("Z", -150))))),
-     "7E 08 80 84 05 00 01 F4 FF FF 6A 61 16"),
+     "7E 08 80 84 05 00 01 F4 FF FF 6A A7 FE 65 D3"),
     ("STAT", lambda: encode_frame(0x81, encode_reply(Status(
         StatusFlags.MOVING | StatusFlags.QUEUE_FULL | StatusFlags.HOMED, 3))),
-     "7E 04 81 85 00 83 03 9F E5"),
-    ("NAK", lambda: encode_frame(0x00, encode_reply(Nak())), "7E 01 00 81 7A 05"),
-    ("BUSY", lambda: encode_frame(0x02, encode_reply(Busy())), "7E 01 02 82 2C 04"),
-    ("ERR", lambda: encode_frame(0x02, encode_reply(Err(4, 0))), "7E 03 02 83 04 00 BC 78"),
+     "7E 04 81 85 00 83 03 F5 F5 A6 AC"),
+    ("NAK", lambda: encode_frame(0x00, encode_reply(Nak())), "7E 01 00 81 64 3C 00 93"),
+    ("BUSY", lambda: encode_frame(0x02, encode_reply(Busy())), "7E 01 02 82 CF 03 33 AB"),
+    ("ERR", lambda: encode_frame(0x02, encode_reply(Err(4, 0))), "7E 03 02 83 04 00 AC 94 25 9B"),
+    ("ERR 3", lambda: encode_frame(0x81, encode_reply(Err(3, 0x0D))), "7E 03 81 83 03 0D 62 88 D6 34"),
 ]
 
 
@@ -86,8 +93,8 @@ def test_worked_examples_in_the_spec_are_what_the_encoder_sends(make, wire):
 
 def test_spec_crc_of_the_worked_example_body():
     body = bytes.fromhex("08 01 04 05 00 01 F4 FF FF 6A")
-    assert crc16_ccitt_false(body) == 0xC806
-    assert "0xC806" in DOCS.read_text()
+    assert crc32_bitwise(body) == 0x85EBF405
+    assert "0x85EBF405" in DOCS.read_text()
 
 
 # -- framing -----------------------------------------------------------------------------------

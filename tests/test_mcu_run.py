@@ -4,6 +4,7 @@ import json
 import re
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -121,5 +122,36 @@ def test_with_a_simulated_machine_homing_and_a_thread_run(tmp_path):
             st = link.wait_idle()
             assert st.flags & F.HOMED and st.flags & F.INDEX_SEEN and not st.flags & F.ERROR
             assert link.position() == {"X": 2000, "Z": -800}
+        finally:
+            link.close()
+
+
+@pytest.mark.parametrize("target", ["mcu", "firmware"])
+def test_a_position_the_link_cannot_carry_is_err_3_and_the_device_keeps_serving(target):
+    """PSTN X8388607 (the top of the 24-bit space), ZMOV, RDPS: the homing move runs X past what
+    a POS answer can carry. The device answers ERR 3 and goes on; it must never exit."""
+    from tests.conformance.rawlink import RawLink
+    from tests.conformance.targets import QemuTarget, build_firmware, missing_tools
+    from retrofit.link import IMMEDIATE, QUEUED, Ack, Err, Status
+    if target == "firmware" and missing_tools():
+        pytest.skip(f"needs {', '.join(missing_tools())}")
+    device = McuTarget(MACHINE) if target == "mcu" else QemuTarget(build_firmware(MACHINE))
+    with device as mcu:
+        link = RawLink(mcu.url, load_machine(MACHINE))
+        try:
+            link.sync_both()
+            assert link.send("INIT") == Ack()
+            assert link.exchange(QUEUED, 2, bytes.fromhex("0C 01 7FFFFF")) == (0x02, Ack())  # PSTN
+            assert link.exchange(QUEUED, 3, bytes.fromhex("03 00")) == (0x03, Ack())         # ZMOV
+            answers = []
+            for n in range(1, 9):                                                          # RDPS
+                answers.append(link.exchange(IMMEDIATE, n, b"\x0d"))
+                if answers[-1][1] == Err(3, 0x0D):
+                    break
+                time.sleep(0.1)
+            assert answers[-1] == (0x80 + n, Err(3, 0x0D))
+            seq, status = link.exchange(IMMEDIATE, n + 1, b"\x0e")                           # RDST
+            assert seq == 0x80 + n + 1 and isinstance(status, Status)
+            assert mcu.proc.poll() is None
         finally:
             link.close()

@@ -5,7 +5,11 @@ client's socket, rebuilds ``@``-ended messages, has the :class:`~.machine.CamMil
 one (a row is one loop period), and sends back the machine's replies and a ``!`` line for every
 refused message. Rows are paced by the socket: the loop runs one period per row received.
 
-* A second client is told ``!busy: ...`` and closed; the first one carries on.
+* A second client is told ``!busy: ...`` and closed; the first one carries on. A client that
+  closed its connection is let go before a new one is looked at, so a reconnection right after
+  a close is accepted.
+* A client that sends nothing for ``idle_timeout_s`` (default 30 s) is told ``!idle: ...`` and
+  dropped, so a silent connection cannot keep every other client out.
 * A client that disconnects (or stops reading its replies) stops the machine: drives to 0,
   spindle and coolant off.
 """
@@ -15,6 +19,7 @@ from __future__ import annotations
 import select
 import socket
 import threading
+import time
 from typing import Callable
 
 from ..errors import LinkError, RetrofitError
@@ -25,6 +30,8 @@ from .protocol import LineSplitter, error_reply, format_reply, parse_message
 SEND_TIMEOUT_S = 5.0
 #: how often the server looks at the machine's outbox when no byte arrives (e-stop, joystick)
 POLL_S = 0.01
+#: how long a client may send nothing before it is dropped
+IDLE_TIMEOUT_S = 30.0
 
 
 def parse_listen(text: str) -> tuple[str, int]:
@@ -39,9 +46,15 @@ class CamLinkServer:
     """Serves a :class:`CamMill` on ``host:port`` (``port`` 0: the system picks one)."""
 
     def __init__(self, mill: CamMill, host: str = "127.0.0.1", port: int = 0,
-                 log: Callable[[str], None] | None = None):
+                 log: Callable[[str], None] | None = None, *,
+                 idle_timeout_s: float = IDLE_TIMEOUT_S,
+                 clock: Callable[[], float] = time.monotonic):
+        if not idle_timeout_s > 0:
+            raise LinkError(f"CAM link idle timeout {idle_timeout_s!r} s: must be > 0")
         self.mill = mill
         self.log = log or (lambda text: None)
+        self.idle_timeout_s, self.clock = idle_timeout_s, clock
+        self._last_heard = 0.0
         try:
             self.listener = socket.create_server((host, port))
         except OSError as exc:
@@ -82,16 +95,20 @@ class CamLinkServer:
                 readable, _, _ = select.select(watched, [], [], POLL_S)
             except (OSError, ValueError):
                 break                                  # listener closed under us
+            if self.client is not None and self.client in readable:
+                self._receive()                        # first: a client that left is let go
             if self.listener in readable:
                 self._accept()
-            if self.client is not None and self.client in readable:
-                self._receive()
             if self.client is not None and self.mill.outbox:
                 self._send(self.mill.replies())
+            if self.client is not None and self.clock() - self._last_heard > self.idle_timeout_s:
+                self._drop_idle()
 
     # -- one client -----------------------------------------------------------------------------
     def _accept(self) -> None:
         conn, peer = self.listener.accept()
+        if self.client is not None and self._client_has_left():
+            self._receive()                            # its last bytes, then its end
         if self.client is not None:
             self.log(f"refused {peer[0]}:{peer[1]}: a client is already connected")
             try:
@@ -103,6 +120,7 @@ class CamLinkServer:
             return
         conn.settimeout(SEND_TIMEOUT_S)
         self.client, self.splitter = conn, LineSplitter()
+        self._last_heard = self.clock()
         self.mill.replies()                            # nothing stale for the new client
         self.log(f"client {peer[0]}:{peer[1]} connected")
         if self.mill.estop:
@@ -116,6 +134,7 @@ class CamLinkServer:
         if not data:
             self._drop("client disconnected")
             return
+        self._last_heard = self.clock()
         out: list[str] = []
         for item in self.splitter.feed(data):
             try:
@@ -128,6 +147,21 @@ class CamLinkServer:
                 out.append(error_reply(exc))
         if out:
             self._send(out)
+
+    def _client_has_left(self) -> bool:
+        """True when the client's socket is readable at once (its close, or bytes before it)."""
+        try:
+            readable, _, _ = select.select([self.client], [], [], 0)
+        except (OSError, ValueError):
+            return True
+        return bool(readable)
+
+    def _drop_idle(self) -> None:
+        quiet = f"{self.idle_timeout_s:g} s"
+        self._send([f"!idle: no message for {quiet}; the CAM link drops a silent client so "
+                    "that others can connect (connect again to carry on)"])
+        if self.client is not None:
+            self._drop(f"client idle for {quiet}")
 
     def _send(self, replies: list[str]) -> None:
         if self.client is None or not replies:

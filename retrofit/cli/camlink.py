@@ -9,6 +9,8 @@ def add_commands(sub) -> None:
     s.add_argument("--machine", default="grenoble-mill", help="machine with a [servo] section")
     s.add_argument("--listen", default="127.0.0.1:5000", metavar="HOST:PORT",
                    help="address to listen on (default 127.0.0.1:5000; port 0 picks a free one)")
+    s.add_argument("--idle-timeout", type=float, default=30.0, metavar="SECONDS",
+                   help="drop a client that sends nothing for this long (default 30)")
     s.set_defaults(func=_cmd_serve)
 
     c = sub.add_parser("send", help="stream a G-code program to a CAM link server as 1 ms rows")
@@ -32,7 +34,8 @@ def _cmd_serve(args) -> int:
     from ..config import load_machine
     machine = load_machine(args.machine)
     host, port = parse_listen(args.listen)
-    server = CamLinkServer(CamMill(machine), host, port, log=lambda text: print(text, flush=True))
+    server = CamLinkServer(CamMill(machine), host, port, log=lambda text: print(text, flush=True),
+                           idle_timeout_s=args.idle_timeout)
     print(f"{machine.name}: CAM link listening on {server.address[0]}:{server.address[1]}", flush=True)
     try:
         server.serve_forever()

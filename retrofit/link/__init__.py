@@ -2,7 +2,7 @@
 
 The wire format is specified in docs/protocol.md. Layers, bottom up:
 
-- ``crc``: CRC-16/CCITT-FALSE;
+- ``crc``: CRC-32 (zlib's);
 - ``framing``: SOF, length, sequence byte, payload, CRC, byte stuffing; ``FrameDecoder``;
 - ``codec`` / ``replies``: the payload of every command and reply;
 - ``host`` / ``device``: the two endpoints as clock-free state machines;
@@ -12,7 +12,7 @@ The wire format is specified in docs/protocol.md. Layers, bottom up:
 
 from .codec import (AXIS_LETTERS, FEED_UNIT_MM, OPCODES, POS_MAX, PayloadError, decode_command,
                     encode_command)
-from .crc import crc16_ccitt_false
+from .crc import crc32
 from .device import DeviceEndpoint, DeviceStats
 from .framing import (IMMEDIATE, MAX_PAYLOAD, QUEUED, BadFrame, Frame, FrameDecoder, encode_frame,
                       seq_byte)
@@ -23,7 +23,7 @@ from .transport import DeviceLink, HostLink, open_port
 
 __all__ = [
     "AXIS_LETTERS", "FEED_UNIT_MM", "OPCODES", "POS_MAX", "PayloadError", "decode_command",
-    "encode_command", "crc16_ccitt_false", "DeviceEndpoint", "DeviceStats", "IMMEDIATE",
+    "encode_command", "crc32", "DeviceEndpoint", "DeviceStats", "IMMEDIATE",
     "MAX_PAYLOAD", "QUEUED", "BadFrame", "Frame", "FrameDecoder", "encode_frame", "seq_byte",
     "HostEndpoint", "HostStats", "Transaction", "Ack", "Busy", "Err", "Nak", "Position", "Reply",
     "Status", "StatusFlags", "decode_reply", "encode_reply", "DeviceLink", "HostLink", "open_port",

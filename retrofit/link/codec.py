@@ -41,6 +41,7 @@ OPCODES: dict[type[Command], int] = {
 }
 COMMAND_OF: dict[int, type[Command]] = {op: cls for cls, op in OPCODES.items()}
 SYNC = 0x7F
+SYNC_LEN = 5        # SYNC carries the host's 32-bit session number (docs/protocol.md §4)
 
 # error codes a device sends in ERR (and PayloadError.code carries)
 ERR_OPCODE, ERR_LENGTH, ERR_VALUE, ERR_NOT_SYNCED, ERR_SEQUENCE, ERR_REFUSED = 1, 2, 3, 4, 5, 6

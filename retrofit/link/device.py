@@ -7,7 +7,9 @@ A pure state machine with no clock: bytes go in through ``receive``, the answers
     device.receive(port.read(64)); port.write(device.take_output())
 
 The handler answers ``Busy()`` when its queue is full (the command is then *not* delivered and
-the host resends it later), ``Position``/``Status`` for RDPS/RDST, ``Err`` to refuse.
+the host resends it later), ``Position``/``Status`` for RDPS/RDST, ``Err`` to refuse. A handler
+that raises a RetrofitError, or an answer that its payload cannot carry (a position outside the
+24-bit space), is answered ERR: the device never stops serving because of what a frame asked.
 """
 
 from __future__ import annotations
@@ -17,7 +19,9 @@ from typing import Callable
 
 from ..commands import Command
 from ..config import Machine
-from .codec import ERR_LENGTH, ERR_NOT_SYNCED, ERR_SEQUENCE, SYNC, PayloadError, decode_command
+from ..errors import RetrofitError
+from .codec import (ERR_LENGTH, ERR_NOT_SYNCED, ERR_REFUSED, ERR_SEQUENCE, ERR_VALUE, SYNC,
+                    SYNC_LEN, PayloadError, decode_command)
 from .framing import SEQ_MOD, BadFrame, Frame, FrameDecoder, encode_frame, split_seq
 from .replies import Ack, Busy, Err, Nak, Reply, encode_reply
 
@@ -32,6 +36,7 @@ class DeviceStats:
     bad_frames: int = 0       # refused by the framing (length, CRC, escape, truncated)
     naks_sent: int = 0
     duplicates: int = 0       # resends of the last answered frame: answered again, not delivered
+    stale_syncs: int = 0      # SYNC of the running session again: answered ACK, nothing rewound
     busy_sent: int = 0
     errors_sent: int = 0
     delivered: int = 0        # commands handed to the handler and taken by it
@@ -47,6 +52,7 @@ class DeviceEndpoint:
         self._decoder = FrameDecoder()
         self._last: list[int | None] = [None, None]     # last answered sequence number per channel
         self._answer: list[bytes] = [b"", b""]          # payload of that answer, for duplicates
+        self._session: list[bytes | None] = [None, None]  # session of the channel's last SYNC
         self._out = bytearray()
 
     def receive(self, data: bytes) -> None:
@@ -68,17 +74,14 @@ class DeviceEndpoint:
 
     def reset(self) -> None:
         """Forget the link state, as a power-up does: the host must SYNC again."""
-        self._last, self._answer = [None, None], [b"", b""]
+        self._last, self._answer, self._session = [None, None], [b"", b""], [None, None]
         self._decoder = FrameDecoder()
 
     def _frame(self, frame: Frame) -> None:
         channel, number = split_seq(frame.seq)
         last = self._last[channel]
         if frame.payload[0] == SYNC:
-            if len(frame.payload) != 1:
-                self._error(frame.seq, ERR_LENGTH, SYNC)
-                return
-            self._answered(channel, number, Ack(), frame.seq)
+            self._sync(channel, number, frame)
         elif last is None:
             self._error(frame.seq, ERR_NOT_SYNCED, 0)
         elif number == last:
@@ -89,14 +92,34 @@ class DeviceEndpoint:
         else:
             self._deliver(channel, number, frame)
 
+    def _sync(self, channel: int, number: int, frame: Frame) -> None:
+        """Rule 1: a SYNC of a new session restarts the channel; one of the running session
+        (a resend or a stale copy) is answered ACK and changes nothing, so it cannot rewind."""
+        if len(frame.payload) != SYNC_LEN:
+            self._error(frame.seq, ERR_LENGTH, SYNC)
+        elif self._last[channel] is not None and frame.payload[1:] == self._session[channel]:
+            self.stats.stale_syncs += 1
+            self._send(frame.seq, Ack())
+        else:
+            self._session[channel] = frame.payload[1:]
+            self._answered(channel, number, Ack(), frame.seq)
+
     def _deliver(self, channel: int, number: int, frame: Frame) -> None:
+        opcode = frame.payload[0]
         try:
             cmd = decode_command(frame.payload, self.machine)
         except PayloadError as exc:
             self.stats.errors_sent += 1
-            self._answered(channel, number, Err(exc.code, frame.payload[0]), frame.seq)
+            self._answered(channel, number, Err(exc.code, opcode), frame.seq)
             return
-        reply = self.handler(cmd) or Ack()
+        try:
+            reply = self.handler(cmd) or Ack()
+        except RetrofitError:                   # the controller refused it
+            reply = Err(ERR_REFUSED, opcode)
+        try:
+            encode_reply(reply)
+        except (RetrofitError, ValueError):     # an answer its payload cannot carry
+            reply = Err(ERR_VALUE, opcode)
         if isinstance(reply, Busy):
             self.stats.busy_sent += 1
             self._send(frame.seq, reply)

@@ -1,24 +1,26 @@
 """Frames on the byte stream: start byte, length, sequence byte, payload, CRC, with byte stuffing.
 
-On the wire a frame is ``SOF`` followed by the stuffed body ``LEN SEQ PAYLOAD[LEN] CRC_HI CRC_LO``
-(CRC-16/CCITT-FALSE over LEN, SEQ and PAYLOAD, high byte first). Inside the body every ``0x7E``
+On the wire a frame is ``SOF`` followed by the stuffed body ``LEN SEQ PAYLOAD[LEN] CRC[4]``
+(CRC-32 over LEN, SEQ and PAYLOAD, most significant byte first). Inside the body every ``0x7E``
 or ``0x7D`` is sent as ``0x7D`` followed by the byte XOR ``0x20``, so ``0x7E`` on the wire always
 starts a frame: a receiver that lost, gained or garbled bytes is back in step at the next frame.
 
     >>> encode_frame(0x01, bytes([0x80])).hex(" ")
-    '7e 01 01 80 59 15'
+    '7e 01 01 80 0a 20 01 44'
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .crc import crc16_ccitt_false
+from .crc import crc32
 
 SOF = 0x7E          # start of frame; never appears inside a stuffed body
 ESC = 0x7D          # escape: the next byte is the data byte XOR ESC_XOR
 ESC_XOR = 0x20
 MAX_PAYLOAD = 32    # bytes of payload a receiver must buffer (LEN is 1..MAX_PAYLOAD)
+CRC_BYTES = 4       # the CRC-32 ends the body, most significant byte first
+OVERHEAD = 2 + CRC_BYTES    # body bytes besides the payload: LEN, SEQ, CRC
 
 # The sequence byte: bit 7 = channel, bits 6..0 = sequence number (wraps 127 -> 0).
 QUEUED, IMMEDIATE = 0, 1    # channel of queued commands / of commands that jump the queue
@@ -61,13 +63,7 @@ def split_seq(byte: int) -> tuple[int, int]:
 
 def stuff(body: bytes) -> bytes:
     """Escape every SOF and ESC byte in ``body``."""
-    out = bytearray()
-    for byte in body:
-        if byte in (SOF, ESC):
-            out += bytes((ESC, byte ^ ESC_XOR))
-        else:
-            out.append(byte)
-    return bytes(out)
+    return bytes(body).replace(b"\x7d", b"\x7d\x5d").replace(b"\x7e", b"\x7d\x5e")   # ESC first
 
 
 def encode_frame(seq: int, payload: bytes) -> bytes:
@@ -77,64 +73,87 @@ def encode_frame(seq: int, payload: bytes) -> bytes:
     if not 1 <= len(payload) <= MAX_PAYLOAD:
         raise ValueError(f"frame payload of {len(payload)} bytes: must be 1..{MAX_PAYLOAD}")
     body = bytes((len(payload), seq)) + bytes(payload)
-    crc = crc16_ccitt_false(body)
-    return bytes((SOF,)) + stuff(body + bytes((crc >> 8, crc & 0xFF)))
+    return bytes((SOF,)) + stuff(body + crc32(body).to_bytes(CRC_BYTES, "big"))
 
 
 class FrameDecoder:
     """Turns byte chunks of any size into Frame and BadFrame events, in order.
 
     Bytes outside a frame (before the first SOF, after a refused frame) are counted in
-    ``noise_bytes`` and otherwise ignored.
+    ``noise_bytes`` and otherwise ignored. The rules are those of docs/protocol.md §2.4, applied
+    byte by byte (``_walk``); a frame without escapes takes a shortcut with the same outcome.
     """
 
+    crc_bytes = CRC_BYTES                       # the check ending a body, and its function
+    check = staticmethod(crc32)
+
     def __init__(self) -> None:
-        self._body: bytearray | None = None     # None: hunting for SOF
-        self._escaped = False
+        self._raw: bytearray | None = None      # stuffed bytes since the SOF; None: hunting
+        self._overhead = 2 + self.crc_bytes
         self.noise_bytes = 0
 
     def feed(self, data: bytes) -> list[Frame | BadFrame]:
         """Consume ``data``; return the frames it completed or refused."""
         events: list[Frame | BadFrame] = []
-        for byte in data:
-            event = self._byte(byte)
-            if event is not None:
-                events.append(event)
+        pos, n = 0, len(data)
+        while pos < n:
+            nxt = data.find(SOF, pos)
+            end = n if nxt < 0 else nxt
+            if self._raw is None:
+                self.noise_bytes += end - pos
+            else:
+                self._raw += data[pos:end]
+                event = self._parse()
+                if event is not None:
+                    events.append(event)
+            if nxt < 0:
+                break
+            if self._raw:                        # a SOF inside a frame: that frame was cut
+                events.append(BadFrame("truncated", self._walk(bytes(self._raw))[1]))
+            self._raw, pos = bytearray(), nxt + 1
         return events
 
-    def _byte(self, byte: int) -> Frame | BadFrame | None:
-        if byte == SOF:
-            cut = self._body
-            self._body, self._escaped = bytearray(), False
-            if cut:
-                return BadFrame("truncated", bytes(cut))
+    def _parse(self) -> Frame | BadFrame | None:
+        """A complete or refused frame at the start of the buffer, or None (need more bytes)."""
+        raw = self._raw
+        if not raw:
             return None
-        body = self._body
-        if body is None:
-            self.noise_bytes += 1
+        if ESC in raw:
+            event, body, used = self._walk(bytes(raw))
+        elif not 1 <= raw[0] <= MAX_PAYLOAD:
+            event, body, used = "length", bytes(raw[:1]), 1
+        elif len(raw) >= raw[0] + self._overhead:
+            used = raw[0] + self._overhead
+            event, body = "complete", bytes(raw[:used])
+        else:
             return None
-        if self._escaped:
-            self._escaped = False
-            byte ^= ESC_XOR
-            if byte not in (SOF, ESC):
-                return self._refuse("escape")
-        elif byte == ESC:
-            self._escaped = True
+        if event is None:
             return None
-        body.append(byte)
-        if len(body) == 1 and not 1 <= byte <= MAX_PAYLOAD:
-            return self._refuse("length")
-        if len(body) >= 4 and len(body) == body[0] + 4:
-            return self._finish(bytes(body))
-        return None
+        self._raw = None
+        self.noise_bytes += len(raw) - used
+        return self._finish(body) if event == "complete" else BadFrame(event, body)
 
-    def _refuse(self, reason: str) -> BadFrame:
-        body = bytes(self._body or b"")
-        self._body = None
-        return BadFrame(reason, body)
+    def _walk(self, raw: bytes) -> tuple[str | None, bytes, int]:
+        """§2.4 byte by byte over a frame's stuffed bytes: (outcome or None, body, bytes used)."""
+        body, escaped = bytearray(), False
+        for used, byte in enumerate(raw, 1):
+            if escaped:
+                escaped = False
+                byte ^= ESC_XOR
+                if byte not in (SOF, ESC):
+                    return "escape", bytes(body), used
+            elif byte == ESC:
+                escaped = True
+                continue
+            body.append(byte)
+            if len(body) == 1 and not 1 <= byte <= MAX_PAYLOAD:
+                return "length", bytes(body), used
+            if len(body) >= self._overhead and len(body) == body[0] + self._overhead:
+                return "complete", bytes(body), used
+        return None, bytes(body), len(raw)
 
     def _finish(self, body: bytes) -> Frame | BadFrame:
-        self._body = None
-        if crc16_ccitt_false(body[:-2]) != (body[-2] << 8 | body[-1]):
+        n = self.crc_bytes
+        if self.check(body[:-n]) != int.from_bytes(body[-n:], "big"):
             return BadFrame("crc", body)
-        return Frame(body[1], body[2:-2])
+        return Frame(body[1], body[2:-n])

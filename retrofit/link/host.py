@@ -3,7 +3,9 @@
 A pure state machine; time is the ``now`` (seconds, any origin) each call passes in, so a test
 runs it on a fake clock and the transport on ``time.monotonic``. Two channels run side by side,
 each stop-and-wait: queued commands in order on one, and STOP / RDPS / RDST on the other so they
-are never held behind a full queue. A channel's first frame is a SYNC.
+are never held behind a full queue. A channel's first frame is a SYNC carrying the host's
+session number; every re-synchronisation takes the next session number, so the device can tell
+a stale copy of an earlier SYNC from a new start.
 
     host = HostEndpoint(machine)
     t = host.send(PMov((("X", 1.0),)), now)
@@ -13,6 +15,7 @@ are never held behind a full queue. A channel's first frame is a SYNC.
 
 from __future__ import annotations
 
+import os
 from collections import deque
 from dataclasses import dataclass, field
 
@@ -20,6 +23,9 @@ from ..commands import Command, Rdps, Rdst
 from ..config import Machine
 from ..errors import LinkError
 from .codec import ERR_NOT_SYNCED, ERR_SEQUENCE, SYNC, PayloadError, encode_command
+
+#: what the host says of a command it gave up on: the device may have executed it
+MAY_HAVE_RUN = "not acknowledged — may have run"
 from .framing import IMMEDIATE, QUEUED, SEQ_MOD, BadFrame, FrameDecoder, encode_frame, seq_byte
 from .replies import Ack, Busy, Err, Nak, Position, Reply, Status, decode_reply
 
@@ -34,6 +40,7 @@ class Transaction:
     reply: Reply | None = None
     error: LinkError | None = None
     sends: int = 0                  # frames sent for it, the first included
+    unacknowledged: bool = False    # given up without an answer: it may or may not have run
 
     @property
     def done(self) -> bool:
@@ -82,7 +89,8 @@ class HostEndpoint:
     """The host side of the link for one machine (its axes turn mm into steps)."""
 
     def __init__(self, machine: Machine, *, timeout_s: float = 0.1, max_tries: int = 10,
-                 busy_retry_s: float = 0.05, busy_limit_s: float | None = None):
+                 busy_retry_s: float = 0.05, busy_limit_s: float | None = None,
+                 session: int | None = None):
         if timeout_s <= 0 or busy_retry_s <= 0 or max_tries < 1:
             raise ValueError("HostEndpoint: timeout_s and busy_retry_s must be > 0, max_tries >= 1")
         self.machine = machine
@@ -93,6 +101,9 @@ class HostEndpoint:
         self._decoder = FrameDecoder()
         self._out = bytearray()
         self._failures: list[LinkError] = []
+        #: 32-bit session number of the next SYNC (random by default, so that two host runs differ)
+        self.session = (int.from_bytes(os.urandom(4), "big") if session is None
+                        else session) & 0xFFFFFFFF
 
     # -- public API --------------------------------------------------------------------------
 
@@ -167,7 +178,9 @@ class HostEndpoint:
         if ch.current is not None or not ch.queue:
             return
         if not ch.synced:
-            ch.queue.appendleft(Transaction(None, ch.number, bytes((SYNC,))))
+            self.session = (self.session + 1) & 0xFFFFFFFF
+            ch.queue.appendleft(Transaction(None, ch.number,
+                                            bytes((SYNC,)) + self.session.to_bytes(4, "big")))
         ch.current = ch.queue.popleft()
         ch.frame = encode_frame(seq_byte(ch.number, ch.seq), ch.current.payload)
         ch.tries, ch.busy_wait, ch.busy_since = 0, False, None
@@ -183,9 +196,9 @@ class HostEndpoint:
 
     def _resend(self, ch: _Channel, now: float) -> None:
         if ch.tries >= self.max_tries:
-            self._fail(ch, f"no acknowledgement after {ch.tries} tries "
-                       f"({self.timeout_s:g} s timeout each); is the device on, at the same baud "
-                       "rate, running the same protocol?", now)
+            ch.current.unacknowledged = True
+            self._fail(ch, f"{MAY_HAVE_RUN} ({ch.tries} tries, {self.timeout_s:g} s timeout each; "
+                       "is the device on, at the same baud rate, running the same protocol?)", now)
         else:
             self._transmit(ch, now)
 

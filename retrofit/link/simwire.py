@@ -8,6 +8,7 @@ next deadline. Used by the tests and by labs that study the protocol under fault
 
 from __future__ import annotations
 
+import math
 import random
 from dataclasses import dataclass
 from typing import Callable
@@ -31,36 +32,75 @@ class WireStats:
 class FaultyWire:
     """One direction of a serial line with independent per-byte faults (probabilities 0..1).
 
-    ``duplicate`` repeats a whole write (a frame, as an endpoint writes them) before the byte
-    faults apply to each copy.
+    ``duplicate`` repeats a whole write (a frame, as an endpoint writes them); the copy arrives
+    right after it, or with ``late`` > 0 after up to that many later writes (a stale copy). The
+    byte faults then apply to every copy. Bytes between faults are skipped over in one step (the
+    gap to the next fault is drawn from its geometric law), so a clean stretch costs one draw.
     """
 
     def __init__(self, rng: random.Random, *, flip: float = 0.0, drop: float = 0.0,
-                 insert: float = 0.0, duplicate: float = 0.0):
+                 insert: float = 0.0, duplicate: float = 0.0, late: int = 0):
         self.rng = rng
         self.flip, self.drop, self.insert, self.duplicate = flip, drop, insert, duplicate
+        self.late = late
         self.stats = WireStats()
+        self._pending: list[list] = []          # [writes still to wait, bytes] of late copies
+        # a byte is "hit" when it is dropped, flipped or followed by an inserted byte
+        self._hit = 1.0 - (1.0 - drop - flip) * (1.0 - insert)
+        self._log_miss = math.log(1.0 - self._hit) if 0 < self._hit < 1 else 0.0
+        keep = 1.0 - drop - flip
+        self._outcomes = [((kind, extra), p * (insert if extra else 1.0 - insert))
+                          for kind, p in (("drop", drop), ("flip", flip), ("keep", keep))
+                          for extra in (False, True) if kind != "keep" or extra]
 
     def carry(self, data: bytes) -> bytes:
         """The bytes that arrive at the far end when ``data`` is written."""
+        copies = [data]
         if self.duplicate and self.rng.random() < self.duplicate:
             self.stats.duplicated += 1
-            data = data + data
-        rng, out = self.rng, bytearray()
-        for byte in data:
-            self.stats.bytes += 1
-            r = rng.random()
-            if r < self.drop:
-                self.stats.dropped += 1
-                continue
-            if r < self.drop + self.flip:
+            delay = self.rng.randint(0, self.late) if self.late else 0
+            if delay:
+                self._pending.append([delay, data])
+            else:
+                copies.append(data)
+        for item in self._pending:
+            item[0] -= 1
+        copies += [d for n, d in self._pending if n <= 0]
+        self._pending = [item for item in self._pending if item[0] > 0]
+        return b"".join(self._damage(c) for c in copies)
+
+    def _damage(self, data: bytes) -> bytes:
+        self.stats.bytes += len(data)
+        if self._hit <= 0:
+            return data
+        rng, out, i, n = self.rng, bytearray(), 0, len(data)
+        while True:
+            gap = 0 if self._hit >= 1 else int(math.log(1.0 - rng.random()) / self._log_miss)
+            if i + gap >= n:
+                return bytes(out + data[i:])
+            out += data[i:i + gap]
+            i += gap
+            self._fault(data[i], out)
+            i += 1
+
+    def _fault(self, byte: int, out: bytearray) -> None:
+        """One hit byte: dropped, or flipped, and/or followed by an inserted byte."""
+        rng, r = self.rng, self.rng.random() * self._hit
+        for outcome, weight in self._outcomes:      # the byte's faults, given that it was hit
+            if r < weight:
+                break
+            r -= weight
+        kind, extra = outcome
+        if kind == "drop":
+            self.stats.dropped += 1
+        else:
+            if kind == "flip":
                 self.stats.flipped += 1
-                byte ^= 1 << rng.randrange(8)
+                byte ^= 1 << rng.getrandbits(3)
             out.append(byte)
-            if self.insert and rng.random() < self.insert:
-                self.stats.inserted += 1
-                out.append(rng.randrange(256))
-        return bytes(out)
+        if extra:
+            self.stats.inserted += 1
+            out.append(rng.getrandbits(8))
 
 
 class LinkBench:

@@ -15,12 +15,12 @@ import threading
 import time
 from typing import Callable, Protocol
 
-from ..commands import Command
+from ..commands import Command, Rdps
 from ..config import Machine
 from ..errors import LinkError
 from .device import DeviceEndpoint, Handler
-from .host import HostEndpoint, Transaction
-from .replies import Reply
+from .host import MAY_HAVE_RUN, HostEndpoint, Transaction
+from .replies import Position, Reply
 
 
 class Port(Protocol):
@@ -99,13 +99,31 @@ class HostLink:
             return t
 
     def wait(self, t: Transaction) -> Reply:
-        """Run the link until ``t`` is answered; its reply, or its LinkError raised."""
+        """Run the link until ``t`` is answered; its reply, or its LinkError raised.
+
+        When the host gave up on ``t`` without an answer the command may have run: the error
+        then also says where RDPS finds the machine, so the operator can tell.
+        """
         while not t.done:
             with self._lock:
                 self._step(t)
-        if t.error is not None:
-            raise t.error
-        return t.reply
+        if t.error is None:
+            return t.reply
+        if t.unacknowledged and not isinstance(t.cmd, Rdps):
+            said = f"{MAY_HAVE_RUN}; RDPS says {self._where()}"
+            raise LinkError(str(t.error).replace(MAY_HAVE_RUN, said, 1)) from t.error
+        raise t.error
+
+    def _where(self) -> str:
+        """The position RDPS reads now, in mm, or why it could not be read."""
+        try:
+            reply = self.request(Rdps(), urgent=True)
+        except LinkError:
+            return "nothing either (no answer)"
+        if not isinstance(reply, Position):
+            return f"{type(reply).__name__.upper()} instead of a position"
+        mm = reply.mm(self.endpoint.machine)
+        return " ".join(f"{name}{value:g}" for name, value in mm.items()) + " mm"
 
     def request(self, cmd: Command, *, urgent: bool | None = None) -> Reply:
         """Send ``cmd`` and wait for its answer (Ack, Position for RDPS, Status for RDST)."""

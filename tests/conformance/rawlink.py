@@ -6,6 +6,7 @@ them, so this client sends exactly the frames it is told to and hands back every
 
 from __future__ import annotations
 
+import random
 import time
 
 import serial
@@ -15,7 +16,7 @@ from retrofit.config import Machine
 from retrofit.link import (IMMEDIATE, QUEUED, BadFrame, FrameDecoder, Position, Reply, Status,
                            StatusFlags, decode_reply, encode_command, encode_frame, seq_byte)
 
-SYNC = bytes((0x7F,))
+SYNC = bytes((0x7F,))        # then the 32-bit session number
 
 
 class RawLink:
@@ -28,6 +29,7 @@ class RawLink:
         self.decoder = FrameDecoder()
         self.pending: list = []
         self.next = {QUEUED: 0, IMMEDIATE: 0}
+        self.session = random.getrandbits(32)    # each connection a session of its own
 
     def close(self) -> None:
         self.port.close()
@@ -75,7 +77,8 @@ class RawLink:
         return got.seq, decode_reply(got.payload, self.machine)
 
     def sync(self, channel: int, number: int = 0) -> Reply:
-        seq, reply = self.exchange(channel, number, SYNC)
+        self.session = (self.session + 1) & 0xFFFFFFFF     # a new session each SYNC, as a host does
+        seq, reply = self.exchange(channel, number, SYNC + self.session.to_bytes(4, "big"))
         assert seq == seq_byte(channel, number)
         self.next[channel] = (number + 1) % 128
         return reply

@@ -56,12 +56,12 @@ def test_after_power_up_only_sync_is_answered_then_the_worked_example_bytes(fres
     try:
         link.write(encode_frame(0x80, b"\x0e"))                         # RDST, N = 0
         assert hexs(link.answer_bytes()) == hexs(encode_frame(0x80, bytes((0x83, 4, 0))))
-        link.write(bytes.fromhex("7E 01 00 7F 74 D4"))                 # SYNC, queued, N = 0
-        assert hexs(link.answer_bytes()) == "7E 01 00 80 6A 24"
-        link.write(bytes.fromhex("7E 01 80 7F 6F 4C"))                 # SYNC, immediate, N = 0
-        assert hexs(link.answer_bytes()) == "7E 01 80 80 71 BC"
-        link.write(bytes.fromhex("7E 01 80 7F 6F 4C"))                 # SYNC again: ACK again
-        assert hexs(link.answer_bytes()) == "7E 01 80 80 71 BC"
+        link.write(bytes.fromhex("7E 05 00 7F 00 00 00 01 C3 D1 B7 51"))  # SYNC, queued, N = 0
+        assert hexs(link.answer_bytes()) == "7E 01 00 80 13 3B 30 05"
+        link.write(bytes.fromhex("7E 05 80 7F 00 00 00 02 44 68 F2 33"))  # SYNC, immediate
+        assert hexs(link.answer_bytes()) == "7E 01 80 80 28 B8 A8 4E"
+        link.write(bytes.fromhex("7E 05 80 7F 00 00 00 02 44 68 F2 33"))  # again: ACK again
+        assert hexs(link.answer_bytes()) == "7E 01 80 80 28 B8 A8 4E"
         seq, reply = link.exchange(IMMEDIATE, 1, b"\x0d")              # RDPS, N = 1
         assert (seq, reply) == (0x81, Position((("X", 0), ("Z", 0))))
         seq, reply = link.exchange(IMMEDIATE, 5, b"\x0d")              # N = 5: out of step
@@ -207,7 +207,7 @@ def test_a_corrupted_frame_gets_nak_and_its_resend_is_executed_once(link, machin
     damaged = bytearray(frame)
     damaged[5] ^= 0x10                                     # a bit of the X position
     link.write(bytes(damaged))
-    assert hexs(link.answer_bytes()) == "7E 01 00 81 7A 05"   # NAK, sequence byte 0x00
+    assert hexs(link.answer_bytes()) == "7E 01 00 81 64 3C 00 93"   # NAK, sequence byte 0x00
     link.write(frame)
     got = link.answer()
     assert (got.seq, decode_reply(got.payload, machine)) == (number, Ack())
