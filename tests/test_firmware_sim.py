@@ -41,8 +41,8 @@ class Script:
         self.at(1_000_000, "SYNC", IMMEDIATE)
 
     def at(self, cycle: int, text: str, channel: int | None = None) -> "Script":
-        if text == "SYNC":
-            payload = bytes((0x7F,))
+        if text == "SYNC":                # the link's SYNC with a session number (docs/protocol.md §4)
+            payload = bytes((0x7F,)) + (0x5EED0001).to_bytes(4, "big")
         else:
             cmd = parse_command(text)
             payload = encode_command(cmd, self.machine)

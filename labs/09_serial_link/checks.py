@@ -55,7 +55,7 @@ def test_frames_are_the_librarys_bytes(lab):
         if got == want:
             continue
         body = got[1:]
-        hint = ("the CRC goes high byte first" if len(got) == len(want) and got[:-2] == want[:-2] else
+        hint = ("the CRC goes high byte first" if len(got) == len(want) and got[:-4] == want[:-4] else
                 "the CRC covers LEN and SEQ as well as the payload, and is stuffed with them"
                 if len(got) == len(want) else
                 "LEN is the payload's length (1..32), before SEQ; stuff everything after the SOF")

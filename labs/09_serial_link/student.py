@@ -9,7 +9,7 @@ from pathlib import Path
 from retrofit.commands import PMov
 from retrofit.config import load_machine
 from retrofit.labs import pyplot, save_figure
-from retrofit.link import DeviceEndpoint, Frame, FrameDecoder, HostEndpoint, crc16_ccitt_false
+from retrofit.link import DeviceEndpoint, Frame, FrameDecoder, HostEndpoint, crc32
 from retrofit.link.framing import ESC, ESC_XOR, SOF
 from retrofit.link.simwire import FaultyWire, LinkBench
 
@@ -25,7 +25,7 @@ def stuff(body: bytes) -> bytes:
 
 def frame(seq: int, payload: bytes) -> bytes:
     """The wire bytes of one frame: SOF, then the stuffed LEN, SEQ, payload and CRC (high byte first)."""
-    # TODO 2 (README, task 2): the body is LEN, SEQ, payload; the CRC (crc16_ccitt_false) covers
+    # TODO 2 (README, task 2): the body is LEN, SEQ, payload; the CRC (crc32) covers
     # the body and follows it; what is stuffed, and what is not?
     raise NotImplementedError("TODO 2: write frame(seq, payload): the wire bytes of one frame")
 

@@ -9,7 +9,7 @@ from pathlib import Path
 from retrofit.commands import PMov
 from retrofit.config import load_machine
 from retrofit.labs import pyplot, save_figure
-from retrofit.link import DeviceEndpoint, Frame, FrameDecoder, HostEndpoint, crc16_ccitt_false
+from retrofit.link import DeviceEndpoint, Frame, FrameDecoder, HostEndpoint, crc32
 from retrofit.link.framing import ESC, ESC_XOR, SOF
 from retrofit.link.simwire import FaultyWire, LinkBench
 
@@ -32,8 +32,8 @@ def stuff(body: bytes) -> bytes:
 def frame(seq: int, payload: bytes) -> bytes:
     """The wire bytes of one frame: SOF, then the stuffed LEN, SEQ, payload and CRC (high byte first)."""
     body = bytes((len(payload) + 2, seq)) + bytes(payload)
-    crc = crc16_ccitt_false(body)
-    return bytes((SOF,)) + stuff(body + bytes((crc >> 8, crc & 0xFF)))
+    crc = crc32(body)
+    return bytes((SOF,)) + stuff(body + crc.to_bytes(4, "big"))
 
 
 def send_raw(payloads: list[bytes], wire: FaultyWire) -> list[bytes]:
