@@ -1,0 +1,57 @@
+"""Cutter compensation geometry, checked against hand computations on squares and circles."""
+import math
+
+import pytest
+
+from retrofit.gcode.cutter import Compensator, CutterError
+
+
+def run(segs, r, side):
+    c = Compensator(r, side)
+    out = []
+    for s in segs:
+        out += c.feed(s)
+    return out + c.finish()
+
+
+def close(p, q):
+    return math.hypot(p[0] - q[0], p[1] - q[1]) < 1e-9
+
+
+def test_outside_corner_of_a_square_is_rounded_around_the_corner():
+    # lead-in along y=0 to (10,0), then up to (10,10); G42 puts the tool outside (right, -y side)
+    out = run([("line", (-10, -0.0), (10, 0)), ("line", (10, 0), (10, 10))], 1.0, "right")
+    assert close(out[0][2], (10, -1))                 # entry ends offset below the corner
+    assert out[1][0] == "arc" and close(out[1][3], (10, 0)) and close(out[1][2], (11, 0))
+    assert close(out[2][1], (11, 0)) and close(out[2][2], (11, 10))
+
+
+def test_inside_corner_ends_both_offsets_at_their_intersection():
+    out = run([("line", (-10, 0), (10, 0)), ("line", (10, 0), (10, 10))], 1.0, "left")
+    assert close(out[0][2], (9, 1)) and close(out[1][1], (9, 1)) and close(out[1][2], (9, 10))
+
+
+def test_inside_corner_shorter_than_the_tool_is_refused_as_a_gouge():
+    with pytest.raises(CutterError, match="gouge"):
+        run([("line", (-10, 0), (10, 0)), ("line", (10, 0), (10, 0.5)),
+             ("line", (10, 0.5), (-10, 0.5))], 1.0, "left")
+
+
+def test_entry_move_not_longer_than_the_radius_is_refused():
+    with pytest.raises(CutterError, match="entry move of 0.5000 mm"):
+        run([("line", (0, 0), (0.5, 0)), ("line", (0.5, 0), (5, 0))], 1.0, "left")
+
+
+def test_arc_radius_grows_outside_and_shrinks_inside():
+    circle = ("arc", (10, 0), (10, 0.0), (5, 0), True)      # full CCW circle of radius 5
+    out = run([("line", (10, -10), (10, 0)), circle], 1.0, "left")   # tangent lead-in; left of CCW = inside
+    arc = [s for s in out if s[0] == "arc" and close(s[3], (5, 0))][-1]
+    assert math.isclose(math.hypot(arc[2][0] - 5, arc[2][1]), 4.0)
+    out = run([("line", (10, -10), (10, 0)), circle], 1.0, "right")
+    arc = [s for s in out if s[0] == "arc" and close(s[3], (5, 0))][-1]
+    assert math.isclose(math.hypot(arc[2][0] - 5, arc[2][1]), 6.0)
+
+
+def test_inside_arc_tighter_than_the_tool_is_refused():
+    with pytest.raises(CutterError, match="arc radius 0.5000 mm"):
+        run([("line", (10, 0), (1, 0)), ("arc", (1, 0), (0, 1), (0.5, 0.5), True)], 1.0, "left")
