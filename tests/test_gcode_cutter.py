@@ -53,5 +53,5 @@ def test_arc_radius_grows_outside_and_shrinks_inside():
 
 
 def test_inside_arc_tighter_than_the_tool_is_refused():
-    with pytest.raises(CutterError, match="arc radius 0.5000 mm"):
+    with pytest.raises(CutterError, match="arc radius 0.7071 mm"):
         run([("line", (10, 0), (1, 0)), ("arc", (1, 0), (0, 1), (0.5, 0.5), True)], 1.0, "left")
