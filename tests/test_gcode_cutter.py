@@ -55,3 +55,18 @@ def test_arc_radius_grows_outside_and_shrinks_inside():
 def test_inside_arc_tighter_than_the_tool_is_refused():
     with pytest.raises(CutterError, match="arc radius 0.7071 mm"):
         run([("line", (10, 0), (1, 0)), ("arc", (1, 0), (0, 1), (0.5, 0.5), True)], 1.0, "left")
+
+
+def test_outside_square_agrees_with_rs274():
+    # rs274 -t tests/gcode/tool.tbl (D6 read as inches: radius 76.2 mm) on
+    # G0 X-200 Y0 / G1 G42 D1 X100 Y0 / X100 Y200 / X-100 Y200 / G40 X-100 Y400 printed:
+    # FEED(100,-76.2) ARC(176.2,0 c 100,0) FEED(176.2,200) ARC(100,276.2 c 100,200) FEED(-100,276.2)
+    path = [("line", (-200, 0), (100, 0)), ("line", (100, 0), (100, 200)),
+            ("line", (100, 200), (-100, 200))]
+    out = run(path, 76.2, "right")
+    ends = [s[2] for s in out]
+    want = [(100, -76.2), (176.2, 0), (176.2, 200), (100, 276.2), (-100, 276.2)]
+    assert all(math.hypot(a[0] - b[0], a[1] - b[1]) < 1e-4 for a, b in zip(ends, want))
+    assert len(ends) == len(want)
+    assert [s[3] for s in out if s[0] == "arc"] == [(100, 0), (100, 200)]
+    assert all(s[4] for s in out if s[0] == "arc")        # rs274 turn 1: counter-clockwise
