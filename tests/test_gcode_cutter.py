@@ -70,3 +70,21 @@ def test_outside_square_agrees_with_rs274():
     assert len(ends) == len(want)
     assert [s[3] for s in out if s[0] == "arc"] == [(100, 0), (100, 200)]
     assert all(s[4] for s in out if s[0] == "arc")        # rs274 turn 1: counter-clockwise
+
+
+def test_inside_square_and_its_gouge_agree_with_rs274():
+    # rs274, G41 D1 (radius 76.2 mm) from X-200 Y0: X300 Y0 / X300 Y300 / X-100 Y300 / G40 X-100 Y500
+    # printed FEED(223.8,76.2) FEED(223.8,223.8) FEED(-100,223.8); with Y50 instead of Y300 it
+    # refused the third block: "Straight feed in concave corner cannot be reached ... gouging"
+    def square(h):
+        return [("line", (-200, 0), (300, 0)), ("line", (300, 0), (300, h)),
+                ("line", (300, h), (-100, h))]
+    out = run(square(300), 76.2, "left")
+    want = [(223.8, 76.2), (223.8, 223.8), (-100, 223.8)]
+    assert [s[0] for s in out] == ["line"] * 3
+    assert all(math.hypot(s[2][0] - w[0], s[2][1] - w[1]) < 1e-4 for s, w in zip(out, want))
+    c = Compensator(76.2, "left")
+    c.feed(square(50)[0])
+    c.feed(square(50)[1])
+    with pytest.raises(CutterError, match="gouge"):
+        c.feed(square(50)[2])

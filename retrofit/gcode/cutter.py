@@ -137,8 +137,8 @@ class Compensator:
             raise CutterError("inside corner next to an arc with cutter compensation on; "
                               "round the corner with an arc at least the tool radius")
         p = self._intersect(end_a, da, start_b, db)
-        if (p[0] - self.start[0]) * da[0] + (p[1] - self.start[1]) * da[1] < -EPS or \
-                (b[2][0] - p[0]) * db[0] + (b[2][1] - p[1]) * db[1] < -EPS:
+        # like LinuxCNC, a move is found too short when the corner at its end is joined
+        if (p[0] - self.start[0]) * da[0] + (p[1] - self.start[1]) * da[1] < -EPS:
             raise CutterError("inside corner tighter than the tool: the cutter would gouge "
                               "the part; use a smaller tool or a longer move")
         out = [("line", self.start, p)]
