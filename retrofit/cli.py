@@ -118,13 +118,13 @@ def _cmd_run(args) -> int:
             return _run_controller(args, machine, path, program, reason, progress)
         program, plan = plan_compiled(program, machine, backlash_comp=not args.no_backlash_comp)
         progress.next()
-        log = execute(plan, reference=args.reference)
+        log = execute(plan, reference=True) if args.reference else None   # else streamed to the outputs
         progress.next()
         comp = "off" if args.no_backlash_comp else "on"
         path_name = "reference" if args.reference else "fast"
         finish_run(args, log, f"{machine.name}: {path.name}, {len(program.commands)} commands, "
                               f"{len(plan.moves)} moves, backlash comp {comp}, {path_name} path",
-                   program.commands)
+                   program.commands, plan=None if args.reference else plan)
         progress.next()
     finally:
         progress.close()
@@ -147,13 +147,20 @@ def _run_controller(args, machine, path, program, reason: str, progress) -> int:
     return 0
 
 
-def finish_run(args, log, title: str, commands=None) -> dict:
-    """Deliver frames (or, to command-level outputs, ``commands``), print the summary, write plot and report."""
+def finish_run(args, log, title: str, commands=None, plan=None) -> dict:
+    """Deliver frames (or, to command-level outputs, ``commands``), print the summary, write plot and report.
+
+    With a ``plan`` (and no ``log``) the frames are made and delivered window by window."""
     from .report import build_report, summary_lines, write_json_atomic
     from .runner import deliver
     from .runprogram import command_outputs, remote_lines
-    urls, remote = command_outputs(args.output or ["sim://"], log.machine, commands)
-    sim = deliver(log, urls)
+    machine = plan.machine if plan is not None else log.machine
+    urls, remote = command_outputs(args.output or ["sim://"], machine, commands)
+    if plan is not None:
+        from .outputs.deliver import deliver_plan
+        log, sim = deliver_plan(plan, urls)
+    else:
+        sim = deliver(log, urls)
     report = build_report(log, sim)
     if remote:
         report["remote"] = remote

@@ -218,7 +218,10 @@ def stream_frames(plan: Plan, window_steps: int = 1 << 20,
             stats.steps[a] += len(rises)
         _waypoints(plan, lo, hi, rate, counts, window_rises, on_waypoint)
         stats.lag = max(stats.lag, _settle_lag(pending, final=hi >= n_moves))
-        limit = _limit(shape_state, next_tick[hi], next_dir[hi], period, machine) if hi < n_moves else _BIG
+        limit = _BIG
+        if hi < n_moves:      # no later event, and no later waypoint, comes before the limit
+            limit = min(_limit(shape_state, next_tick[hi], next_dir[hi], period, machine),
+                        tick_of(plan.moves[hi].t0_s, rate))
         chunk = _merge(pending, limit, high, step_mask, dir_mask, pins.invert, bits_last, first)
         first = False
         chunk_end = max(chunk_end, limit) if hi < n_moves else max(end, 0) + 1
