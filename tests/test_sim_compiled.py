@@ -130,6 +130,20 @@ def test_random_streams_hit_what_the_property_is_about():
     assert {e.name for e in sim.switches.events} >= {"ppsx", "ppsz"}
 
 
+def test_chunks_longer_than_the_kernels_buffers(monkeypatch):
+    import retrofit.sim.decode as decode
+    monkeypatch.setattr(decode, "SUB_CHUNK", 50)
+    start = (int(40.0 * 100), int(20.0 * 80))
+    frames = random_frames(MITIC, 11, 2000)
+    fast, ref = SimMachine(MITIC, start), SimMachine(MITIC, start)
+    fast.watch(frames.ticks[::37].tolist())
+    fast.feed(frames)
+    ref.feed_reference(frames)
+    probe = frames.ticks[::37].tolist()
+    assert observed(fast, probe) == observed(ref, probe)
+    assert fast.watched
+
+
 def test_decimated_trace_is_bounded_and_watched_ticks_stay_exact():
     frames = random_frames(CHIVU, 3, 20000)
     full = SimMachine(CHIVU)
