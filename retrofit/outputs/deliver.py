@@ -22,7 +22,7 @@ AROUND_VIOLATION_TICKS = 200
 
 
 def deliver_plan(plan, urls: list[str], progress: Callable[[float], None] | None = None,
-                 window_steps: int = 1 << 20):
+                 window_steps: int = 1 << 18):
     """Stream ``plan``'s frames to every output in ``urls``; return (run log, simulated machine).
 
     The run log holds the waypoints, steps and following error but no frames (its ``frames`` is
