@@ -69,20 +69,26 @@ def _merge_until(limit, rises, rise_start, i_rise, i_fall, turns, turn_dirs, tur
     n_axes = high.shape[0]
     bits, last = bits_last[0], bits_last[1]
     count = 0
+    upcoming = np.full(n_axes, -1, np.int64)               # -1: work out this axis's next event
     while True:
         tick = _BIG
         for a in range(n_axes):
-            if i_fall[a] < rise_start[a + 1]:
-                t = rises[i_fall[a]] + high[a]
-                if t < tick:
-                    tick = t
-            if i_rise[a] < rise_start[a + 1] and rises[i_rise[a]] < tick:
-                tick = rises[i_rise[a]]
-            if i_turn[a] < turn_start[a + 1] and turns[i_turn[a]] < tick:
-                tick = turns[i_turn[a]]
+            if upcoming[a] < 0:
+                nxt = _BIG
+                if i_fall[a] < rise_start[a + 1]:
+                    nxt = rises[i_fall[a]] + high[a]
+                if i_rise[a] < rise_start[a + 1] and rises[i_rise[a]] < nxt:
+                    nxt = rises[i_rise[a]]
+                if i_turn[a] < turn_start[a + 1] and turns[i_turn[a]] < nxt:
+                    nxt = turns[i_turn[a]]
+                upcoming[a] = nxt
+            if upcoming[a] < tick:
+                tick = upcoming[a]
         if tick >= limit:
             break
         for a in range(n_axes):
+            if upcoming[a] != tick:
+                continue
             if i_fall[a] < rise_start[a + 1] and rises[i_fall[a]] + high[a] == tick:
                 bits &= ~step_mask[a]
                 i_fall[a] += 1
@@ -95,6 +101,7 @@ def _merge_until(limit, rises, rise_start, i_rise, i_fall, turns, turn_dirs, tur
             if i_rise[a] < rise_start[a + 1] and rises[i_rise[a]] == tick:
                 bits |= step_mask[a]
                 i_rise[a] += 1
+            upcoming[a] = -1
         value = bits ^ invert
         if value != last:
             out_ticks[count] = tick
@@ -103,6 +110,20 @@ def _merge_until(limit, rises, rise_start, i_rise, i_fall, turns, turn_dirs, tur
             count += 1
     bits_last[0], bits_last[1] = bits, last
     return count
+
+
+@kernel
+def _lag_of(wanted, rises, due_before, risen_before):
+    """Most steps due (wanted by a rise's tick) but not yet risen, over ``rises`` (a merge walk)."""
+    lag = 0
+    due = 0
+    for j in range(rises.shape[0]):
+        while due < wanted.shape[0] and wanted[due] <= rises[j]:
+            due += 1
+        behind = due_before + due - (risen_before + j + 1)
+        if behind > lag:
+            lag = behind
+    return lag
 
 
 @dataclass
@@ -267,9 +288,7 @@ def _settle_lag(pending: _Axes, final: bool) -> int:
             continue
         ready = len(rises) if final or not len(wanted) else int(np.searchsorted(rises, wanted[-1], side="left"))
         if ready:
-            due = pending.due_before[a] + np.searchsorted(wanted, rises[:ready], side="right")
-            index = pending.risen_before[a] + np.arange(1, ready + 1)
-            lag = max(lag, int(np.max(due - index)))
+            lag = max(lag, int(_lag_of(wanted, rises[:ready], pending.due_before[a], pending.risen_before[a])))
             keep_from = rises[ready] if ready < len(rises) else rises[ready - 1] + 1
             cut = int(np.searchsorted(wanted, keep_from, side="left"))
             pending.wanted[a] = wanted[cut:]

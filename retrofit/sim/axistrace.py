@@ -59,15 +59,19 @@ class AxisTrace:
             self._chunks.append((ticks.copy(), motor.copy(), carriage.copy()))
             self.seen += n
             return
-        index = np.arange(self.seen, self.seen + n)
-        every = index % self.stride == 0
-        extra = np.zeros(n, bool) if keep is None else np.asarray(keep, bool).copy()
-        for t0, t1 in self.windows:
-            extra |= (ticks >= t0) & (ticks < t1)
-        every &= ~extra
-        if extra.any():
-            self._detail.append((ticks[extra], motor[extra], carriage[extra]))
-        self._chunks.append((ticks[every], motor[every], carriage[every]))
+        first = (-self.seen) % self.stride                  # the first step of the chunk on the stride
+        if keep is None and not self.windows:
+            every = slice(first, None, self.stride)
+        else:
+            every = np.zeros(n, bool)
+            every[first::self.stride] = True
+            extra = np.zeros(n, bool) if keep is None else np.asarray(keep, bool).copy()
+            for t0, t1 in self.windows:
+                extra |= (ticks >= t0) & (ticks < t1)
+            every &= ~extra
+            if extra.any():
+                self._detail.append((ticks[extra], motor[extra], carriage[extra]))
+        self._chunks.append((ticks[every].copy(), motor[every].copy(), carriage[every].copy()))
         self.seen += n
         while sum(len(c[0]) for c in self._chunks) > self.limit:
             self._halve()
