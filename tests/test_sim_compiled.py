@@ -13,11 +13,14 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from retrofit.config import load_machine
+from retrofit.motion._jit import compiled
 from retrofit.frames import PinMap, PortFrames
 from retrofit.sim import SimMachine
 
 MITIC = load_machine("mitic-lathe")          # dead band, five switches
 CHIVU = load_machine("chivu-lathe")          # the largest dead band
+
+compiled()                      # the compiled kernels, whatever the size of the examples
 
 
 def random_frames(machine, seed: int, n: int, start_tick: int = 0) -> PortFrames:

@@ -5,10 +5,13 @@ from hypothesis import given, settings, strategies as st
 
 from retrofit.commands import FMov, PFdr, PMov
 from retrofit.config import load_machine
+from retrofit.motion._jit import compiled
 from retrofit.motion.fast import execute_fast
 from retrofit.motion.planner import plan_program
 from retrofit.motion.stream import execute_streamed, stream_frames
 from test_fast_equals_reference import machines, programs
+
+compiled()                      # the compiled kernels, whatever the size of the examples
 
 
 def check_streamed_equals_fast(data):

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..frames import PinMap, PortFrames
 from ..runlog import RunLog, Waypoint
-from ._jit import kernel
+from ._jit import compiled, kernel
 from .execute import tick_of
 from .fast import _bresenham_requests, _dda_requests
 from .planner import Plan
@@ -218,6 +218,8 @@ def stream_frames(plan: Plan, window_steps: int = 1 << 20,
     first = True
     chunk_end = 0
     sizes = [sum(abs(e - s) for s, e in zip(m.start, m.end)) if m.profile is not None else 0 for m in plan.moves]
+    if not compiled(sum(sizes)):           # a small run: one chunk by NumPy, no compiler to load
+        return (yield from _whole_run(plan, on_waypoint, progress))
     lo = 0
     while lo < n_moves or first:
         hi, total = lo, 0
@@ -255,6 +257,20 @@ def stream_frames(plan: Plan, window_steps: int = 1 << 20,
             break
     stats.end_tick = max(end, 0) + 1
     return stats
+
+
+def _whole_run(plan: Plan, on_waypoint, progress):
+    """The whole run as one chunk (``execute_numpy``, the same frames), for small programs."""
+    from .vectorised import execute_numpy
+    log = execute_numpy(plan)
+    for waypoint in log.waypoints:
+        if on_waypoint is not None:
+            on_waypoint(waypoint)
+    yield log.frames
+    if progress is not None:
+        progress(1.0)
+    steps = np.array([log.steps_emitted.get(a.name, 0) for a in plan.machine.axes], np.int64)
+    return StreamStats(steps, int(log.max_following_error_steps), int(log.frames.end_tick))
 
 
 def _append(pending: _Axes, a: int, rises, turn_ticks, turn_dirs, wanted) -> None:

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import OutputError
 from ..frames import PortFrames
-from ..motion._jit import kernel
+from ..motion._jit import compiled, kernel
 from .base import Output
 
 #: frames written per call of the compiled writer (bounds its text buffer)
@@ -105,8 +105,9 @@ class VcdOutput(Output):
             raise OutputError(f"{self.url.text}: frame at tick {int(frames.ticks[0])} before tick "
                               f"{self.end_tick}; frames must come in tick order")
         ticks, values = frames.ticks, frames.values
+        fast = compiled(len(ticks))
         start = 0
-        while start < len(ticks) and not self._raw:              # pyvcd until it wrote past time 0
+        while start < len(ticks) and not (self._raw and fast):   # pyvcd until it wrote past time 0
             self._write_pyvcd(int(ticks[start]), int(values[start]))
             start += 1
         for lo in range(start, len(ticks), _SUB_CHUNK):

@@ -59,8 +59,12 @@ class SimMachine:
 
     def feed(self, frames: PortFrames) -> None:
         """Run the machine through a chunk of frames (the compiled decoder; an axis with a
-        pull-out motor model goes step by step). Chunks continue one another."""
+        pull-out motor model, or a small chunk before anything loaded the compiler, goes step by
+        step). Chunks continue one another."""
+        from ..motion._jit import compiled
         from .decode import feed_axis
+        if not compiled(len(frames)):          # a small chunk: not worth loading the compiler
+            return self.feed_reference(frames)
         watch, out = self._take_watch(frames.end_tick)
         for i, (axis, driver) in enumerate(zip(self.machine.axes, self.drivers)):
             if self.motors[i] is None:
