@@ -153,7 +153,7 @@ def plan_speeds(moves: list[Kinematics], depth: int, deviation_mm: float, accel_
     n = len(moves)
     if n == 0:
         return []
-    compiled(n * 20)                      # a few thousand moves pay for loading the compiler
+    compiled(n * 100)                     # a thousand moves pay for loading the compiler
     n_axes = len(moves[0].unit)
     units = np.array([m.unit for m in moves], dtype=np.float64).reshape(n, n_axes)
     lengths = np.array([m.length_mm for m in moves], dtype=np.float64)
