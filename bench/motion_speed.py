@@ -14,6 +14,7 @@ import time
 from retrofit.commands import FMov, PFdr, PMov
 from retrofit.config import load_machine
 from retrofit.gcode import load_program
+from retrofit.motion._jit import compiled
 from retrofit.motion.execute import execute_reference
 from retrofit.motion.fast import execute_fast, request_steps_fast
 from retrofit.motion.planner import plan_program
@@ -50,6 +51,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smaller programs (a smoke run)")
     quick = parser.parse_args().quick
+    compiled()                                                # the compiled kernels, even on small programs
     lathe = load_machine("chivu-lathe")
     execute_fast(plan_program(roughing(1), lathe))            # compile (or load the cache) first
 

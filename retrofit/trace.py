@@ -31,11 +31,11 @@ def tick_trace(log: RunLog, sim: SimMachine, start: int = 0, stop: int | None = 
     for i, axis in enumerate(log.machine.axes):
         first = np.full(len(ticks), log.start_steps[i], dtype=np.int64)
         out[f"{axis.name}.commanded"] = np.where(index >= 0, targets[np.maximum(index, 0), i], first)
-        trace = sim.traces[axis.name]
-        at = np.searchsorted(np.asarray(trace.ticks, dtype=np.int64), ticks, side="right") - 1
+        trace_ticks, trace_motor, trace_carriage = sim.traces[axis.name].arrays()
+        at = np.searchsorted(trace_ticks, ticks, side="right") - 1
         motor0, carriage0 = sim._initial[i]
-        motor = np.concatenate(([motor0], np.asarray(trace.motor_steps, dtype=np.int64)))
-        carriage = np.concatenate(([carriage0], np.asarray(trace.carriage_mm, dtype=float)))
+        motor = np.concatenate(([motor0], trace_motor))
+        carriage = np.concatenate(([carriage0], trace_carriage))
         out[f"{axis.name}.motor"] = motor[at + 1]
         out[f"{axis.name}.carriage"] = carriage[at + 1]
     return out

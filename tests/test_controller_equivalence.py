@@ -10,6 +10,7 @@ port frames.
 import json
 from dataclasses import replace
 
+import pytest
 from hypothesis import given, settings, strategies as st
 
 from retrofit.config import load_machine
@@ -42,9 +43,7 @@ def test_the_shipped_lathe_profile_gives_the_same_frames_bit_for_bit():
     assert log.max_following_error_steps == ref.max_following_error_steps == 0
 
 
-@settings(max_examples=150)
-@given(st.data())
-def test_random_programs_end_alike_and_give_the_same_frames(data):
+def check_controller_equals_fast(data):
     machine = data.draw(machines())
     commands = data.draw(programs(machine))
     comp = data.draw(st.booleans())
@@ -57,6 +56,19 @@ def test_random_programs_end_alike_and_give_the_same_frames(data):
         assert ctl.frames() == ref.frames
         assert [w.reached_tick for w in log.waypoints] == [w.reached_tick for w in ref.waypoints]
         assert log.max_following_error_steps == ref.max_following_error_steps
+
+
+@settings(max_examples=25)
+@given(st.data())
+def test_random_programs_end_alike_and_give_the_same_frames(data):
+    check_controller_equals_fast(data)
+
+
+@pytest.mark.slow
+@settings(max_examples=200)
+@given(st.data())
+def test_random_programs_end_alike_and_give_the_same_frames_200_programs(data):
+    check_controller_equals_fast(data)
 
 
 def test_the_controller_stepped_tick_by_tick_equals_its_fast_forward():

@@ -2,6 +2,7 @@
 
 from dataclasses import replace
 
+import pytest
 from hypothesis import given, settings, strategies as st
 
 from retrofit.commands import Dely, FMov, PFdr, PMov
@@ -51,9 +52,7 @@ def programs(draw, machine):
     return commands
 
 
-@settings(max_examples=200)
-@given(st.data())
-def test_fast_path_equals_reference_bit_for_bit(data):
+def check_fast_equals_reference(data):
     machine = data.draw(machines())
     commands = data.draw(programs(machine))
     plan = plan_program(commands, machine, backlash_comp=data.draw(st.booleans()))
@@ -63,6 +62,19 @@ def test_fast_path_equals_reference_bit_for_bit(data):
         assert [w.reached_tick for w in fast.waypoints] == [w.reached_tick for w in ref.waypoints]
         assert fast.steps_emitted == ref.steps_emitted
         assert fast.max_following_error_steps == ref.max_following_error_steps
+
+
+@settings(max_examples=30)
+@given(st.data())
+def test_fast_path_equals_reference_bit_for_bit(data):
+    check_fast_equals_reference(data)
+
+
+@pytest.mark.slow
+@settings(max_examples=200)
+@given(st.data())
+def test_fast_path_equals_reference_bit_for_bit_200_programs(data):
+    check_fast_equals_reference(data)
 
 
 def test_equal_when_the_driver_forces_deferred_steps():

@@ -2,6 +2,7 @@
 
 from dataclasses import replace
 from decimal import Decimal
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -88,3 +89,36 @@ def test_several_outputs_at_once_from_the_command_line(tmp_path, capsys):
     read = VCDVCD(str(vcd))
     z_step = machine.axis("Z").step_bit
     assert vcd_edges(read, "chivu_lathe.Z.step", 5) == edges_of(frames, z_step)
+
+
+def pyvcd_text(machine, frames, path):
+    """The file pyvcd writes when given every change itself (the writer's reference)."""
+    from retrofit.outputs.vcd import VcdOutput
+    out = open_output(f"vcd://{path}", machine)
+    out.open()
+    for tick, value in zip(frames.ticks.tolist(), frames.values.tolist()):
+        VcdOutput._write_pyvcd(out, tick, value)
+    out.end_tick = frames.end_tick
+    out.close()
+    return Path(path).read_text()
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_compiled_vcd_writer_writes_what_pyvcd_writes(tmp_path, seed):
+    import numpy as np
+    from retrofit.frames import PortFrames
+    machine = load_machine("engraver" if seed % 2 else "chivu-lathe")
+    rng = np.random.default_rng(seed)
+    n = 3000
+    ticks = np.cumsum(rng.integers(1, 400, n)) - (0 if seed < 3 else -17)
+    ticks[0] = 0 if seed < 3 else ticks[0]
+    values = rng.integers(0, 1 << (2 * len(machine.axes)), n).astype(np.uint8)
+    keep = np.concatenate(([True], values[1:] != values[:-1]))
+    frames = PortFrames(ticks[keep], values[keep], int(ticks[-1]) + 9)
+    expected = pyvcd_text(machine, frames, tmp_path / "ref.vcd")
+    with open_output(f"vcd://{tmp_path / 'run.vcd'}", machine) as out:
+        for lo in range(0, len(frames), 701):             # in chunks, as a streamed run writes
+            hi = min(lo + 701, len(frames))
+            end = int(frames.ticks[hi]) if hi < len(frames) else frames.end_tick
+            out.write(PortFrames(frames.ticks[lo:hi], frames.values[lo:hi], end))
+    assert (tmp_path / "run.vcd").read_text() == expected

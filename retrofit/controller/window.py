@@ -16,11 +16,10 @@ import numpy as np
 
 from ..config import Machine
 from ..motion import profile as prof
-from ..motion.lookahead import JUNCTION_SHARE, Kinematics, junction_speed
+from ..motion.lookahead import JUNCTION_SHARE, Kinematics, junction_speed, turns
 from ..motion.planner import EXP_START_MM_S
 
 #: a dot product of unit vectors below this is a turn
-STRAIGHT = 1.0 - 1e-12
 
 
 class WindowPlanner:
@@ -50,7 +49,7 @@ class WindowPlanner:
     def _turns(before: Kinematics | None, after: Kinematics | None) -> bool:
         if before is None or after is None:
             return False
-        return float(np.dot(before.unit, after.unit)) < STRAIGHT
+        return turns(before, after)
 
     def _accels(self, prev: Kinematics | None, moves: list[Kinematics], junction: list[float]):
         """Each move's acceleration, halved (JUNCTION_SHARE) when it turns at speed at either end."""

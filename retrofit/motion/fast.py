@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..frames import PinMap, PortFrames
-from ._jit import HAVE_NUMBA, kernel
+from ._jit import compiled, kernel
 from .execute import StepRequests, run_log, tick_of
 from .planner import Plan
 from .profile import P_LEN, time_at
@@ -253,12 +253,18 @@ def shape_fast(plan: Plan, requests: StepRequests):
     return frames, [rises[rise_start[a]:rise_start[a + 1]] for a in range(n_axes)], lag
 
 
+def plan_steps(plan: Plan) -> int:
+    """Steps of all axes over the whole plan (the work a run has to do)."""
+    return sum(sum(abs(e - s) for s, e in zip(m.start, m.end)) for m in plan.moves if m.profile is not None)
+
+
 def execute_fast(plan: Plan):
     """Fast path: plan → step requests → pulses → port frames and the run log.
 
-    Compiled loops when Numba is installed; otherwise whole-array NumPy (``motion.vectorised``).
+    Compiled loops when Numba is installed and the plan is large enough to pay for loading
+    them; otherwise whole-array NumPy (``motion.vectorised``), the same frames.
     """
-    if not HAVE_NUMBA:
+    if not compiled(plan_steps(plan)):              # small (or no Numba): NumPy, no compiler to load
         from .vectorised import execute_numpy
         return execute_numpy(plan)
     requests = request_steps_fast(plan)

@@ -22,6 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._jit import compiled, kernel
+
 #: share of an axis's acceleration kept for the velocity jump of a turn taken at speed
 JUNCTION_SHARE = 0.5
 
@@ -43,42 +45,99 @@ def junction_speed(prev: Kinematics, nxt: Kinematics, deviation_mm: float,
 
     ``axis_accel`` (mm/s²) and ``axis_step`` (mm) of every axis, when given, also hold each
     axis's velocity jump to ``JUNCTION_SHARE`` of its acceleration over one step interval.
+    (The same compiled rule as a whole program's junctions in :func:`plan_speeds`.)
     """
     if nxt.stop_before or prev.length_mm == 0.0 or nxt.length_mm == 0.0:
         return 0.0
-    cos_turn = float(np.dot(prev.unit, nxt.unit))          # 1 straight on, -1 a reversal
-    limit = min(prev.v_max_mm_s, nxt.v_max_mm_s)
+    use_axes = axis_accel is not None
+    n = len(prev.unit)
+    return float(_junction(np.asarray(prev.unit, np.float64), np.asarray(nxt.unit, np.float64),
+                           prev.v_max_mm_s, nxt.v_max_mm_s, prev.a_max_mm_s2, nxt.a_max_mm_s2, deviation_mm,
+                           use_axes, axis_accel if use_axes else np.zeros(n), axis_step if use_axes else np.zeros(n)))
+
+
+def turns(before: Kinematics, after: Kinematics) -> bool:
+    """True when passing from ``before`` into ``after`` changes direction (the rule of :func:`plan_speeds`)."""
+    return bool(_dot(np.asarray(before.unit, np.float64), np.asarray(after.unit, np.float64)) < 1.0 - 1e-12)
+
+
+@kernel
+def _dot(a, b):
+    total = 0.0
+    for k in range(a.shape[0]):
+        total += a[k] * b[k]
+    return total
+
+
+@kernel
+def _junction(before, after, v_before, v_after, a_before, a_after, deviation_mm, use_axes, axis_accel, axis_step):
+    """The junction rule of :func:`junction_speed` for two moves of non-zero length."""
+    cos_turn = _dot(before, after)                          # 1 straight on, -1 a reversal
+    limit = min(v_before, v_after)
     if cos_turn >= 1.0 - 1e-12:
         return limit
     if cos_turn <= -1.0 + 1e-12:
         return 0.0
     # the corner's inside angle is pi - turn; its half-angle sine is cos(turn / 2)
     sin_half = math.sqrt(0.5 * (1.0 + cos_turn))
-    accel = min(prev.a_max_mm_s2, nxt.a_max_mm_s2)
+    accel = min(a_before, a_after)
     radius = deviation_mm * sin_half / (1.0 - sin_half)     # the arc that rounds the corner
     limit = min(limit, math.sqrt(accel * radius))
-    if axis_accel is not None:
-        limit = min(limit, _jump_limit(prev.unit, nxt.unit, axis_accel, axis_step))
+    if use_axes:
+        limit = min(limit, _jump_limit(before, after, axis_accel, axis_step))
     return limit
 
 
-def _jump_limit(before: np.ndarray, after: np.ndarray, accel: np.ndarray, step: np.ndarray) -> float:
+@kernel
+def _jump_limit(before, after, accel, step):
     """Speed at which every axis's velocity jump fits ``JUNCTION_SHARE`` of its acceleration.
 
     A jump ``v·Δu`` of an axis must fit ``share·a·dt``, with ``dt`` the step interval around the
     junction: no longer than ``step / (v·|u| + sqrt(2·a·step))`` (the speed there, plus what one
     step of full acceleration adds). Solved for ``v``: a quadratic.
     """
-    jump = np.abs(after - before)
-    fastest = np.maximum(np.abs(before), np.abs(after))
-    moving = jump > 0
-    if not np.any(moving):
-        return math.inf
-    du, m = jump[moving], fastest[moving]
-    c = np.sqrt(2.0 * accel[moving] * step[moving])
-    budget = JUNCTION_SHARE * accel[moving] * step[moving]
-    v = (-du * c + np.sqrt(du * du * c * c + 4.0 * du * m * budget)) / (2.0 * du * m)
-    return float(np.min(v))
+    best = math.inf
+    for k in range(before.shape[0]):
+        du = abs(after[k] - before[k])
+        if not du > 0:
+            continue
+        m = max(abs(before[k]), abs(after[k]))
+        c = math.sqrt(2.0 * accel[k] * step[k])
+        budget = JUNCTION_SHARE * accel[k] * step[k]
+        v = (-du * c + math.sqrt(du * du * c * c + 4.0 * du * m * budget)) / (2.0 * du * m)
+        if v < best:
+            best = v
+    return best
+
+
+@kernel
+def _speeds(units, lengths, v_max, a_max, stop_before, depth, deviation_mm, accel_scale, use_axes,
+            axis_accel, axis_step, entries, exits):
+    """Junctions, turning moves' acceleration cut (``a_max`` in place), then the two passes."""
+    n = lengths.shape[0]
+    junction = np.zeros(n + 1)
+    for i in range(1, n):
+        if not (stop_before[i] or lengths[i - 1] == 0.0 or lengths[i] == 0.0):
+            junction[i] = _junction(units[i - 1], units[i], v_max[i - 1], v_max[i], a_max[i - 1], a_max[i],
+                                    deviation_mm, use_axes, axis_accel, axis_step)
+    turns = np.zeros(n + 1, np.bool_)
+    for j in range(1, n):
+        turns[j] = _dot(units[j - 1], units[j]) < 1.0 - 1e-12
+    for i in range(n):
+        if (junction[i] > 0.0 and turns[i]) or (junction[i + 1] > 0.0 and turns[i + 1]):
+            a_max[i] *= 1.0 - JUNCTION_SHARE
+    entry = 0.0
+    for i in range(n):
+        last = min(n, i + depth)
+        v_next = 0.0                                      # stop at the end of what is queued
+        for j in range(last - 1, i, -1):
+            reach = math.sqrt(v_next * v_next + 2.0 * a_max[j] * accel_scale * lengths[j])
+            v_next = min(junction[j], v_max[j], reach)
+        reach_up = math.sqrt(entry * entry + 2.0 * a_max[i] * accel_scale * lengths[i])
+        exit_ = min(v_next, reach_up, v_max[i])
+        entries[i] = entry
+        exits[i] = exit_
+        entry = exit_
 
 
 def plan_speeds(moves: list[Kinematics], depth: int, deviation_mm: float, accel_scale: float = 1.0,
@@ -89,32 +148,23 @@ def plan_speeds(moves: list[Kinematics], depth: int, deviation_mm: float, accel_
     ``accel_scale`` (≤ 1) makes the passes assume a gentler acceleration, for ramps that cover
     a speed change in a longer distance than a trapezoid (the exponential profile). A move whose
     entry or exit turns at speed has its acceleration cut to ``1 - JUNCTION_SHARE`` (in place).
+    One compiled pass over the program's arrays.
     """
     n = len(moves)
-    junction = [0.0] + [junction_speed(moves[i - 1], moves[i], deviation_mm, axis_accel, axis_step)
-                        for i in range(1, n)] + [0.0]
-    for i, move in enumerate(moves):
-        turning = any(junction[j] > 0.0 and _turns(moves, j) for j in (i, i + 1))
-        if turning:
-            move.a_max_mm_s2 *= 1.0 - JUNCTION_SHARE
-    speeds = []
-    entry = 0.0
-    for i in range(n):
-        last = min(n, i + depth)
-        v_next = 0.0                                      # stop at the end of what is queued
-        for j in range(last - 1, i, -1):
-            reach = math.sqrt(v_next * v_next + 2.0 * moves[j].a_max_mm_s2 * accel_scale * moves[j].length_mm)
-            v_next = min(junction[j], moves[j].v_max_mm_s, reach)
-        move = moves[i]
-        reach_up = math.sqrt(entry * entry + 2.0 * move.a_max_mm_s2 * accel_scale * move.length_mm)
-        exit_ = min(v_next, reach_up, move.v_max_mm_s)
-        speeds.append((entry, exit_))
-        entry = exit_
-    return speeds
-
-
-def _turns(moves: list[Kinematics], j: int) -> bool:
-    """True when the junction before move ``j`` changes direction."""
-    if j <= 0 or j >= len(moves):
-        return False
-    return float(np.dot(moves[j - 1].unit, moves[j].unit)) < 1.0 - 1e-12
+    if n == 0:
+        return []
+    compiled(n * 100)                     # a thousand moves pay for loading the compiler
+    n_axes = len(moves[0].unit)
+    units = np.array([m.unit for m in moves], dtype=np.float64).reshape(n, n_axes)
+    lengths = np.array([m.length_mm for m in moves], dtype=np.float64)
+    v_max = np.array([m.v_max_mm_s for m in moves], dtype=np.float64)
+    a_max = np.array([m.a_max_mm_s2 for m in moves], dtype=np.float64)
+    stop_before = np.array([m.stop_before for m in moves], dtype=np.bool_)
+    use_axes = axis_accel is not None
+    entries, exits = np.zeros(n), np.zeros(n)
+    _speeds(units, lengths, v_max, a_max, stop_before, int(depth), float(deviation_mm), float(accel_scale),
+            use_axes, np.asarray(axis_accel if use_axes else np.zeros(n_axes), np.float64),
+            np.asarray(axis_step if use_axes else np.zeros(n_axes), np.float64), entries, exits)
+    for move, a in zip(moves, a_max.tolist()):
+        move.a_max_mm_s2 = a
+    return list(zip(entries.tolist(), exits.tolist()))

@@ -17,7 +17,7 @@ from ..commands import Command, Dely, FFdr, FMov, MFdr, PFdr, PMov, Pstn, ZMov
 from ..config import Machine
 from ..errors import MotionError
 from . import profile as prof
-from .bresenham import prepare_line
+from .bresenham import STEP_SPACE_LIMIT, prepare_line
 from .lookahead import Kinematics, plan_speeds
 
 #: the exponential profile starts from this speed (a stepper's start frequency), mm/s
@@ -88,17 +88,22 @@ def plan_program(commands: Iterable[Command], machine: Machine, backlash_comp: b
 
 def kinematics(machine: Machine, start: Sequence[int], end: Sequence[int], feed_mm_s: float) -> Kinematics:
     """Length, direction and speed / acceleration caps of a straight move in motor steps."""
-    mm = np.array([(e - s) / a.steps_per_mm for s, e, a in zip(start, end, machine.axes)])
-    length = float(math.sqrt(float(np.sum(mm * mm))))
+    axes = machine.axes
+    mm = [(e - s) / a.steps_per_mm for s, e, a in zip(start, end, axes)]
+    total = 0.0
+    for d in mm:                      # summed in order, as NumPy sums a few elements
+        total += d * d
+    length = math.sqrt(total)
     if length == 0.0:
         return Kinematics(0.0, np.zeros(len(mm)), feed_mm_s, 1.0)
-    unit = mm / length
+    unit = [d / length for d in mm]
     v_max, a_max = feed_mm_s, math.inf
-    for u, axis in zip(np.abs(unit), machine.axes):
+    for u, axis in zip(unit, axes):
+        u = abs(u)
         if u > 0:
             v_max = min(v_max, axis.max_velocity_mm_s / u)
             a_max = min(a_max, axis.max_accel_mm_s2 / u)
-    return Kinematics(length, unit, v_max, a_max)
+    return Kinematics(length, np.array(unit), v_max, a_max)
 
 
 def _segments(commands: list[Command], machine: Machine, backlash_comp: bool, start: tuple[int, ...]):
@@ -150,7 +155,8 @@ class _Walker:
             if new != old:
                 self.last_dir[i] = 1 if new > old else -1
         motor = tuple(t + (self.clearance[i] if self.last_dir[i] > 0 else 0) for i, t in enumerate(target))
-        prepare_line(tuple(self.motor), motor, machine.axis_names)   # refuses moves outside the 24-bit space
+        if not all(-STEP_SPACE_LIMIT <= m <= STEP_SPACE_LIMIT for m in motor):
+            prepare_line(tuple(self.motor), motor, machine.axis_names)   # words the refusal
         speed = (self.rapid if isinstance(cmd, (FMov, ZMov)) else self.feed) / 60.0
         kin = kinematics(machine, self.motor, motor, speed)
         kin.stop_before = isinstance(cmd, ZMov)
@@ -165,22 +171,23 @@ def _positive_feed(cmd) -> float:
     return cmd.feed
 
 
-def _axis_name(machine: Machine, name: str) -> str:
-    if name.upper() not in machine.axis_names:
-        raise MotionError(f"axis {name} is not on machine {machine.name} (axes: {', '.join(machine.axis_names)})")
+def _axis_name(machine: Machine, name: str, names: tuple[str, ...] | None = None) -> str:
+    names = machine.axis_names if names is None else names
+    if name.upper() not in names:
+        raise MotionError(f"axis {name} is not on machine {machine.name} (axes: {', '.join(names)})")
     return name.upper()
 
 
 def _target(machine: Machine, cmd: Command, position: list[int], offset: list[int]) -> list[int]:
     """The commanded end point in machine steps, checked against the soft limits."""
     target = list(position)
+    names = machine.axis_names
     if isinstance(cmd, ZMov):          # machine zero (homing against switches is the controller's)
-        names = cmd.names or machine.axis_names
-        for name in names:
-            target[machine.axis_names.index(_axis_name(machine, name))] = 0
+        for name in cmd.names or names:
+            target[names.index(_axis_name(machine, name, names))] = 0
     else:
         for name, mm in cmd.axes:
-            i = machine.axis_names.index(_axis_name(machine, name))
+            i = names.index(_axis_name(machine, name, names))
             target[i] = machine.axes[i].to_steps(mm) + offset[i]
     for i, axis in enumerate(machine.axes):
         if not axis.min_steps <= target[i] <= axis.max_steps:

@@ -21,10 +21,12 @@ class SimOutput(Output):
 
     def open(self) -> None:
         if not self.is_open:
-            self.sim = SimMachine(self.machine, self.start_steps)
+            self.sim = SimMachine(self.machine, self.start_steps, **self.trace_options)
         super().open()
 
     start_steps: tuple[int, ...] | None = None
+    #: SimMachine's trace options (trace_limit, trace_windows, trace_around); default: every step
+    trace_options: dict = {}
 
     def write(self, frames: PortFrames) -> None:
         self.sim.feed(frames)

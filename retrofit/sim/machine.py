@@ -9,46 +9,37 @@ reads both through :meth:`SimMachine.switch_states` and ``SimMachine.spindle``.
 
 from __future__ import annotations
 
-import bisect
-
 import numpy as np
 
 from ..backlash import DeadBand
 from ..config import Machine
 from ..frames import PortFrames
+from .axistrace import AxisTrace
 from .drivers import DriverInput, Violation
 from .spindle import SimSpindle
 from .switches import SwitchBank
 from .pullout import PullOutMotor, turn_screw
 
 
-class AxisTrace:
-    """Motor and carriage of one axis after each step, in tick order (run-length, per tick on demand)."""
-
-    def __init__(self):
-        self.ticks: list[int] = []
-        self.motor_steps: list[int] = []
-        self.carriage_mm: list[float] = []
-
-    def at(self, tick: int, default_motor: int = 0, default_carriage: float = 0.0) -> tuple[int, float]:
-        """Motor steps and carriage mm at the end of frame ``tick``."""
-        i = bisect.bisect_right(self.ticks, tick) - 1
-        if i < 0:
-            return default_motor, default_carriage
-        return self.motor_steps[i], self.carriage_mm[i]
-
-
 class SimMachine:
     """A machine built from a machine file, moved only by port frames."""
 
-    def __init__(self, machine: Machine, start_steps: tuple[int, ...] | None = None):
+    def __init__(self, machine: Machine, start_steps: tuple[int, ...] | None = None,
+                 trace_limit: int | None = None, trace_windows: tuple[tuple[int, int], ...] = (),
+                 trace_around: int = 0):
+        """``trace_limit``: keep about that many trace points per axis (None: every step, 0: none);
+        ``trace_windows``: tick windows ``(start, stop)`` kept in full; ``trace_around``: steps
+        within that many ticks of a violation kept in full."""
         self.machine = machine
+        self.trace_around = trace_around
+        self._watch = np.zeros(0, np.int64)
+        self.watched: dict[int, dict[str, tuple[int, float]]] = {}
         start = start_steps or (0,) * len(machine.axes)
         self.drivers = [DriverInput(a) for a in machine.axes]
         self.motor_steps = list(start)
         self.screws = [DeadBand(machine.sim.dead_band_mm[a.name] * a.steps_per_mm, s)
                        for a, s in zip(machine.axes, start)]
-        self.traces = {a.name: AxisTrace() for a in machine.axes}
+        self.traces = {a.name: AxisTrace(trace_limit, trace_windows) for a in machine.axes}
         self.reversals = [0] * len(machine.axes)
         self._last_dir = [0] * len(machine.axes)
         self._out_of_travel = [False] * len(machine.axes)
@@ -67,11 +58,47 @@ class SimMachine:
                        for a in machine.axes]
 
     def feed(self, frames: PortFrames) -> None:
-        """Run the machine through a chunk of frames."""
+        """Run the machine through a chunk of frames (the compiled decoder; an axis with a
+        pull-out motor model, or a small chunk before anything loaded the compiler, goes step by
+        step). Chunks continue one another."""
+        from ..motion._jit import compiled
+        from .decode import feed_axis
+        if not compiled(len(frames)):          # a small chunk: not worth loading the compiler
+            return self.feed_reference(frames)
+        watch, out = self._take_watch(frames.end_tick)
+        for i, (axis, driver) in enumerate(zip(self.machine.axes, self.drivers)):
+            if self.motors[i] is None:
+                feed_axis(self, i, frames, watch, out)
+            else:
+                rises, dirs = driver.edges(frames.ticks, frames.values)
+                self._move(i, axis, rises, dirs, (watch, out, frames.end_tick))
+        self._keep_watch(watch, out)
+        self.end_tick = max(self.end_tick, frames.end_tick)
+
+    def feed_reference(self, frames: PortFrames) -> None:
+        """The same as :meth:`feed`, step by step in Python: the readable reference."""
+        watch, out = self._take_watch(frames.end_tick)
         for i, (axis, driver) in enumerate(zip(self.machine.axes, self.drivers)):
             rises, dirs = driver.edges(frames.ticks, frames.values)
-            self._move(i, axis, rises, dirs)
+            self._move(i, axis, rises, dirs, (watch, out, frames.end_tick))
+        self._keep_watch(watch, out)
         self.end_tick = max(self.end_tick, frames.end_tick)
+
+    def watch(self, ticks) -> None:
+        """Ask for the motor and carriage of every axis at the end of each of ``ticks`` (ticks
+        not yet fed); :meth:`state_at` answers them exactly even from a decimated trace."""
+        ticks = np.asarray(list(ticks), dtype=np.int64)
+        self._watch = np.unique(np.concatenate((self._watch, ticks[ticks >= self.end_tick])))
+
+    def _take_watch(self, end_tick: int):
+        cut = int(np.searchsorted(self._watch, end_tick))
+        watch, self._watch = self._watch[:cut], self._watch[cut:]
+        return watch, np.zeros((len(watch), len(self.machine.axes), 2))
+
+    def _keep_watch(self, watch, out) -> None:
+        names = self.machine.axis_names
+        for j, tick in enumerate(watch.tolist()):
+            self.watched[tick] = {n: (int(out[j, i, 0]), float(out[j, i, 1])) for i, n in enumerate(names)}
 
     def feed_frame(self, tick: int, value: int) -> None:
         """Run the machine through one port byte, holding from ``tick`` on (a controller's hook:
@@ -94,22 +121,29 @@ class SimMachine:
         """Switch name -> closed, after the frames fed so far."""
         return self.switches.states()
 
-    def _move(self, i, axis, rises: np.ndarray, dirs: np.ndarray) -> None:
+    def _move(self, i, axis, rises: np.ndarray, dirs: np.ndarray, watching=None) -> None:
         trace, screw, spm = self.traces[axis.name], self.screws[i], axis.steps_per_mm
         motor, last_dir = self.motor_steps[i], self._last_dir[i]
+        watch, out, end_tick = watching if watching is not None else ((), None, 0)
+        w = 0
         for tick, direction in zip(list(rises), list(dirs)):
+            while w < len(watch) and watch[w] < tick:
+                out[w, i] = (motor, screw.carriage / spm)
+                w += 1
             if last_dir and direction != last_dir:
                 self.reversals[i] += 1
             last_dir = direction
             moved = int(direction) if self.motors[i] is None else self.motors[i].follow(tick, direction)
             motor += moved
             carriage = turn_screw(screw, moved) / spm
-            trace.ticks.append(tick)
-            trace.motor_steps.append(motor)
-            trace.carriage_mm.append(carriage)
+            if trace.limit != 0:
+                trace.append(int(tick), motor, carriage)
             self._check_travel(i, axis, tick, carriage)
             self.switches.on_carriage(axis.name, tick, carriage)
         self.motor_steps[i], self._last_dir[i] = motor, last_dir
+        while w < len(watch) and watch[w] < end_tick:
+            out[w, i] = (motor, screw.carriage / spm)
+            w += 1
 
     def _check_travel(self, i, axis, tick: int, carriage: float) -> None:
         lo, hi = self._travel[i]
@@ -130,6 +164,9 @@ class SimMachine:
         return self.screws[i].carriage / self.machine.axes[i].steps_per_mm
 
     def state_at(self, tick: int) -> dict[str, tuple[int, float]]:
-        """(motor steps, carriage mm) of every axis at the end of frame ``tick``."""
+        """(motor steps, carriage mm) of every axis at the end of frame ``tick`` (exact for a
+        watched tick or a full trace; from the points kept of a decimated one)."""
+        if tick in self.watched:
+            return dict(self.watched[tick])
         return {axis.name: self.traces[axis.name].at(tick, *self._initial[i])
                 for i, axis in enumerate(self.machine.axes)}

@@ -1,0 +1,66 @@
+"""A plan's port frames to the outputs as they are made: the streamed run.
+
+Program → plan → step schedule → port frames → outputs → report, a window at a time
+(``motion.stream``): each chunk of frames goes to every output (``sim://`` decodes it with its
+compiled kernels, ``vcd://`` appends it to its file) and is dropped. The simulated machine keeps
+a trace decimated to what a plot can show, in full near violations, and the exact state at every
+waypoint the report measures, so memory does not grow with the program's steps.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+from ..frames import PortFrames
+from ..runlog import RunLog
+from . import open_output
+from .sim import SimOutput
+
+#: trace points kept per axis for plots of a streamed run, and full detail this close to a violation
+TRACE_POINTS = 100_000
+AROUND_VIOLATION_TICKS = 200
+
+
+def deliver_plan(plan, urls: list[str], progress: Callable[[float], None] | None = None,
+                 window_steps: int = 1 << 18):
+    """Stream ``plan``'s frames to every output in ``urls``; return (run log, simulated machine).
+
+    The run log holds the waypoints, steps and following error but no frames (its ``frames`` is
+    empty, with the run's ``end_tick``); ``progress`` gets the fraction of moves done.
+    """
+    from ..motion.stream import stream_frames
+    from ..sim import SimMachine
+    machine = plan.machine
+    trace = {"trace_limit": TRACE_POINTS, "trace_around": AROUND_VIOLATION_TICKS}
+    outputs = [open_output(url, machine) for url in urls]
+    sims = [out for out in outputs if isinstance(out, SimOutput)]
+    for out in sims:
+        out.start_steps, out.trace_options = plan.start_steps, trace
+    log = RunLog(machine, PortFrames([], [], 0), start_steps=plan.start_steps)
+    try:
+        for out in outputs:
+            out.open()
+        sim = sims[0].sim if sims else SimMachine(machine, plan.start_steps, **trace)
+        feeds = [out.write for out in outputs] + ([] if sims else [sim.feed])
+        waypoints = log.waypoints
+        gen = stream_frames(plan, window_steps, on_waypoint=waypoints.append, progress=progress)
+        seen = 0
+        while True:
+            try:
+                chunk = next(gen)
+            except StopIteration as stop:
+                stats = stop.value
+                break
+            watched = [w.reached_tick for w in waypoints[seen:] if w.reached_tick is not None]
+            seen = len(waypoints)
+            for s in {id(x.sim): x.sim for x in sims}.values() if sims else (sim,):
+                s.watch(watched)
+            for feed in feeds:
+                feed(chunk)
+    finally:
+        for out in outputs:
+            out.close()
+    log.frames = PortFrames([], [], stats.end_tick)
+    log.steps_emitted = {a.name: int(n) for a, n in zip(machine.axes, stats.steps)}
+    log.max_following_error_steps = int(stats.lag)
+    return log, sim

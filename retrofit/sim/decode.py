@@ -1,0 +1,110 @@
+"""Feed one axis of a :class:`~retrofit.sim.SimMachine` a chunk of frames through the compiled decoder.
+
+The machine's readable state (its ``DriverInput``, ``DeadBand``, switches, counters) is the one
+source of truth: it is packed into small arrays for the kernel and unpacked after it, so the
+compiled chunks and the per-step reference (``feed_reference``, ``feed_frame``) can follow one
+another on the same machine.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .drivers import Violation
+from .kernels import KINDS, V_TRAVEL, decode_axis
+from .switches import SwitchEvent
+
+
+def axis_params(axis) -> np.ndarray:
+    """The int64 parameter row of an axis (slots ``kernels.P_*``)."""
+    return np.array([(axis.invert_step << axis.step_bit) | (axis.invert_dir << axis.dir_bit),
+                     axis.step_bit, axis.dir_bit, axis.pulse_high_ticks, axis.pulse_low_ticks,
+                     axis.dir_setup_ticks, axis.dir_hold_ticks], dtype=np.int64)
+
+
+def _detail(kind: str, value: int, carriage: float, axis, travel) -> str:
+    """The same words as ``DriverInput._check`` and ``SimMachine._check_travel``."""
+    if kind == "dir_hold":
+        return f"direction changed {value} tick(s) after a rising step edge; needs >= {axis.dir_hold_ticks}"
+    if kind == "pulse_high":
+        return f"step high for {value} tick(s); needs >= {axis.pulse_high_ticks}"
+    if kind == "pulse_low":
+        return f"step low for {value} tick(s) before rising; needs >= {axis.pulse_low_ticks}"
+    if kind == "dir_setup":
+        return (f"direction changed {value} tick(s) before a rising step edge; "
+                f"needs >= {axis.dir_setup_ticks}")
+    lo, hi = travel
+    return f"carriage at {carriage:.3f} mm, outside {lo:g}..{hi:g} mm"
+
+
+#: frames decoded per kernel call (bounds the event buffers, whatever the chunk's size)
+SUB_CHUNK = 1 << 16
+
+
+def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray) -> None:
+    """Decode axis ``i`` of ``sim`` over ``frames``; ``watch_out[:, i]`` gets (motor, carriage mm)
+    at the end of each watched tick."""
+    axis, driver, screw = sim.machine.axes[i], sim.drivers[i], sim.screws[i]
+    ds = np.array([driver.step, driver.direction, driver.last_rise, driver.last_fall,
+                   driver.last_dir_change], dtype=np.int64)
+    ms = np.array([sim.motor_steps[i], sim._last_dir[i], sim.reversals[i], int(sim._out_of_travel[i])],
+                  dtype=np.int64)
+    gap = np.array([screw.gap], dtype=np.float64)
+    switches = sim.switches.by_axis[axis.name]
+    sw = (np.array([s.spec.side for s in switches], dtype=np.float64),
+          np.array([s.spec.trip_mm for s in switches], dtype=np.float64),
+          np.array([s.spec.hysteresis_mm for s in switches], dtype=np.float64),
+          np.array([int(s.closed) for s in switches], dtype=np.int64))
+    n = min(len(frames.ticks), SUB_CHUNK)
+    buffers = (np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.float64),
+               np.empty(4 * n + 1, np.int64), np.empty(4 * n + 1, np.int64), np.empty(4 * n + 1, np.int64),
+               np.zeros(4 * n + 1, np.float64), np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.int64))
+    w_out = np.zeros((2, len(watch)), np.float64)
+    lo, hi = sim._travel[i]
+    params = axis_params(axis)
+    done_watch = 0
+    for start in range(0, max(len(frames.ticks), 1), SUB_CHUNK):
+        stop = min(start + SUB_CHUNK, len(frames.ticks))
+        end = int(frames.ticks[stop]) if stop < len(frames.ticks) else frames.end_tick
+        tr_t, tr_m, tr_c, v_t, v_c, v_v, v_car, sw_t, sw_i, sw_s = buffers
+        n_tr, n_v, n_sw, n_w = decode_axis(
+            frames.ticks[start:stop], frames.values[start:stop], params, ds, ms, gap, float(screw.width),
+            float(axis.steps_per_mm), float(lo), float(hi), *sw,
+            watch[done_watch:], w_out[:, done_watch:], np.int64(end), sim.traces[axis.name].limit != 0, *buffers)
+        done_watch += n_w
+        _events(sim, i, switches, (lo, hi), buffers, n_tr, n_v, n_sw)
+    driver.step, driver.direction = int(ds[0]), int(ds[1])
+    driver.last_rise, driver.last_fall, driver.last_dir_change = int(ds[2]), int(ds[3]), int(ds[4])
+    sim.motor_steps[i], sim._last_dir[i], sim.reversals[i] = int(ms[0]), int(ms[1]), int(ms[2])
+    sim._out_of_travel[i] = bool(ms[3])
+    screw.gap, screw.motor = float(gap[0]), int(ms[0])
+    for k, s in enumerate(switches):
+        s.closed = bool(sw[3][k])
+    if len(watch):
+        watch_out[:, i, :] = w_out.T
+
+
+def _events(sim, i: int, switches, travel, buffers, n_tr: int, n_v: int, n_sw: int) -> None:
+    """Word the kernel's violations and switch changes; extend the trace."""
+    axis, driver, trace = sim.machine.axes[i], sim.drivers[i], sim.traces[sim.machine.axes[i].name]
+    tr_t, tr_m, tr_c, v_t, v_c, v_v, v_car, sw_t, sw_i, sw_s = buffers
+    for j in range(n_v):
+        kind = KINDS[v_c[j]]
+        found = Violation(int(v_t[j]), axis.name, kind, _detail(kind, int(v_v[j]), float(v_car[j]), axis, travel))
+        (sim.extra_violations if v_c[j] == V_TRAVEL else driver.violations).append(found)
+    for j in range(n_sw):
+        sim.switches.events.append(SwitchEvent(int(sw_t[j]), switches[sw_i[j]].spec.name, bool(sw_s[j])))
+    if trace.limit != 0 and n_tr:
+        keep = None
+        if trace.limit is not None and n_v and sim.trace_around:
+            keep = _near(tr_t[:n_tr], v_t[:n_v], sim.trace_around)
+        trace.extend(tr_t[:n_tr], tr_m[:n_tr], tr_c[:n_tr], keep)
+
+
+def _near(ticks: np.ndarray, marks: np.ndarray, around: int) -> np.ndarray:
+    """True for the ticks within ``around`` of any mark."""
+    marks = np.sort(marks)
+    j = np.searchsorted(marks, ticks)
+    before = np.abs(ticks - marks[np.maximum(j - 1, 0)]) <= around
+    after = np.abs(marks[np.minimum(j, len(marks) - 1)] - ticks) <= around
+    return before | after

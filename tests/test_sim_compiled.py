@@ -1,0 +1,164 @@
+"""sim://'s compiled decoder equals the per-step reference: carriages, violations, switches, traces.
+
+Random port-byte streams (steps, direction turns, pulses too short on purpose) are fed to two
+simulated machines, one through the compiled chunks and one step by step, split into random
+chunks and mixed with single frames as a controller feeds them; everything the machine reports
+must agree exactly.
+"""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from retrofit.config import load_machine
+from retrofit.motion._jit import compiled
+from retrofit.frames import PinMap, PortFrames
+from retrofit.sim import SimMachine
+
+MITIC = load_machine("mitic-lathe")          # dead band, five switches
+CHIVU = load_machine("chivu-lathe")          # the largest dead band
+
+compiled()                      # the compiled kernels, whatever the size of the examples
+
+
+def random_frames(machine, seed: int, n: int, start_tick: int = 0) -> PortFrames:
+    """A port-byte stream with bursts of steps one way, turns, and now and then a too-short pulse."""
+    rng = np.random.default_rng(seed)
+    pins = PinMap(machine)
+    n_axes = len(machine.axes)
+    ticks, values = [], []
+    tick = start_tick
+    dirs = [1] * n_axes
+    steps = [0] * n_axes
+    last = -1
+    for _ in range(n):
+        for a in range(n_axes):
+            if rng.random() < 0.02:
+                dirs[a] = -dirs[a]
+            steps[a] = int(rng.random() < 0.5)
+        value = pins.byte(steps, dirs)
+        if value != last:
+            ticks.append(tick)
+            values.append(value)
+            last = value
+        tick += int(rng.choice([1, 1, 2, 3, 5]))
+    return PortFrames(np.array(ticks, np.int64), np.array(values, np.uint8), tick)
+
+
+def split(frames: PortFrames, cuts: list[int]) -> list[PortFrames]:
+    """Consecutive chunks of ``frames`` cut before the given frame indices."""
+    bounds = sorted({min(max(c, 0), len(frames)) for c in cuts} | {0, len(frames)})
+    chunks = []
+    for lo, hi in zip(bounds, bounds[1:]):
+        end = int(frames.ticks[hi]) if hi < len(frames) else frames.end_tick
+        chunks.append(PortFrames(frames.ticks[lo:hi], frames.values[lo:hi], end))
+    return chunks
+
+
+def observed(sim: SimMachine, probe: list[int]) -> dict:
+    """Everything a user could read off the simulated machine."""
+    names = sim.machine.axis_names
+    return {
+        "motor": list(sim.motor_steps),
+        "carriage": [sim.carriage_mm(n) for n in names],
+        "reversals": list(sim.reversals),
+        "violations": [v.as_dict() for v in sim.violations],
+        "switches": [(e.tick, e.name, e.closed) for e in sim.switches.events],
+        "trace": {n: (sim.traces[n].ticks, sim.traces[n].motor_steps, sim.traces[n].carriage_mm)
+                  for n in names},
+        "state": [sim.state_at(t) for t in probe],
+    }
+
+
+def check_equal(machine, start, frames, cuts, single):
+    """Feed ``frames`` compiled and by reference; frames of chunks in ``single`` go one by one."""
+    fast, ref = SimMachine(machine, start), SimMachine(machine, start)
+    for k, chunk in enumerate(split(frames, cuts)):
+        if k in single:
+            for t, v in zip(chunk.ticks.tolist(), chunk.values.tolist()):
+                fast.feed_frame(t, v)
+                ref.feed_frame(t, v)
+            continue
+        fast.feed(chunk)
+        ref.feed_reference(chunk)
+    probe = frames.ticks[::7].tolist()
+    assert observed(fast, probe) == observed(ref, probe)
+    return fast
+
+
+@st.composite
+def cases(draw):
+    base = draw(st.sampled_from([MITIC, CHIVU]))
+    axes = tuple(replace(a, pulse_high_ticks=draw(st.integers(1, 3)), pulse_low_ticks=draw(st.integers(1, 3)),
+                         dir_setup_ticks=draw(st.integers(0, 4)), dir_hold_ticks=draw(st.integers(0, 4)),
+                         invert_step=draw(st.booleans()), invert_dir=draw(st.booleans())) for a in base.axes)
+    machine = replace(base, axes=axes)
+    switches = machine.parts.get("switches")
+    start = []
+    for a in axes:
+        near = [s.trip_mm for s in switches.specs if s.axis == a.name] if switches else []
+        centre = draw(st.sampled_from(near + [0.0]))
+        start.append(int(round(centre * a.steps_per_mm)) + draw(st.integers(-30, 30)))
+    n = draw(st.integers(1, 600))
+    cuts = draw(st.lists(st.integers(0, n), max_size=5))
+    single = set(draw(st.lists(st.integers(0, 5), max_size=2)))
+    return machine, tuple(start), random_frames(machine, draw(st.integers(0, 2**31)), n), cuts, single
+
+
+@settings(max_examples=40)
+@given(cases())
+def test_compiled_sim_equals_reference(case):
+    check_equal(*case)
+
+
+@pytest.mark.slow
+@settings(max_examples=300)
+@given(cases())
+def test_compiled_sim_equals_reference_300_streams(case):
+    check_equal(*case)
+
+
+def test_random_streams_hit_what_the_property_is_about():
+    """The generator really produces violations, reversals and switch changes (else the
+    equality above would be empty)."""
+    start = (int(40.0 * 100), int(20.0 * 80))                        # on the precise switches
+    strict = replace(MITIC, axes=tuple(replace(a, pulse_high_ticks=3, pulse_low_ticks=3, dir_setup_ticks=2,
+                                               dir_hold_ticks=2) for a in MITIC.axes))
+    sim = check_equal(strict, start, random_frames(strict, 7, 3000), [100, 900, 1500], {2})
+    kinds = {v.kind for v in sim.violations}
+    assert {"pulse_high", "pulse_low", "dir_setup", "dir_hold"} <= kinds
+    assert min(sim.reversals) > 5
+    assert {e.name for e in sim.switches.events} >= {"ppsx", "ppsz"}
+
+
+def test_chunks_longer_than_the_kernels_buffers(monkeypatch):
+    import retrofit.sim.decode as decode
+    monkeypatch.setattr(decode, "SUB_CHUNK", 50)
+    start = (int(40.0 * 100), int(20.0 * 80))
+    frames = random_frames(MITIC, 11, 2000)
+    fast, ref = SimMachine(MITIC, start), SimMachine(MITIC, start)
+    fast.watch(frames.ticks[::37].tolist())
+    fast.feed(frames)
+    ref.feed_reference(frames)
+    probe = frames.ticks[::37].tolist()
+    assert observed(fast, probe) == observed(ref, probe)
+    assert fast.watched
+
+
+def test_decimated_trace_is_bounded_and_watched_ticks_stay_exact():
+    frames = random_frames(CHIVU, 3, 20000)
+    full = SimMachine(CHIVU)
+    small = SimMachine(CHIVU, trace_limit=500, trace_windows=((1000, 1200),))
+    probe = frames.ticks[::997].tolist()
+    small.watch(probe)
+    for chunk in split(frames, list(range(0, len(frames), 3000))):
+        full.feed(chunk)
+        small.feed(chunk)
+    for name in CHIVU.axis_names:
+        kept, every = small.traces[name], full.traces[name]
+        assert len(every) > 4000 and len(kept) <= 500 + 250              # about the limit, plus the window
+        assert {t for t in every.ticks if 1000 <= t < 1200} <= set(kept.ticks)
+    assert [small.state_at(t) for t in probe] == [full.state_at(t) for t in probe]
+    assert small.violations == full.violations and small.motor_steps == full.motor_steps
