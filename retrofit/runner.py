@@ -39,7 +39,8 @@ def slice_frames(frames: PortFrames, start: int, end: int) -> PortFrames:
     return PortFrames(frames.ticks[lo:hi], frames.values[lo:hi], min(end, frames.end_tick))
 
 
-def _staged_url(url: str, stack: ExitStack) -> str:
+def staged_url(url: str, stack: ExitStack) -> str:
+    """``url`` with its file (vcd://, parport+record://) written through a staged temporary name."""
     from .atomic import staged
     parsed = OutputURL.parse(url)
     if parsed.scheme not in FILE_SCHEMES or not parsed.target:
@@ -59,7 +60,7 @@ def deliver(log: RunLog, urls: Sequence[str], pauses: Sequence[tuple[int, str]] 
     otherwise a simulator fed alongside (its carriage then shows what the frames command).
     """
     with ExitStack() as files:
-        staged_urls = [_staged_url(url, files) for url in urls]
+        staged_urls = [staged_url(url, files) for url in urls]
         outputs = [open_output(url, log.machine) for url in staged_urls]
         for out in outputs:
             if isinstance(out, SimOutput):

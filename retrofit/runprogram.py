@@ -87,19 +87,25 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
     progress.done("compile")
     # 2. plan and 3. execute: by the planner and the fast path, or through the 002 controller
     reason = "--controller" if opts.controller else controller_reason(run.expanded.commands, machine)
+    streamed = False
     if reason:
         run.log = run_on_controller(run.expanded, machine, opts.backlash_comp, opts.reference, reason)
         run.how = f"002 controller ({reason})"
         progress.done("plan")
     else:
         run.plan = plan_expanded(run.expanded, machine, opts.backlash_comp, progress)
-        run.log = execute(run.plan, opts.reference)
+        streamed = can_stream(run, opts)
+        run.log = None if streamed else execute(run.plan, opts.reference)
         run.how = "reference path" if opts.reference else "fast path"
     progress.done("execute")
-    # 4. outputs: frames to every output, stopping at pauses on a real machine
+    # 4. outputs: frames to every output, stopping at pauses on a real machine; a clock-timed
+    #    run to sim:// and vcd:// only is made and delivered a window at a time (bounded memory)
     if getattr(opts, "before_outputs", None):
         opts.before_outputs(run)
-    run.sim = deliver_outputs(run, opts.urls, wait, progress)
+    if streamed:
+        run.sim = stream_outputs(run, opts.urls, progress)
+    else:
+        run.sim = deliver_outputs(run, opts.urls, wait, progress)
     # 5. report: the log joined with what the machine did
     from .runreport import run_report
     run.report = run_report(run)
@@ -182,6 +188,33 @@ def deliver_outputs(run: Run, urls: list[str], wait, progress):
     total = max(int(run.log.ticks), 1)
     return deliver(run.log, frame_urls, [(t, says) for t, _, says in pauses], wait,
                    lambda tick: progress.fraction("outputs", tick / total))
+
+
+#: outputs a streamed run can feed window by window
+STREAM_SCHEMES = ("sim", "vcd")
+
+
+def can_stream(run: Run, opts) -> bool:
+    """Whether the run's frames can be made and delivered a window at a time, never held whole:
+    the fast path, no pause, no tool changer (its magazine check replays the whole run), no
+    ``--html`` (which keeps every frame for its pulse view), only ``sim://`` and ``vcd://``."""
+    from .outputs import OutputURL
+    return (not opts.reference and not run.expanded.pauses and "atc" not in run.machine.parts
+            and not getattr(opts, "keep_frames", False)
+            and all(OutputURL.parse(u).scheme in STREAM_SCHEMES for u in opts.urls))
+
+
+def stream_outputs(run: Run, urls: list[str], progress):
+    """The plan's frames to every output as they are made (each file complete or absent); the
+    simulated machine. ``run.log`` becomes the streamed log: waypoints and steps, no frames."""
+    from contextlib import ExitStack
+    from .outputs.deliver import deliver_plan
+    from .runner import staged_url
+    with ExitStack() as files:
+        staged = [staged_url(url, files) for url in urls]
+        run.log, sim = deliver_plan(run.plan, staged, lambda done: progress.fraction("outputs", done))
+    run.report["remote"] = []
+    return sim
 
 
 def pause_tick(run: Run, index: int) -> int:

@@ -111,6 +111,7 @@ def cmd_run(args) -> int:
             store.begin(start_tool, run.expanded.end_tool)
     opts = SimpleNamespace(backlash_comp=not args.no_backlash_comp, reference=args.reference,
                            controller=args.controller, urls=args.output or ["sim://"],
+                           keep_frames=bool(getattr(args, "html", None)),
                            before_outputs=mark)
     progress = Progress(STAGE_WEIGHTS, None if args.progress == "auto" else args.progress == "on")
     try:
