@@ -24,9 +24,9 @@ def lab():
     return load_target(__file__)
 
 
-def library_bits(high, low, requests):
-    """What retrofit's StepGenerator puts on the wire for the same wanted steps."""
-    gen = StepGenerator(StepTiming(high, low))
+def library_bits(high, low, requests, gen=None):
+    """What retrofit's StepGenerator (or ``gen``, shaped like it) puts on the wire for the wanted steps."""
+    gen = gen or StepGenerator(StepTiming(high, low))
     bits, pending = [], 0
     for wanted in requests:
         bits.append(gen.frame()[0])
@@ -36,16 +36,22 @@ def library_bits(high, low, requests):
     return bits
 
 
+class StudentGenerator:
+    """The student's counters behind StepGenerator's names, so the same tick loop drives both."""
+
+    def __init__(self, counters):
+        self.counters = counters
+
+    def frame(self):
+        return (int(self.counters.pas_avans()),)
+
+    def start_step(self):
+        return self.counters.set_pas_avans()
+
+
 def counter_bits(lab, high, low, requests):
-    """The student's counters in the same tick loop."""
-    counters = lab.PulseCounters(high, low)
-    bits, pending = [], 0
-    for wanted in requests:
-        bits.append(int(counters.pas_avans()))
-        pending += int(wanted)
-        if pending and counters.set_pas_avans():
-            pending -= 1
-    return bits
+    """The student's counters in the library's tick loop."""
+    return library_bits(high, low, requests, StudentGenerator(lab.PulseCounters(high, low)))
 
 
 class LibraryCounters:
