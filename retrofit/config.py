@@ -81,7 +81,7 @@ class SimModel:
     """The physical machine the simulator models (may differ from what the controller assumes)."""
 
     dead_band_mm: dict[str, float]
-    motors: dict[str, object] = field(default_factory=dict)   # [sim.motor.<axis>]: sim.pullout.MotorModel
+    motors: dict[str, object] = field(default_factory=dict)   # [sim.motor.<axis>]: motors.MotorModel
 
 
 @dataclass(frozen=True)
@@ -287,7 +287,7 @@ def _read_sim(sec: Section | None, axes: tuple[Axis, ...], file: str) -> SimMode
     motor_tables = sec.section("motor", required=False)
     motors = {}
     if motor_tables is not None:
-        from .sim.pullout import read_motor_tables     # lazily: only a machine with motor tables needs it
+        from .motors import read_motor_tables
         motors = read_motor_tables(motor_tables, axes)
     sec.finish()
     return SimModel(dead_band_mm=dead, motors=motors)
