@@ -172,14 +172,14 @@ class CamLinkServer:
             self._drop("connection lost while sending replies (or the client stopped reading them)")
 
     def _drop(self, reason: str) -> None:
-        """Close the client and stop the machine: drives, spindle, coolant."""
+        """Stop the machine (drives, spindle, coolant), then close the client."""
         client, self.client = self.client, None
+        record = self.mill.halt(reason)        # first: the machine is stopped before the client sees the close
         if client is not None:
             try:
                 client.close()
             except OSError:
                 pass
-        record = self.mill.halt(reason)
         run_on = " ".join(str(c) for c in record.coast_pulses)
         self.log(f"{reason}: machine stopped at tick {record.tick}, axes ran on {run_on} pulses "
                  f"in {record.coast_periods} loop periods")
