@@ -192,6 +192,9 @@ def deliver_outputs(run: Run, urls: list[str], wait, progress):
 
 #: outputs a streamed run can feed window by window
 STREAM_SCHEMES = ("sim", "vcd")
+#: steps per streamed window: small enough that the progress bar moves often, large enough that
+#: the compiled kernels dominate the per-window cost
+STREAM_WINDOW_STEPS = 1 << 15
 
 
 def can_stream(run: Run, opts) -> bool:
@@ -212,7 +215,8 @@ def stream_outputs(run: Run, urls: list[str], progress):
     from .runner import staged_url
     with ExitStack() as files:
         staged = [staged_url(url, files) for url in urls]
-        run.log, sim = deliver_plan(run.plan, staged, lambda done: progress.fraction("outputs", done))
+        run.log, sim = deliver_plan(run.plan, staged, lambda done: progress.fraction("outputs", done),
+                                    window_steps=STREAM_WINDOW_STEPS)
     run.report["remote"] = []
     return sim
 
