@@ -104,6 +104,8 @@ class HostEndpoint:
         #: 32-bit session number of the next SYNC (random by default, so that two host runs differ)
         self.session = (int.from_bytes(os.urandom(4), "big") if session is None
                         else session) & 0xFFFFFFFF
+        #: True while the session is the random default (a seeded LinkBench replaces it)
+        self.session_is_random = session is None
 
     # -- public API --------------------------------------------------------------------------
 

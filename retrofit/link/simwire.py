@@ -117,6 +117,10 @@ class LinkBench:
         self.host, self.device = host, device
         self.to_device, self.to_host = to_device, to_host
         self.rng = rng or random.Random(0)
+        if host.session_is_random:
+            # a seeded bench runs the same way every time: the host's SYNC bytes (and so
+            # where the wires' faults land) come from the bench's generator, not the OS
+            host.session, host.session_is_random = self.rng.getrandbits(32), False
         self.byte_time_s = byte_time_s
         self.on_time = on_time or (lambda now: None)
         self.now = 0.0
