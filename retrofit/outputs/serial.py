@@ -2,7 +2,7 @@
 
 URL grammar: ``serial:///dev/ttyUSB0?baud=115200`` (a serial device: an Arduino Mega running
 ``firmware/``, or the pty printed by ``retrofit mcu --pty``) or ``serial+socket://HOST:PORT``
-(the same bytes over TCP: ``retrofit mcu --listen``, or the firmware under QEMU). Options:
+(the same bytes over TCP: ``retrofit mcu --listen``, or the firmware in simavr: ``retrofit firmware sim``). Options:
 ``baud`` (int, 115200), ``timeout_ms`` (float, 100: resend when unanswered, docs/protocol.md §6),
 ``tries`` (int, 10), ``init`` (bool, 1: send INIT first), ``wait_s`` (float, 0: how long to wait
 for the motion to end; 0 waits as long as it takes), ``poll_ms`` (float, 20: RDST interval),
@@ -149,7 +149,7 @@ class SerialSocketOutput(SerialOutput):
 
     scheme = "serial+socket"
     grammar = "serial+socket://HOST:PORT"
-    summary = ("the serial protocol over TCP: retrofit mcu --listen, or the firmware in QEMU "
+    summary = ("the serial protocol over TCP: retrofit mcu --listen, or the firmware in simavr "
                "(-serial tcp:...)")
 
 

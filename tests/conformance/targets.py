@@ -1,4 +1,4 @@
-"""The two devices that speak docs/protocol.md: ``retrofit mcu`` and the firmware under QEMU.
+"""The two devices that speak docs/protocol.md: ``retrofit mcu`` and the firmware in simavr.
 
 Each is started as a separate process serving TCP on 127.0.0.1; ``url`` is what pyserial opens
 (``socket://127.0.0.1:PORT``). Both are killed by ``close()`` (the fixtures call it), and on Linux

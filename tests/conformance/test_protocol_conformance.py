@@ -1,4 +1,4 @@
-"""One conformance suite, two devices: ``retrofit mcu`` and the firmware running in QEMU.
+"""One conformance suite, two devices: ``retrofit mcu`` and the firmware running in simavr.
 
 Every test talks raw frames (tests/conformance/rawlink.py) to a device started as its own
 process, and checks what docs/protocol.md promises: the answers' bytes and sequence bytes,
