@@ -150,7 +150,7 @@ class SerialSocketOutput(SerialOutput):
     scheme = "serial+socket"
     grammar = "serial+socket://HOST:PORT"
     summary = ("the serial protocol over TCP: retrofit mcu --listen, or the firmware in simavr "
-               "(-serial tcp:...)")
+               "(retrofit firmware sim --listen)")
 
 
 def wait_for_device(port, boot_s: float, name: str) -> float:
