@@ -1,8 +1,9 @@
 """The simulated tool-setter beam: broken when the real tool in the spindle covers it.
 
 The tool is a cylinder of its true diameter hanging its true length below the spindle's gauge
-line (``[tools.sim]``; Z+ is up, so its tip is at Z - length); the beam is a band ``beam_width_mm`` thick whose top edge is at
-``beam_top_z_mm``, running along X between emitter and receiver ``beam_span_mm`` apart.
+line (``[tools.sim]``; Z+ is up, so its tip is at Z - length); the beam is a band
+``beam_width_mm`` thick whose top edge is at ``beam_top_z_mm``, running along X between emitter
+and receiver ``beam_span_mm`` apart.
 """
 
 from __future__ import annotations
