@@ -27,31 +27,31 @@ def full_magazine_except(*empty):
 
 def test_turning_the_carousel_with_the_spindle_down_in_the_magazine():
     cell = SimCell(MILL)
-    cell.run([FMov((("X", 23.0), ("Y", 28.0), ("Z", 40.5))), FMov((("E", 6.2),)),
-              PFdr(800.0), PMov((("Y", 44.0),)), PMov((("Z", 45.0),))])       # T3 clamped
+    cell.run([FMov((("X", 23.0), ("Y", 28.0), ("Z", -40.5))), FMov((("E", 6.2),)),
+              PFdr(800.0), PMov((("Y", 44.0),)), PMov((("Z", -45.0),))])       # T3 clamped
     assert kinds(cell) == [] and cell.magazine.state.spindle == 3
     cell.run([FMov((("E", 8.2),))])                                           # turn, spindle still down
     assert kinds(cell) == ["carousel_turn"]
-    assert "below Z_POINT_1 40.5" in cell.violations[0].detail
+    assert "below Z_POINT_1 -40.5" in cell.violations[0].detail
 
 
 def test_turning_at_z_point_1_inside_the_magazine_is_allowed():
     cell = SimCell(MILL)
-    cell.run([FMov((("X", 23.0), ("Y", 28.0), ("Z", 40.5))), PFdr(800.0), PMov((("Y", 44.0),)),
+    cell.run([FMov((("X", 23.0), ("Y", 28.0), ("Z", -40.5))), PFdr(800.0), PMov((("Y", 44.0),)),
               FMov((("E", 6.2),)), ZMov(("E",))])
     assert kinds(cell) == []
 
 
 def test_entering_the_magazine_where_no_pocket_is_at_the_spindle():
     cell = SimCell(MILL)                                      # carousel at home: 0 deg, no pocket there
-    cell.run([FMov((("X", 23.0), ("Y", 28.0), ("Z", 45.0))), PFdr(800.0), PMov((("Y", 44.0),))])
+    cell.run([FMov((("X", 23.0), ("Y", 28.0), ("Z", -45.0))), PFdr(800.0), PMov((("Y", 44.0),))])
     assert kinds(cell) == ["pocket_misaligned"]
     assert cell.magazine.state.spindle is None                # nothing clamped
 
 
 def test_entering_off_the_station_x1():
     cell = SimCell(MILL)
-    cell.run([FMov((("X", 21.0), ("Y", 28.0), ("Z", 45.0))), FMov((("E", 6.2),)),
+    cell.run([FMov((("X", 21.0), ("Y", 28.0), ("Z", -45.0))), FMov((("E", 6.2),)),
               PFdr(800.0), PMov((("Y", 44.0),))])
     assert kinds(cell) == ["pocket_misaligned"]
 
@@ -67,16 +67,16 @@ def test_a_controller_with_the_wrong_atc_offset_enters_between_pockets():
 def test_a_pocket_receiving_a_second_tool():
     # the spindle holds T3 but goes to pocket 5, which holds T5
     cell = SimCell(MILL, MagazineState(3, full_magazine_except(3)))
-    cell.run([FMov((("X", 23.0), ("Y", 28.0), ("Z", 45.0))), ZMov(("E",)), FMov((("E", 8.2),)),
-              PFdr(800.0), PMov((("Y", 44.0),)), PFdr(1000.0), PMov((("Z", 40.5),))])
+    cell.run([FMov((("X", 23.0), ("Y", 28.0), ("Z", -45.0))), ZMov(("E",)), FMov((("E", 8.2),)),
+              PFdr(800.0), PMov((("Y", 44.0),)), PFdr(1000.0), PMov((("Z", -40.5),))])
     assert kinds(cell) == ["pocket_occupied"]
     assert cell.magazine.state.spindle == 3 and cell.magazine.state.pockets[5] == 5
 
 
 def test_a_tool_put_into_a_pocket_that_is_not_its_own():
     cell = SimCell(MILL, MagazineState(3, full_magazine_except(3, 5)))
-    cell.run([FMov((("X", 23.0), ("Y", 28.0), ("Z", 45.0))), FMov((("E", 8.2),)),
-              PFdr(800.0), PMov((("Y", 44.0),)), PFdr(1000.0), PMov((("Z", 40.5),))])
+    cell.run([FMov((("X", 23.0), ("Y", 28.0), ("Z", -45.0))), FMov((("E", 8.2),)),
+              PFdr(800.0), PMov((("Y", 44.0),)), PFdr(1000.0), PMov((("Z", -40.5),))])
     assert kinds(cell) == ["wrong_pocket"]
     assert cell.magazine.state.pockets[5] == 3                # it is there now, in the wrong place
 

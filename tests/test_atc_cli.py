@@ -48,7 +48,7 @@ def test_setter_and_mill(tmp_path, capsys):
     code, out, _ = run(capsys, "setter", "table", *where)
     assert "T3: length 24.6200 mm" in out
     program = tmp_path / "job.ngc"
-    program.write_text("G0 X10 Y10 Z5\nT3\nG43\nG0 Z20\nG1 X20 F300\nG49\nT0\nM30\n")
+    program.write_text("G0 X10 Y10 Z-5\nT3\nG43\nG0 Z-20\nG1 X20 F300\nG49\nT0\nM30\n")
     # the measurements are in the LinuxCNC tool table: Z = length - reference length, D = diameter
     from retrofit.tooltable import ToolTable
     tbl = ToolTable.load(tmp_path / "tul-mill.tbl")

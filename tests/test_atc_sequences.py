@@ -13,38 +13,39 @@ MILL = load_machine("tul-mill")
 ATC = atc_of(MILL)
 
 # The document's sequences (figures 23-25 and their G-code), with tul-mill's constants:
-# X1 23, Y_POINT_A 28, Y_POINT_B 44, Z_POINT_1 40.5, Z_POINT_2 45, ATC_OFFSET 3.2, ATC_HOME 0.
+# X1 23, Y_POINT_A 28, Y_POINT_B 44, Z_POINT_1 -40.5, Z_POINT_2 -45 (the document's 40.5 and 45
+# down from the top, Z+ up), ATC_OFFSET 3.2, ATC_HOME 0.
 # Each step ends with DELY P0, the document's M400.
-PUT_BACK_3 = ["FMOV X23 Y28 Z45", "DELY P0",           # X1, Y_POINT_A, Z_POINT_2, rapid
+PUT_BACK_3 = ["FMOV X23 Y28 Z-45", "DELY P0",          # X1, Y_POINT_A, Z_POINT_2, rapid
               "ZMOV E", "FMOV E6.2", "DELY P0",        # home the carousel, CCW to pocket 3
               "PFDR F800", "PMOV Y44", "DELY P0",      # Y_POINT_B at 800: T3 into its fork
-              "PFDR F1000", "PMOV Z40.5", "DELY P0"]   # Z_POINT_1 at 1000: lift off, T3 released
+              "PFDR F1000", "PMOV Z-40.5", "DELY P0"]  # Z_POINT_1 at 1000: lift off, T3 released
 PICK_5_INSIDE = ["ZMOV E", "FMOV E8.2", "DELY P0",     # home, CCW to pocket 5 (spindle above the tools)
-                 "PFDR F200", "PMOV Z45", "DELY P0",   # Z_POINT_2 at 200: onto T5, it clamps
+                 "PFDR F200", "PMOV Z-45", "DELY P0",  # Z_POINT_2 at 200: onto T5, it clamps
                  "PFDR F1000", "PMOV Y28", "DELY P0",  # Y_POINT_A at 1000: out with T5
                  "ZMOV E", "DELY P0"]                  # the door closes: CW home
 CONDITIONS = {
-    1: (0, 3, ["FMOV X23 Y28 Z40.5", "DELY P0", "ZMOV E", "FMOV E6.2", "DELY P0",
-               "PFDR F800", "PMOV Y44", "DELY P0", "PFDR F200", "PMOV Z45", "DELY P0",
+    1: (0, 3, ["FMOV X23 Y28 Z-40.5", "DELY P0", "ZMOV E", "FMOV E6.2", "DELY P0",
+               "PFDR F800", "PMOV Y44", "DELY P0", "PFDR F200", "PMOV Z-45", "DELY P0",
                "PFDR F1000", "PMOV Y28", "DELY P0", "ZMOV E", "DELY P0"]),
     2: (3, 5, PUT_BACK_3 + PICK_5_INSIDE),
     3: (3, 0, PUT_BACK_3 + ["PFDR F1000", "PMOV Y28", "DELY P0", "ZMOV E", "DELY P0"]),
 }
 # (X, Y, Z, E) at the end of every move that moved, and the feed of the feed moves (mm/min)
 PATHS = {
-    1: [((23, 28, 40.5, 0), None), ((23, 28, 40.5, 6.2), None), ((23, 44, 40.5, 6.2), 800),
-        ((23, 44, 45, 6.2), 200), ((23, 28, 45, 6.2), 1000), ((23, 28, 45, 0), None)],
-    2: [((23, 28, 45, 0), None), ((23, 28, 45, 6.2), None), ((23, 44, 45, 6.2), 800),
-        ((23, 44, 40.5, 6.2), 1000), ((23, 44, 40.5, 0), None), ((23, 44, 40.5, 8.2), None),
-        ((23, 44, 45, 8.2), 200), ((23, 28, 45, 8.2), 1000), ((23, 28, 45, 0), None)],
-    3: [((23, 28, 45, 0), None), ((23, 28, 45, 6.2), None), ((23, 44, 45, 6.2), 800),
-        ((23, 44, 40.5, 6.2), 1000), ((23, 28, 40.5, 6.2), 1000), ((23, 28, 40.5, 0), None)],
+    1: [((23, 28, -40.5, 0), None), ((23, 28, -40.5, 6.2), None), ((23, 44, -40.5, 6.2), 800),
+        ((23, 44, -45, 6.2), 200), ((23, 28, -45, 6.2), 1000), ((23, 28, -45, 0), None)],
+    2: [((23, 28, -45, 0), None), ((23, 28, -45, 6.2), None), ((23, 44, -45, 6.2), 800),
+        ((23, 44, -40.5, 6.2), 1000), ((23, 44, -40.5, 0), None), ((23, 44, -40.5, 8.2), None),
+        ((23, 44, -45, 8.2), 200), ((23, 28, -45, 8.2), 1000), ((23, 28, -45, 0), None)],
+    3: [((23, 28, -45, 0), None), ((23, 28, -45, 6.2), None), ((23, 44, -45, 6.2), 800),
+        ((23, 44, -40.5, 6.2), 1000), ((23, 28, -40.5, 6.2), 1000), ((23, 28, -40.5, 0), None)],
 }
 
 
 def run_condition(condition):
     current, new, _ = CONDITIONS[condition]
-    cell = SimCell(MILL, MagazineState.loaded(MILL, current), start_mm={"X": 5.0, "Y": 5.0, "Z": 5.0})
+    cell = SimCell(MILL, MagazineState.loaded(MILL, current), start_mm={"X": 5.0, "Y": 5.0, "Z": -5.0})
     seq = change_sequence(ATC, current, new, MILL.name)
     cell.run(seq.commands())
     return seq, cell
@@ -72,7 +73,7 @@ def test_commands_follow_the_documents_sequence(condition):
 @pytest.mark.parametrize("condition", [1, 2, 3], ids=["1-pick", "2-put-back-then-pick", "3-T0"])
 def test_the_machine_moves_through_the_documents_points_at_its_feeds(condition):
     _, cell = run_condition(condition)
-    moves = visited(cell)                       # from X5 Y5 Z5: the first move is the approach
+    moves = visited(cell)                       # from X5 Y5 Z-5: the first move is the approach
     assert [p for p, _ in moves] == [tuple(float(v) for v in p) for p, _ in PATHS[condition]]
     for (point, peak), (_, feed) in zip(moves, PATHS[condition]):
         if feed is not None:
@@ -128,8 +129,10 @@ def test_homing_goes_z_y_x_then_the_carousel():
     order = MILL.parts["homing"].order
     steps = homing_steps(ATC, order)
     assert [str(c) for s in steps for c in s.commands] == ["ZMOV Z", "ZMOV Y", "ZMOV X", "ZMOV E"]
-    cell = SimCell(MILL, start_mm={"X": 20.0, "Y": 30.0, "Z": 40.0, "E": 6.2})
+    cell = SimCell(MILL, start_mm={"X": 20.0, "Y": 30.0, "Z": -40.0, "E": 6.2})
     cell.run([c for s in steps for c in s.commands])
     assert cell.carriage_mm() == {"X": 0.0, "Y": 0.0, "Z": 0.0, "E": 0.0}
+    z = list(cell.sim.traces["Z"].carriage_mm)
+    assert z == sorted(z) and z[0] > -40.0              # Z goes up, to its home at the top
     ends = {n: cell.sim.traces[n].ticks[-1] for n in "ZYXE"}
     assert ends["Z"] < ends["Y"] < ends["X"] < ends["E"]

@@ -156,20 +156,20 @@ def test_homing_z_alone_latches_within_one_step_of_its_switch(mill):
     machine, elf = mill
     end = int(5.5 * S)                   # seek at 50 mm/s, back off and latch at 0.5 mm/s
     script = Script(machine).at(3_200_000, "ZMOV Z").at(end - 100_000, "RDPS")
-    log = fs.Harness(elf, machine, script=script.items, cycles=end, start_steps={"Z": 2000}).run()
+    log = fs.Harness(elf, machine, script=script.items, cycles=end, start_steps={"Z": -2000}).run()
     steps = dict(zip([a.name for a in fs.firmware_axes(machine)], log.steps))
-    assert steps["Z"] in (0, -1) and steps["X"] == steps["Y"] == 0
+    assert steps["Z"] in (0, 1) and steps["X"] == steps["Y"] == 0       # Z homes up, to its top switch
     assert dict(replies(log, machine)[-1].steps)["Z"] == 0
-    report = fs.report(log, machine, {"Z": 2000})
+    report = fs.report(log, machine, {"Z": -2000})
     assert report["carriage_mm"]["Z"] == pytest.approx(0.0, abs=0.011)
     assert not report["violations"]
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("start", [
-    {"X": 1500, "Y": 2500, "Z": 800},
-    {"X": 4400, "Y": 10, "Z": 3000},
-    {"X": 1, "Y": 4000, "Z": 4500},
+    {"X": 1500, "Y": 2500, "Z": -800},
+    {"X": 4400, "Y": 10, "Z": -3000},
+    {"X": 1, "Y": 4000, "Z": -4500},
 ], ids=["middle", "x-far-y-near", "z-far-x-near"])
 def test_homing_z_y_x_stops_each_carriage_within_one_step_of_its_switch(mill, start):
     machine, elf = mill
@@ -183,8 +183,8 @@ def test_homing_z_y_x_stops_each_carriage_within_one_step_of_its_switch(mill, st
     assert not status.flags & (StatusFlags.MOVING | StatusFlags.ERROR)
     order = fs.firmware_axes(machine)
     steps = dict(zip([a.name for a in order], log.steps))      # the carriages, counted on the pins
-    for axis in "XYZ":                                         # the switches trip at 0 steps
-        assert steps[axis] in (0, -1), (axis, steps)
+    for axis, beyond in (("X", -1), ("Y", -1), ("Z", 1)):      # the switches trip at 0 steps
+        assert steps[axis] in (0, beyond), (axis, steps)       # X, Y below theirs, Z above its top one
         assert dict(position.steps)[axis] == 0
     assert steps["E"] == 0                                     # not homed, not moved
     # Z homed first, then Y, then X: the first step of each axis comes in that order

@@ -12,7 +12,7 @@ TOOL_CYCLE = """G21 G90
 T3 M6
 M3 S1000
 G0 X10 Y10
-G1 Z5 F200
+G1 Z-5 F200
 T5 M6
 G0 X5 Y5
 T0 M6
@@ -39,8 +39,8 @@ def test_tool_changes_run_inside_the_run_and_end_with_an_empty_spindle(tmp_path)
     assert [c["line"] for c in rep["tool"]["changes"]] == [2, 6, 8]
     assert rep["tool"]["end"] == 0
     # after the last change (condition 3: put back, door closed) the axes return to where the
-    # program left them (G0 X5 Y5 at Z5)
-    for axis, mm in {"X": 5.0, "Y": 5.0, "Z": 5.0, "E": 0.0}.items():
+    # program left them (G0 X5 Y5 at Z-5)
+    for axis, mm in {"X": 5.0, "Y": 5.0, "Z": -5.0, "E": 0.0}.items():
         assert rep["axes"][axis]["carriage_mm"] == pytest.approx(mm, abs=0.01)
     assert "tool table: tul-mill.tbl; spindle record: tul-mill.spindle.json (T0" in proc.stdout
     assert json.loads((tmp_path / "tul-mill.spindle.json").read_text())["spindle_tool"] == 0
@@ -61,7 +61,7 @@ def test_the_spindle_record_is_where_the_next_run_starts(tmp_path):
 
 
 def test_a_move_into_the_magazine_is_a_collision_exit_1_with_the_line(tmp_path):
-    prog = write(tmp_path, "crash.ngc", "T3 M6\nG0 X23 Y28 Z45\nG0 Y44\nG0 Y28\nM2\n")
+    prog = write(tmp_path, "crash.ngc", "T3 M6\nG0 X23 Y28 Z-45\nG0 Y44\nG0 Y28\nM2\n")
     proc = retrofit("run", prog, "--machine", "tul-mill", "--report", "r.json", cwd=tmp_path)
     assert proc.returncode == 1, proc.stderr
     rep = json.loads((tmp_path / "r.json").read_text())

@@ -69,8 +69,8 @@ def test_all_axes_stop_at_the_step_that_breaks_the_beam():
     cell.run(st_.length_approach(SETTER))
     hit = cell.probe(st_.length_probe(SETTER))
     z = cell.carriage_mm()["Z"]
-    edge = SETTER.beam_top_z_mm - length                   # where the tip meets the beam top
-    assert 0.0 <= z - edge < STEP + SLACK                  # stopped within the step that broke it
+    edge = SETTER.beam_top_z_mm + length                   # Z+ up: the tip, Z - length, meets the top
+    assert 0.0 <= edge - z < STEP + SLACK                  # stopped within the step that broke it
     assert hit.position_mm["Z"] == pytest.approx(z)        # the controller counted the same steps
     assert cell.sim.traces["Z"].ticks[-1] == hit.tick      # not one step after
     assert (cell.carriage_mm()["X"], cell.carriage_mm()["Y"]) == (SETTER.beam_x_mm, SETTER.beam_y_mm)
@@ -93,7 +93,7 @@ def test_the_reference_run_needs_the_reference_tool():
 
 def test_an_empty_spindle_never_breaks_the_beam():
     cell = SimCell(MILL)                                   # the record says T1, the spindle is empty
-    with pytest.raises(ProbeError, match="the beam did not break while Z went from 18 to 45 mm"):
+    with pytest.raises(ProbeError, match="the beam did not break while Z went from -18 to -45 mm"):
         ToolSetter(MILL, ToolTable("tul-mill")).calibrate(cell, 1)
     assert cell.carriage_mm()["Z"] == SETTER.lowest_z_mm
 
@@ -115,11 +115,11 @@ def test_g43_puts_the_tip_where_the_reference_tool_would_be(tmp_path, tool):
     store = ToolTableStore("tul-mill", tmp_path / "setter.json", tmp_path / "tul-mill.tbl")
     store.save(table)                                      # the measurements go to tool.tbl
     from retrofit.tooltable import ToolTable as Tbl
-    program = compile_program("G43\nG0 X20 Y20 Z20\nG49\nG0 Z10", MILL, start_mm=cell.commanded_mm(),
+    program = compile_program("G43\nG0 X20 Y20 Z-20\nG49\nG0 Z-10", MILL, start_mm=cell.commanded_mm(),
                               tool_table=Tbl.load(tmp_path / "tul-mill.tbl"),
                               spindle_tool=changer.spindle_tool)
     cell.run(program.commands[:-1])                        # up to the move under G43
-    tip = cell.carriage_mm()["Z"] + tools_of(MILL).sim[tool].length_mm
-    assert abs(tip - (20.0 + SETTER.reference_length_mm)) <= STEP + SLACK
+    tip = cell.carriage_mm()["Z"] - tools_of(MILL).sim[tool].length_mm     # Z+ up: the tool hangs below
+    assert abs(tip - (-20.0 - SETTER.reference_length_mm)) <= STEP + SLACK
     cell.run(program.commands[-1:])                        # after G49 Z is the gauge line again
-    assert cell.carriage_mm()["Z"] == 10.0
+    assert cell.carriage_mm()["Z"] == -10.0

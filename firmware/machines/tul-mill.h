@@ -11,8 +11,8 @@
 #define MAX_RATE_STEPS_S    { 5000.0f, 5000.0f, 5000.0f, 8000.0f }
 #define ACCEL_STEPS_S2      { 100000.0f, 100000.0f, 100000.0f, 160000.0f }
 #define BACKLASH_STEPS      { 0, 0, 0, 0 }
-#define MIN_STEPS           { 0, 0, 0, 0 }   /* soft limits */
-#define MAX_STEPS           { 4500, 4500, 4500, 2560 }
+#define MIN_STEPS           { 0, 0, -4500, 0 }   /* soft limits */
+#define MAX_STEPS           { 4500, 4500, 0, 2560 }
 #define TRAVEL_STEPS        { 5501, 5501, 5501, 3696 }   /* the longest homing seek */
 #define PULSE_HIGH_US       10   /* 'dunu': the step pulse */
 #define MIN_PERIOD_US       20   /* 'perioada': the shortest step period */
@@ -25,13 +25,13 @@
 #define SWITCHES \
     SWITCH(0, 0, -1, SW_HOME, XMIN, -1)   /* XMIN */ \
     SWITCH(1, 1, -1, SW_HOME, XMAX, -1)   /* YMIN */ \
-    SWITCH(2, 2, -1, SW_HOME, YMIN, -1)   /* ZTOP */ \
+    SWITCH(2, 2, +1, SW_HOME, YMIN, -1)   /* ZTOP */ \
     SWITCH(3, 3, -1, SW_HOME, YMAX, -1)   /* CAROUSEL */ \
 
 #define N_SWITCHES          4
 #define HOME_COUNT          4
 #define HOME_ORDER          { 2, 1, 0, 3 }
-#define HOME_DIRS           { -1, -1, -1, -1 }
+#define HOME_DIRS           { -1, -1, 1, -1 }
 #define HOME_SEEK_SWITCH    { 0, 1, 2, 3 }   /* 255: the axis is not homed */
 #define HOME_REF_SWITCH     { 0, 1, 2, 3 }
 #define HOME_STEPS          { 0, 0, 0, 0 }   /* the position at the reference switch */

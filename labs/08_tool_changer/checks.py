@@ -12,7 +12,7 @@ from retrofit.atc.settings import atc_of
 from retrofit.config import load_machine
 from retrofit.labs import expect, load_target
 
-START_MM = {"X": 5.0, "Y": 5.0, "Z": 5.0, "E": 0.0}
+START_MM = {"X": 5.0, "Y": 5.0, "Z": -5.0, "E": 0.0}
 
 
 @pytest.fixture(scope="module")
@@ -33,7 +33,7 @@ def atc(mill):
 
 @pytest.fixture(scope="module")
 def cell(mill, atc):
-    """The T3 -> T7 change run by the checks themselves, from X5 Y5 Z5 with the carousel at home."""
+    """The T3 -> T7 change run by the checks themselves, from X5 Y5 Z-5 with the carousel at home."""
     cell = SimCell(mill, MagazineState.loaded(mill, 3), start_mm=START_MM)
     cell.run(change_sequence(atc, 3, 7, mill.name).commands())
     return cell
@@ -104,23 +104,24 @@ def test_unsafe_turns(lab, atc):
     """TODO 5: unsafe_turns flags a carousel step only with the spindle down inside the magazine"""
     traces = {"X": (np.array([0.0]), np.array([23.0])),
               "Y": (np.array([0.0, 1.0, 3.0]), np.array([28.0, 44.0, 28.0])),
-              "Z": (np.array([0.0, 2.0]), np.array([45.0, 40.5])),
+              "Z": (np.array([0.0, 2.0]), np.array([-45.0, -40.5])),
               "E": (np.array([0.0, 0.5, 1.5, 2.5, 3.5]), np.array([0.0, 20.0, 40.0, 60.0, 80.0]))}
-    start_inside = dict(traces, Y=(np.array([0.0]), np.array([44.0])), Z=(np.array([0.0, 1.0]), np.array([45.0, 40.0])))
+    start_inside = dict(traces, Y=(np.array([0.0]), np.array([44.0])),
+                        Z=(np.array([0.0, 1.0]), np.array([-45.0, -40.0])))
     got = [round(float(t), 6) for t in lab.unsafe_turns(start_inside, atc)]
     expect(got == [0.5], "unsafe_turns with the spindle down at Y 44 from the start, raised at 1 s: the carousel "
            "at 0 s (its start), steps at 0.5, 1.5, 2.5 and 3.5 s", expected=[0.5], got=got,
            hint="the first sample of E is where the carousel starts, not a step: leave it out")
-    edge = dict(traces, Y=(np.array([0.0]), np.array([atc.sim.magazine_y_mm])), Z=(np.array([0.0]), np.array([45.0])))
+    edge = dict(traces, Y=(np.array([0.0]), np.array([atc.sim.magazine_y_mm])), Z=(np.array([0.0]), np.array([-45.0])))
     got = [round(float(t), 6) for t in lab.unsafe_turns(edge, atc)]
-    expect(got == [], f"unsafe_turns with the spindle down (Z 45) at Y {atc.sim.magazine_y_mm:g}, the edge of the "
+    expect(got == [], f"unsafe_turns with the spindle down (Z -45) at Y {atc.sim.magazine_y_mm:g}, the edge of the "
            "magazine zone", expected=[], got=got, hint="inside the magazine is Y beyond atc.sim.magazine_y_mm; "
                                                   "exactly at it is outside")
     got = [round(float(t), 6) for t in lab.unsafe_turns(traces, atc)]
-    expect(got == [1.5], "unsafe_turns: carousel steps at 0.5 s (Y 28, outside), 1.5 s (Y 44, Z 45), "
-           "2.5 s (Y 44, Z 40.5) and 3.5 s (Y 28)", expected=[1.5], got=got,
-           hint="unsafe = Y beyond atc.sim.magazine_y_mm and Z below Z_POINT_1, i.e. Z > atc.z_point_1 (Z counts "
-                "down); Z exactly at Z_POINT_1 is safe; the first sample of E is the start, not a step")
+    expect(got == [1.5], "unsafe_turns: carousel steps at 0.5 s (Y 28, outside), 1.5 s (Y 44, Z -45), "
+           "2.5 s (Y 44, Z -40.5) and 3.5 s (Y 28)", expected=[1.5], got=got,
+           hint="unsafe = Y beyond atc.sim.magazine_y_mm and Z below Z_POINT_1, i.e. Z < atc.z_point_1 (Z+ is "
+                "up); Z exactly at Z_POINT_1 is safe; the first sample of E is the start, not a step")
 
 
 def test_carousel_turns_only_with_the_spindle_clear(lab, atc, cell):
@@ -134,7 +135,7 @@ def test_carousel_turns_only_with_the_spindle_clear(lab, atc, cell):
                hint="the carousel in degrees: its units times degrees_per_unit")
     unsafe = lab.unsafe_turns(traces, atc)
     expect(unsafe == [], "carousel steps with the spindle down in the magazine zone",
-           expected="none: outside the zone (Y <= 36) or at the safe height (Z <= Z_POINT_1 40.5)",
+           expected="none: outside the zone (Y <= 36) or at the safe height (Z >= Z_POINT_1 -40.5)",
            got=f"{len(unsafe)}, the first at {unsafe[0]:.3f} s" if unsafe else "none",
            hint="look the spindle's Y and Z up at the time of each carousel step, with position_at")
 
@@ -149,5 +150,5 @@ def test_change_ends_with_t7_in_the_spindle(lab, atc, cell):
     ends = {name: float(lab.over_time(cell, name, START_MM[name])[1][-1]) for name in ("X", "Y", "Z", "E")}
     want = {"X": atc.x1, "Y": atc.y_point_a, "Z": atc.z_point_2, "E": 0.0}
     expect(all(abs(ends[n] - want[n]) < 1e-6 for n in want), "where your traces end",
-           expected="X1 23, Y_POINT_A 28, Z_POINT_2 45 with T7, the carousel home at 0°",
+           expected="X1 23, Y_POINT_A 28, Z_POINT_2 -45 with T7, the carousel home at 0°",
            got=", ".join(f"{n} {v:g}" for n, v in ends.items()), hint="the last sample of each trace")

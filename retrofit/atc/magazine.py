@@ -58,7 +58,6 @@ class MagazineModel:
         self.machine = machine
         self.atc = atc_of(machine)
         self.geometry = self.atc.sim
-        self.sign = tools_of(machine).hang_sign          # +1: Z counts downward
         self.inward = 1.0 if self.atc.y_point_b > self.atc.y_point_a else -1.0
         self.state = state
         self.names = ("X", "Y", "Z", self.atc.axis)
@@ -84,10 +83,10 @@ class MagazineModel:
         a, g = self.atc, self.geometry
         x, y, z = at[:, 0], at[:, 1], at[:, 2]
         inside = (y - g.magazine_y_mm) * self.inward > 0.0
-        low = self.sign * (z - a.z_point_1) > _EPS_MM
+        low = z < a.z_point_1 - _EPS_MM                  # Z+ is up: below the safe height
         seated = (inside & low & (np.abs(y - a.y_point_b) <= g.tolerance_mm)
                   & (np.abs(x - a.x1) <= g.tolerance_mm)
-                  & (self.sign * (z - a.z_point_2) >= -g.tolerance_mm))
+                  & (z <= a.z_point_2 + g.tolerance_mm))
         return np.vstack([inside & low, seated])
 
     # -- replay ---------------------------------------------------------------------------------
@@ -175,7 +174,7 @@ class MagazineModel:
     def _unseat(self, tick: int, at: np.ndarray) -> None:
         a, g = self.atc, self.geometry
         pocket, self._seated_pocket = self._seated_pocket, None
-        lifted = self.sign * (at[2] - a.z_point_2) < -g.tolerance_mm
+        lifted = at[2] > a.z_point_2 + g.tolerance_mm
         in_fork = abs(at[1] - a.y_point_b) <= g.tolerance_mm
         tool = self.state.spindle
         if pocket is None or tool is None or not (lifted and in_fork):

@@ -15,7 +15,6 @@ from ..commands import Command
 from ..config import Machine
 from ..errors import ProbeError, ToolChangeError
 from . import setter as st
-from .settings import tools_of
 from .tooltable import Reference, ToolEntry, ToolTable
 
 
@@ -51,7 +50,6 @@ class ToolSetter:
                                   f"in {machine.source})")
         self.machine = machine
         self.settings: st.SetterSettings = machine.parts["setter"]
-        self.hang = tools_of(machine).hang_sign
         self.table = table
 
     def calibrate(self, prober: Prober, spindle_tool: int) -> Reference:
@@ -78,7 +76,7 @@ class ToolSetter:
         if not spindle_tool:
             raise ToolChangeError("no tool in the spindle to measure (change to it first, e.g. T3)")
         z_edge = self._length_edge(prober)
-        length = st.tool_length(self.settings, z_edge, ref.z_break_mm, ref.length_mm, self.hang)
+        length = st.tool_length(self.settings, z_edge, ref.z_break_mm, ref.length_mm)
         y1, y2 = self._diameter_edges(prober, length)
         result = Measurement(spindle_tool, round(length, 6),
                              round(st.tool_diameter(self.settings, y1, y2), 6), z_edge, y1, y2)
@@ -99,7 +97,7 @@ class ToolSetter:
 
     def _diameter_edges(self, prober: Prober, length_mm: float) -> tuple[float, float]:
         s = self.settings
-        z = st.diameter_z(s, length_mm, self.hang)
+        z = st.diameter_z(s, length_mm)
         edges = []
         for side in (-1, 1):
             prober.run(st.side_approach(s, side, z))

@@ -5,8 +5,8 @@ the commands that do it — and nothing here runs them: the same steps go to the
 and to the controller later. Every step ends with ``DELY P0``, the document's M400 (wait until
 every motion has finished), so no two steps blend into one another.
 
-Geometry (``[atc]`` of the machine file; Z of tul-mill counts downward from its home at the
-top, so Z_POINT_2 = 45 lies 4.5 mm below Z_POINT_1 = 40.5): the pockets are forks open towards
+Geometry (``[atc]`` of the machine file; Z+ is up and Z = 0 is tul-mill's home at the top, so
+Z_POINT_2 = -45 lies 4.5 mm below Z_POINT_1 = -40.5): the pockets are forks open towards
 Y_POINT_A; a tool slides into or out of its fork along Y at the clamp height Z_POINT_2, and the
 spindle lifts off a released tool, or comes down onto one, between Z_POINT_2 and Z_POINT_1.
 Carousel position ATC_OFFSET + n brings pocket n to the spindle; the carousel is homed (ZMOV of

@@ -96,9 +96,9 @@ def length_probe(s: SetterSettings) -> list[Command]:
     return [PFdr(s.probe_feed_mm_min), PMov((("Z", s.lowest_z_mm),))]
 
 
-def diameter_z(s: SetterSettings, length_mm: float, hang: int) -> float:
-    """Z that puts the tip ``below_top_mm`` past the beam top (``hang`` +1: Z counts downward)."""
-    return round(s.beam_top_z_mm + hang * (s.below_top_mm - length_mm), 9)
+def diameter_z(s: SetterSettings, length_mm: float) -> float:
+    """Z that puts the tip ``below_top_mm`` under the beam top (Z+ up: the tip is at Z - length)."""
+    return round(s.beam_top_z_mm - s.below_top_mm + length_mm, 9)
 
 
 def side_approach(s: SetterSettings, side: int, z_mm: float) -> list[Command]:
@@ -123,10 +123,10 @@ def edge_estimate(hit_mm: float, step_mm: float, moving: int) -> float:
     return hit_mm - moving * step_mm / 2
 
 
-def tool_length(s: SetterSettings, z_edge_mm: float, ref_z_edge_mm: float, ref_length_mm: float,
-                hang: int) -> float:
-    """Length from the Z at which the tip met the beam, against the reference tool's."""
-    return ref_length_mm + hang * (ref_z_edge_mm - z_edge_mm)
+def tool_length(s: SetterSettings, z_edge_mm: float, ref_z_edge_mm: float, ref_length_mm: float) -> float:
+    """Length from the Z at which the tip met the beam, against the reference tool's: a longer
+    tool meets it with the spindle higher (Z+ up)."""
+    return ref_length_mm + (z_edge_mm - ref_z_edge_mm)
 
 
 def tool_diameter(s: SetterSettings, y1_edge_mm: float, y2_edge_mm: float) -> float:

@@ -128,20 +128,22 @@ class SimTool:
 
 @dataclass(frozen=True)
 class ToolsSettings:
-    """``[tools]``: which way Z points, and the simulated tools (``[tools.sim]``)."""
+    """``[tools]``: the simulated tools (``[tools.sim]``). Z+ is up on every machine, so a tool
+    hangs towards -Z: its tip is at the spindle's Z minus its length."""
 
-    z_down: bool                        # True: Z counts downward, a tool hangs towards +Z
     sim: dict[int, SimTool]             # tool number -> real geometry (pocket n holds tool n)
 
-    @property
-    def hang_sign(self) -> int:
-        """+1 when the tool tip lies towards +Z of the gauge line (Z points down), else -1."""
-        return 1 if self.z_down else -1
+
+#: why ``[tools] z_positive`` is refused: the one Z convention of every machine
+Z_UP_RULE = ("Z+ is up on every machine (as in LinuxCNC and grbl): Z = 0 at the top of travel after "
+             "homing, the work below it, a tool hanging towards -Z and its length offset positive "
+             "for a longer tool; remove the key and give Z positions counted upward")
 
 
 def read_tools_section(sec: Section, axes: tuple[Axis, ...]) -> ToolsSettings:
-    """Read ``[tools]``: ``z_positive`` ("up" or "down") and ``[tools.sim]`` entries ``tN = {...}``."""
-    z_down = sec.get_str("z_positive", "up", choices=("up", "down")) == "down"
+    """Read ``[tools]``: ``[tools.sim]`` entries ``tN = {length_mm, diameter_mm}``."""
+    if sec.has("z_positive"):
+        raise sec.error("z_positive", f"no such setting: {Z_UP_RULE}")
     tools: dict[int, SimTool] = {}
     table = sec.section("sim", required=False)
     if table is not None:
@@ -152,7 +154,7 @@ def read_tools_section(sec: Section, axes: tuple[Axis, ...]) -> ToolsSettings:
             entry.finish()
         table.finish()
     sec.finish()
-    return ToolsSettings(z_down, tools)
+    return ToolsSettings(tools)
 
 
 def _tool_key(sec: Section, key: str) -> int:
@@ -172,5 +174,5 @@ def atc_of(machine: Machine) -> AtcSettings:
 
 
 def tools_of(machine: Machine) -> ToolsSettings:
-    """The machine's ``[tools]`` settings (Z up and no simulated tools when it has none)."""
-    return machine.parts.get("tools") or ToolsSettings(False, {})
+    """The machine's ``[tools]`` settings (no simulated tools when it has none)."""
+    return machine.parts.get("tools") or ToolsSettings({})

@@ -148,8 +148,6 @@ def tool_length(tr, block) -> None:
         if tool is None and number != 0:
             raise RuleError(f"G43 H{number:g}: tool {number:g} is not in the tool table")
         offsets = dict(tool.offsets_mm) if tool else {}
-        if "Z" in offsets and getattr(tr.machine.parts.get("tools"), "z_down", False):
-            offsets["Z"] = -offsets["Z"]       # tool.tbl is LinuxCNC's (Z+ up); this machine's Z counts down
         s.tool_offset = {n: offsets[n] for n in tr.machine.axis_names if n in offsets}
     s.params.write(TOOL_Z, s.tool_offset.get("Z", 0.0))
     for axis in set(before) | set(s.tool_offset):      # LinuxCNC keeps the program position:

@@ -15,7 +15,7 @@ from retrofit.labs import pyplot, save_figure
 
 MACHINE = "tul-mill"
 FROM_TOOL, TO_TOOL = 3, 7
-START_MM = {"X": 5.0, "Y": 5.0, "Z": 5.0, "E": 0.0}    # where the mill stands before the change
+START_MM = {"X": 5.0, "Y": 5.0, "Z": -5.0, "E": 0.0}   # where the mill stands before the change
 AXES = ("X", "Y", "Z", "E")
 #: how far below Z_POINT_1 (mm) still counts as at it: float noise, far under one step
 EPS_MM = 1e-6
@@ -63,11 +63,11 @@ def position_at(t_s, values, t):
 
 def unsafe_turns(traces: dict, atc) -> list[float]:
     """The times (s) of every carousel step taken while the spindle was inside the magazine zone
-    (Y beyond ``atc.sim.magazine_y_mm``) below the safe height Z_POINT_1 (Z counts downward)."""
+    (Y beyond ``atc.sim.magazine_y_mm``) below the safe height Z_POINT_1 (Z+ is up)."""
     t_e = traces[atc.axis][0][1:]                   # the carousel's steps (the first sample is the start)
     y = position_at(*traces["Y"], t_e)
     z = position_at(*traces["Z"], t_e)
-    unsafe = (y > atc.sim.magazine_y_mm) & (z > atc.z_point_1 + EPS_MM)
+    unsafe = (y > atc.sim.magazine_y_mm) & (z < atc.z_point_1 - EPS_MM)
     return [float(t) for t in t_e[unsafe]]
 
 
@@ -112,8 +112,7 @@ def plot_timeline(cell, traces: dict, out_dir) -> Path:
     y_ax.set_ylabel("Y [mm]")
     z_ax.axhline(atc.z_point_1, color="tab:red", lw=0.8, ls=":", label=f"Z_POINT_1 {atc.z_point_1:g} (safe)")
     z_ax.axhline(atc.z_point_2, color="gray", lw=0.8, ls="-.", label=f"Z_POINT_2 {atc.z_point_2:g} (clamp)")
-    z_ax.invert_yaxis()
-    z_ax.set_ylabel("Z [mm], counts down")
+    z_ax.set_ylabel("Z [mm], up is +")
     for tool in (FROM_TOOL, TO_TOOL):
         angle = carousel_position(geometry, tool) * geometry.degrees_per_unit
         e_ax.axhline(angle, color="gray", lw=0.8, ls=":")
@@ -156,9 +155,8 @@ def plot_carousel(cell, traces: dict, out_dir) -> Path:
               label="where the carousel turned")
     side.axvspan(geometry.magazine_y_mm, atc.y_point_b + 2, color="0.85", label="magazine zone")
     side.axhline(atc.z_point_1, color="tab:red", lw=0.8, ls=":", label="Z_POINT_1 (safe)")
-    side.invert_yaxis()
     side.set_xlabel("Y [mm]")
-    side.set_ylabel("Z [mm], counts down")
+    side.set_ylabel("Z [mm], up is +")
     side.set_title("side view: the spindle in Y-Z", fontsize=9)
     side.grid(True, lw=0.3)
     side.legend(fontsize=8)
