@@ -1,4 +1,8 @@
-"""Bring-up: the host waits out the bootloader of a board whose port it has just opened."""
+"""Bring-up on a board: the host waits out the bootloader and reads the firmware's start line;
+switches are debounced; a hung main loop stops the steppers and the watchdog restarts the board.
+
+The pin-level tests run the firmware in simavr for a fixed number of cycles (the harness plays
+the bootloader, glitches a switch input, hangs the main loop) and measure in AVR cycles."""
 
 from __future__ import annotations
 
@@ -7,10 +11,10 @@ import pytest
 
 from retrofit.commands import FMov
 from retrofit.config import load_machine
-from retrofit.errors import OutputError
-from retrofit.outputs import open_output
-from retrofit.outputs.serial import BANNER
+from retrofit.errors import LinkError, OutputError
 from retrofit.link import StatusFlags
+from retrofit.outputs import open_output
+from retrofit.outputs.serial import BANNER, Banner
 from tests.conformance.targets import SimavrTarget, build_firmware, missing_tools
 from tests.test_firmware_sim import Script, replies
 
@@ -55,6 +59,15 @@ def test_a_firmware_built_for_another_machine_is_refused_by_its_banner():
                                               "'mitic-lathe'"):
             out.open()
         out.close()
+
+
+def test_the_start_line_is_found_among_noise_and_another_link_version_is_refused():
+    line = b"\x00\xff\r\nretrofit firmware machine=tul-mill link=3 reset=brown-out\r\n\x7e\x01"
+    banner = Banner.find(line)
+    assert banner == Banner("tul-mill", 3, "brown-out")
+    with pytest.raises(LinkError, match="speaks link version 3; this host speaks 2"):
+        banner.check("tul-mill", "serial:///dev/ttyACM0")
+    assert Banner.find(b"retrofit firmware machine=tul-mill link=2 reset=power") is None  # unfinished
 
 
 # -- measured on the pins: the harness runs the firmware for a fixed number of cycles ----------

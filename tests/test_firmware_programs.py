@@ -90,7 +90,8 @@ def test_the_mill_tool_change_cycle_on_the_firmware_ends_where_sim_ends(tmp_path
     atc = machine.parts["atc"]
     spm = machine.axis("E").steps_per_mm
     pockets = [round((atc.atc_offset + n) * spm) for n in (3, 5)]      # 992 and 1312 steps
-    stops = [p for p in rests(*pin_positions(log, machine, "E"), fs.F_CPU // 50) if p > 0]
+    stops = [p for p in rests(*pin_positions(log, machine, "E"), fs.F_CPU // 50)
+             if p >= atc.atc_offset * spm]           # not the homing's stops near the switch
     # pick T3, put T3 back, pick T5, put T5 back: the carousel rests at these pockets in turn
     assert stops == [pockets[0], pockets[0], pockets[1], pockets[1]]
     x, y = (rests(*pin_positions(log, machine, a), fs.F_CPU // 50) for a in "XY")
