@@ -7,7 +7,7 @@
  * advance. Phase two, the stepping itself, runs in the timer interrupt (stepper.c).
  *
  * At start the firmware sends one line of text before any frame, so that a host that has just
- * opened the port knows the bootloader is over (docs/protocol.md §4):
+ * opened the port knows the bootloader is over (docs/protocol.md §1):
  *   retrofit firmware machine=NAME link=2 reset=CAUSE
  * CAUSE is what MCUSR says: power-on, external (the reset pin: the USB adapter's DTR),
  * brown-out, watchdog (the main loop hung) or jtag; unknown when no flag is set (a bootloader

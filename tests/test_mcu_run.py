@@ -131,11 +131,11 @@ def test_a_position_the_link_cannot_carry_is_err_3_and_the_device_keeps_serving(
     """PSTN X8388607 (the top of the 24-bit space), ZMOV, RDPS: the homing move runs X past what
     a POS answer can carry. The device answers ERR 3 and goes on; it must never exit."""
     from tests.conformance.rawlink import RawLink
-    from tests.conformance.targets import QemuTarget, build_firmware, missing_tools
+    from tests.conformance.targets import SimavrTarget, missing_tools
     from retrofit.link import IMMEDIATE, QUEUED, Ack, Err, Status
     if target == "firmware" and missing_tools():
         pytest.skip(f"needs {', '.join(missing_tools())}")
-    device = McuTarget(MACHINE) if target == "mcu" else QemuTarget(build_firmware(MACHINE))
+    device = McuTarget(MACHINE) if target == "mcu" else SimavrTarget(MACHINE)
     with device as mcu:
         link = RawLink(mcu.url, load_machine(MACHINE))
         try:
