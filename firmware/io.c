@@ -1,17 +1,61 @@
-/* io.c - Timer3 as a 1 ms clock, the spindle (PWM on D10, direction on D11), coolant, the LED. */
+/* io.c - Timer3 as a 1 ms clock, the spindle (PWM on D10, direction on D11), coolant, the LED,
+ * and the stall guard.
+ *
+ * The clock's interrupt also samples the switches (switches.c debounces them) and watches the
+ * main loop: when the loop has not looked in for STALL_MS, the steppers are stopped - the step
+ * timer and the encoder's interrupts off, the step pins low, the drivers disabled (ENABLE high) -
+ * with the spindle and the coolant, and the watchdog resets the board 15 ms later. The hardware
+ * watchdog (main.c, 120 ms) covers a loop stuck with the interrupts off, where this interrupt
+ * cannot run either; then the step interrupt is stopped too. */
 #include <avr/interrupt.h>
 #include <avr/io.h>
+#include <avr/wdt.h>
 #include <util/atomic.h>
 
 #include "board.h"
 #include "config.h"
 #include "io.h"
+#include "switches.h"
+
+#define STALL_MS 50                /* the main loop turns in well under 1 ms */
+
+#define PASTE(a, b, c) a##b##c
+#define PIN_OF(slot, what) PASTE(RAMPS_, slot, what)
+#define DRIVER_OFF(i, slot)                                                     \
+    PIN_OF(slot, _STEP_PORT) &= (uint8_t)~_BV(PIN_OF(slot, _STEP_BIT));         \
+    PIN_OF(slot, _EN_PORT) |= _BV(PIN_OF(slot, _EN_BIT));
 
 static volatile uint16_t millis;
+static volatile uint8_t quiet_ms;  /* milliseconds since the main loop last looked in */
 
-ISR(TIMER3_COMPA_vect)
+/* The main loop has hung: everything that moves stops, then the watchdog resets the board. */
+static void halt_outputs(void)
+{
+    cli();
+    TIMSK1 = 0;                                        /* the step timer */
+    TCCR1B = 0;
+    EIMSK = 0;                                         /* the encoder's steps */
+    FOR_EACH_AXIS(DRIVER_OFF)
+    spindle_set(0, 0);
+    coolant_set(0);
+    wdt_enable(WDTO_15MS);
+    wdt_reset();                                       /* (simavr starts the new time-out only here) */
+    for (;;)
+        ;
+}
+
+/* Interruptible: the step interrupt may come in while the switches are sampled. */
+ISR(TIMER3_COMPA_vect, ISR_NOBLOCK)
 {
     millis++;
+    switches_sample();
+    if (++quiet_ms >= STALL_MS)
+        halt_outputs();
+}
+
+void io_main_loop_alive(void)
+{
+    quiet_ms = 0;
 }
 
 void io_init(void)

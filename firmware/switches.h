@@ -10,7 +10,10 @@
 #define SW_PRECISE  2   /* 002's precise-position switch: homing's fine reference (PPSX, PPSZ) */
 
 void switches_init(void);
-/* 1 if a step of axes `bits` in directions `dirs` (bit i set: negative) runs into an
+/* Sample every switch pin: once a millisecond, from the clock's interrupt (debouncing). */
+void switches_sample(void);
+/* All below read the debounced state.
+ * 1 if a step of axes `bits` in directions `dirs` (bit i set: negative) runs into an
  * actuated limit switch. Called in the step interrupt. */
 uint8_t switch_blocks(uint8_t bits, uint8_t dirs);
 /* 1 while switch `id` (its number in SWITCHES) is actuated. */

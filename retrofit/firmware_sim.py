@@ -37,6 +37,8 @@ MEGA_PINS = {54: ("F", 0), 55: ("F", 1), 60: ("F", 6), 61: ("F", 7), 46: ("L", 3
              26: ("A", 4), 28: ("A", 6), 36: ("C", 1), 34: ("C", 3)}
 #: the RAMPS sockets' (step, dir) pins, as firmware/board.h wires them
 SOCKET_PINS = {"X": (54, 55), "Y": (60, 61), "Z": (46, 48), "E0": (26, 28), "E1": (36, 34)}
+#: the RAMPS sockets' driver ENABLE pins -> (AVR port, bit); low = driver on (A4988, DRV8825)
+ENABLE_PINS = {"X": ("D", 7), "Y": ("F", 2), "Z": ("K", 0), "E0": ("A", 2), "E1": ("C", 7)}
 #: the RAMPS endstop connectors -> (AVR port, bit)
 CONNECTOR_PINS = {"XMIN": ("E", 5), "XMAX": ("E", 4), "YMIN": ("J", 1), "YMAX": ("J", 0),
                   "ZMIN": ("D", 3), "ZMAX": ("D", 2)}
@@ -158,6 +160,7 @@ class HarnessLog:
     end_cycle: int = 0
     stats: dict[str, int] = field(default_factory=dict)
     steps: list[int] = field(default_factory=list)      # the harness's own count per axis
+    stalled_at: int | None = None                        # the cycle --stall hung the main loop
 
     @classmethod
     def read(cls, log_path: Path, stdout: str) -> "HarnessLog":
@@ -170,6 +173,8 @@ class HarnessLog:
                 log.uart.append((int(rest[0]), int(rest[1], 16)))
             elif kind == "I":
                 log.inputs.append((int(rest[0]), rest[1], int(rest[2]), int(rest[3])))
+            elif kind == "S":
+                log.stalled_at = int(rest[0])
         for line in stdout.splitlines():
             words = line.split()
             if not words:
@@ -279,7 +284,12 @@ class Harness:
     def __init__(self, elf: Path, machine: Machine, *, listen: str | None = None,
                  script: list[tuple[int, bytes]] | None = None, cycles: int = 0,
                  start_steps: dict[str, int] | None = None, spindle_rpm: float = 0.0,
-                 vcd: Path | None = None, stats: bool = False, speed: float | None = None):
+                 vcd: Path | None = None, stats: bool = False, speed: float | None = None,
+                 boot_ms: float = 0.0, stall: tuple[int, bool] | None = None,
+                 glitches: list[tuple[str, int, int, int]] = ()):
+        """``boot_ms``: a bootloader's time before the firmware starts (bytes sent meanwhile are
+        lost); ``stall``: (cycle, interrupts off?) the main loop hangs; ``glitches``: (connector or
+        pin such as "XMAX" / "E4", cycle, cycles, level) an input driven for a while."""
         self.tmp = tempfile.TemporaryDirectory(prefix="retrofit-hil-")
         self.log_path = Path(self.tmp.name) / "pins.log"
         self.args = [str(HARNESS), str(elf), "--log", str(self.log_path),
@@ -298,6 +308,13 @@ class Harness:
             self.args += ["--stats"]
         if speed is not None:
             self.args += ["--speed", f"{speed:g}"]
+        if boot_ms:
+            self.args += ["--boot-ms", f"{boot_ms:g}"]
+        if stall is not None:
+            self.args += ["--stall", f"{int(stall[0])}" + (",cli" if stall[1] else "")]
+        for pin, cycle, cycles, level in glitches:
+            port, bit = CONNECTOR_PINS.get(pin, (pin[0], pin[1:]))
+            self.args += ["--glitch", f"{port}{bit},{int(cycle)},{int(cycles)},{int(level)}"]
         self.proc: subprocess.Popen | None = None
         self.address = ""
 

@@ -4,7 +4,7 @@
  *
  * USART0 is served on a TCP port (--listen HOST:PORT, one client at a time) or fed from a script
  * of bytes at given cycles (--script FILE: lines "CYCLE HEXBYTES"). Every change of the output
- * ports A, B, F, H, K, L and every byte the firmware sends is written to --log FILE as text lines
+ * ports A, B, C, D, F, H, K, L and every byte the firmware sends is written to --log FILE as text lines
  *   P CYCLE PORT VALUE      (port letter, the 8-bit output value in hex)
  *   U CYCLE BYTE            (a byte on the USART's TX, hex)
  *   I CYCLE PORT BIT LEVEL  (an input the harness drove)
@@ -16,7 +16,13 @@
  * outside and inside ISRs, and the cycles spent in ISRs. --vcd FILE writes the step ports as VCD.
  * The simulated time runs at most --speed times wall time (0: unpaced; default 1 with --listen).
  * It stops after --cycles N, at SIGTERM / SIGINT, or when a --listen client hangs up (--once).
- * --boot-ms N drops what the client sends in the first N ms, as the Mega's bootloader does.
+ * --boot-ms N plays the Mega's bootloader after a DTR reset: for N ms the CPU spins outside the
+ * firmware and what the client sends is lost; then the firmware starts (MCUSR: external reset).
+ * Without it the firmware starts at once after a power-on (MCUSR: PORF).
+ * --glitch PIN,CYCLE,CYCLES,LEVEL drives an input to LEVEL for CYCLES from CYCLE, then gives it
+ * back its level (a switch's bounce; repeatable). --stall CYCLE[,cli] makes the main loop hang at
+ * the first instruction it runs from CYCLE on: the CPU jumps to a loop of its own (with ",cli"
+ * after turning the interrupts off); the interrupts, the watchdog and a reset go on as on the chip.
  */
 #define _GNU_SOURCE
 #include <arpa/inet.h>
@@ -298,6 +304,75 @@ static int poll_socket(void)
     return 0;
 }
 
+/* ---- bootloader, glitches, a hung main loop ---------------------------------------------- */
+
+#define MCUSR_ADDR 0x54                   /* ATmega2560: MCU status register (I/O 0x34) */
+#define PORF 0x01
+#define EXTRF 0x02
+
+typedef struct { pin_t pin; unsigned long long at, cycles; int level, saved, state; } glitch_t;
+static glitch_t glitches[MAX_SWITCHES];
+static int n_glitches;
+static unsigned long long stall_at;
+static int stall_cli, stall_state;        /* 0 waiting, 1 stalled */
+
+/* A loop of its own at the top of the flash, beyond any firmware: "cli; rjmp ." (the rjmp alone
+ * keeps the interrupts on). Returns the byte address of the cli. */
+static uint32_t plant_loop(void)
+{
+    uint32_t at = avr->flashend + 1 - 4;     /* the last two words */
+    avr->flash[at] = 0xF8;                /* cli */
+    avr->flash[at + 1] = 0x94;
+    avr->flash[at + 2] = 0xFF;            /* rjmp . */
+    avr->flash[at + 3] = 0xCF;
+    return at;
+}
+
+/* Before the firmware: the bootloader's time (the CPU in its own loop, interrupts off). */
+static void boot_start(void)
+{
+    if (boot_cycles) {
+        avr->pc = plant_loop();
+        avr->data[MCUSR_ADDR] = EXTRF;
+    } else
+        avr->data[MCUSR_ADDR] = PORF;
+}
+
+static int pin_input_level(pin_t p)
+{
+    int k = p.port - 'A';
+    return (ext_mask[k] >> p.bit) & 1 ? (ext_value[k] >> p.bit) & 1 : 1;   /* else: pull-up */
+}
+
+/* Called before every instruction: the bootloader's end, glitches, the stall. */
+static void events(void)
+{
+    unsigned long long now = avr->cycle;
+    if (boot_cycles && now >= boot_cycles) {
+        avr->pc = 0;                      /* the bootloader jumps to the firmware */
+        boot_cycles = 0;
+    }
+    for (int i = 0; i < n_glitches; i++) {
+        glitch_t *g = &glitches[i];
+        if (g->state == 0 && now >= g->at) {
+            g->saved = pin_input_level(g->pin);
+            drive(g->pin, g->level);
+            g->state = 1;
+        } else if (g->state == 1 && now >= g->at + g->cycles) {
+            drive(g->pin, g->saved);
+            g->state = 2;
+        }
+    }
+    if (stall_at && !stall_state && now >= stall_at && avr->interrupts.running_ptr == 0
+        && avr->sreg[S_I]) {
+        uint32_t loop = plant_loop();
+        avr->pc = stall_cli ? loop : loop + 2;
+        stall_state = 1;
+        if (log_file)
+            fprintf(log_file, "S %llu\n", now);
+    }
+}
+
 /* ---- interrupt figures ------------------------------------------------------------------ */
 
 static int want_stats;
@@ -375,6 +450,21 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--once")) once = 1;
         else if (!strcmp(a, "--boot-ms")) { boot_cycles = (unsigned long long)(atof(v) * 16000.0); i++; }
         else if (!strcmp(a, "--stats")) want_stats = 1;
+        else if (!strcmp(a, "--stall")) {
+            char how[8] = "";
+            sscanf(v, "%llu,%7s", &stall_at, how);
+            stall_cli = !strcmp(how, "cli");
+            i++;
+        } else if (!strcmp(a, "--glitch") && n_glitches < MAX_SWITCHES) {
+            char p[4];
+            glitch_t *g = &glitches[n_glitches++];
+            if (sscanf(v, "%2s,%llu,%llu,%d", p, &g->at, &g->cycles, &g->level) != 4) {
+                fprintf(stderr, "hil: --glitch %s: expected PIN,CYCLE,CYCLES,LEVEL\n", v);
+                return 2;
+            }
+            g->pin = parse_pin(p);
+            i++;
+        }
         else if (!strcmp(a, "--axis") && n_axes < MAX_AXES) {
             char s[4], d[4];
             int inv = 0;
@@ -407,7 +497,7 @@ int main(int argc, char **argv)
     avr_load_firmware(avr, &fw);
     avr->frequency = 16000000;
 
-    static const char ports[] = "ABCFHKL";
+    static const char ports[] = "ABCDFHKL";
     for (const char *p = ports; *p; p++)
         avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(*p), IOPORT_IRQ_PIN_ALL),
                                 port_changed, (void *)(intptr_t)*p);
@@ -427,6 +517,7 @@ int main(int argc, char **argv)
         avr_extint_set_strict_lvl_trig(avr, n, 0);
     uart_in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
     update_switches();
+    boot_start();
     if (spindle_rpm > 0 && spindle_counts > 0)
         avr_cycle_timer_register(avr, 1000, spindle_edge, NULL);
 
@@ -468,6 +559,7 @@ int main(int argc, char **argv)
                     usleep((useconds_t)(ahead * 1e6));
             }
         }
+        events();
         state = avr_run(avr);
         if (want_stats)
             account();

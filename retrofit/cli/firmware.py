@@ -31,8 +31,8 @@ def add_commands(sub) -> None:
                    help="AVR time per wall time at most (0: as fast as simavr goes); default 1")
     s.add_argument("--once", action="store_true", help="stop when the first client hangs up")
     s.add_argument("--boot-ms", type=float, default=0.0,
-                   help="drop the bytes of the first N ms, as the Mega's bootloader does after "
-                        "the port opens (DTR reset); default 0")
+                   help="start the firmware N ms late, dropping the bytes sent meanwhile, as the "
+                        "Mega's bootloader does after the port opens (DTR reset); default 0")
     s.add_argument("--json", action="store_true", help="print the report as JSON")
     s.set_defaults(func=_cmd_sim)
     z = fsub.add_parser("size", help="flash and RAM of the firmware built for a machine")
@@ -60,11 +60,10 @@ def _cmd_sim(args) -> int:
     start = _start_steps(args.start, machine)
     elf = build(machine.name)
     harness = Harness(elf, machine, listen=args.listen, start_steps=start, vcd=args.vcd,
-                      spindle_rpm=args.spindle_rpm, speed=args.speed, stats=True)
+                      spindle_rpm=args.spindle_rpm, speed=args.speed, stats=True,
+                      boot_ms=args.boot_ms)
     if args.once:
         harness.args.append("--once")
-    if args.boot_ms:
-        harness.args += ["--boot-ms", f"{args.boot_ms:g}"]
     harness.start()
     print(f"{machine.name}: firmware in simavr listening on {harness.address} "
           f"(host: --output serial+socket://{harness.address})", flush=True)

@@ -14,8 +14,9 @@ frames through ``write``; here the controller at the far end makes its own port 
 
 1. open the port (pyserial, imported only now) and wait out the device's start: opening an
    Arduino's USB port resets it (DTR) into its bootloader for 1-2 s, which swallows bytes, so a
-   SYNC frame is repeated every 100 ms until the first answer comes (at most ``boot_ms``); then
-   SYNC both channels;
+   SYNC frame is repeated every 100 ms until the firmware's start line (its banner: machine,
+   link version, reset cause; a firmware built for another machine is refused) or the first
+   answer comes (at most ``boot_ms``); then SYNC both channels;
 2. INIT, unless ``init=0``: position 0, default feeds, empty queue, as the local plan starts;
 3. every command in order on the queued channel (BUSY waited out, NAK and timeouts resent);
 4. RDST every ``poll_ms`` until nothing moves, dwells or waits; ERROR or STOPPED fail the run;
@@ -27,7 +28,10 @@ docs/report.md). ``retrofit run`` hands command-level outputs the program's comm
 
 from __future__ import annotations
 
+import dataclasses
+import re
 import time
+from dataclasses import dataclass
 from typing import Iterable
 
 from ..commands import Command, Init, Rdps, Rdst
@@ -59,6 +63,7 @@ class SerialOutput(Output):
             raise OutputError(f"{url.text}: timeout_ms and poll_ms must be > 0 and tries >= 1")
         self.link = None
         self.remote: dict | None = None
+        self.banner: Banner | None = None
 
     @property
     def port_url(self) -> str:
@@ -74,7 +79,8 @@ class SerialOutput(Output):
                 self.link = HostLink.open(self.port_url, self.machine, baudrate=self.opts["baud"],
                                           timeout_s=self.opts["timeout_ms"] / 1000,
                                           max_tries=self.opts["tries"])
-                wait_for_device(self.link.port, self.opts["boot_ms"] / 1000, self.url.text)
+                self.banner = wait_for_device(self.link.port, self.opts["boot_ms"] / 1000,
+                                              self.url.text, self.machine.name)
             except LinkError as exc:
                 raise OutputError(f"{self.url.text}: {exc}") from None
         super().open()
@@ -132,6 +138,7 @@ class SerialOutput(Output):
             "link": {"frames_sent": stats.frames_sent, "resends": stats.resends,
                      "timeouts": stats.timeouts, "naks": stats.naks, "busy": stats.busy},
             "wall_s": round(wall_s, 3),
+            "banner": dataclasses.asdict(self.banner) if self.banner else None,
         }
 
     def observe(self) -> dict | None:
@@ -153,25 +160,60 @@ class SerialSocketOutput(SerialOutput):
                "(retrofit firmware sim --listen)")
 
 
-def wait_for_device(port, boot_s: float, name: str) -> float:
-    """Send SYNC (queued channel, number 0) every 100 ms until any answer frame comes; the
-    seconds waited. LinkError after ``boot_s``. The answer is discarded: the link's own SYNC
-    follows (a repeated SYNC is answered again, docs/protocol.md §5)."""
+#: the line the firmware sends at start, before any frame (firmware/main.c, docs/protocol.md §4)
+BANNER = re.compile(rb"retrofit firmware machine=(\S+) link=(\d+) reset=(\S+)\r?\n")
+#: the link version this host speaks (docs/protocol.md)
+LINK_VERSION = 2
+
+
+@dataclass(frozen=True)
+class Banner:
+    """What the firmware's start line says: its machine, link version and reset cause."""
+
+    machine: str
+    link: int
+    reset: str
+
+    @classmethod
+    def find(cls, data: bytes) -> "Banner | None":
+        found = BANNER.search(data)
+        return cls(found[1].decode("ascii", "replace"), int(found[2]),
+                   found[3].decode("ascii", "replace")) if found else None
+
+    def check(self, machine: str, name: str) -> None:
+        """LinkError when the firmware was built for another machine or link version."""
+        if self.link != LINK_VERSION:
+            raise LinkError(f"{name}: the firmware speaks link version {self.link}; this host "
+                            f"speaks {LINK_VERSION} (flash the firmware of this retrofit)")
+        if self.machine != machine:
+            raise LinkError(f"{name}: the firmware was built for machine {self.machine!r}, the run "
+                            f"is for {machine!r} (make -C firmware flash MACHINE={machine})")
+
+
+def wait_for_device(port, boot_s: float, name: str, machine: str = "") -> Banner | None:
+    """Wait until the device is up after the port opened: its start line (the banner), or an
+    answer to the SYNC frame sent every 100 ms meanwhile. Returns the banner if one came.
+    LinkError after ``boot_s``, or when the banner names another machine than ``machine``."""
     from ..link import QUEUED, FrameDecoder, encode_frame, seq_byte
     from ..link.transport import read_some, write_all
     sync = encode_frame(seq_byte(QUEUED, 0), bytes((0x7F,)))
-    decoder, start = FrameDecoder(), time.monotonic()
+    decoder, seen, start = FrameDecoder(), b"", time.monotonic()
     while True:
         write_all(port, sync, name)
         until = time.monotonic() + 0.1
         while time.monotonic() < until:
-            if decoder.feed(read_some(port, name)):
-                time.sleep(0.02)
-                read_some(port, name)                 # an answer to a second SYNC, if any
-                return time.monotonic() - start
+            data = read_some(port, name)
+            seen = (seen + data)[-256:]
+            banner = Banner.find(seen)
+            if decoder.feed(data) or banner:
+                if banner and machine:
+                    banner.check(machine, name)
+                time.sleep(0.05)
+                read_some(port, name)                 # an answer to a SYNC in flight, if any
+                return banner
         if time.monotonic() - start > boot_s:
-            raise LinkError(f"{name}: no answer to SYNC within {boot_s:g} s of opening the port "
-                            "(is the firmware flashed and the baud rate right?)")
+            raise LinkError(f"{name}: no banner and no answer to SYNC within {boot_s:g} s of "
+                            "opening the port (is the firmware flashed and the baud rate right?)")
 
 
 def flag_names(flags) -> list[str]:
