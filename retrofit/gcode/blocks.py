@@ -15,8 +15,8 @@ from .errors import RuleError
 #: G codes by modal group, as LinuxCNC groups them
 G_GROUPS: dict[float, str] = {
     **dict.fromkeys((4, 10, 28, 28.1, 30, 30.1, 53, 92, 92.1, 92.2, 92.3), "non-modal"),
-    **dict.fromkeys((0, 1, 2, 3, 33, 73, 80, 81, 82, 83, 85, 89), "motion"),
-    76: "non-modal",
+    **dict.fromkeys((0, 1, 2, 3, 5, 5.1, 5.2, 33, 73, 80, 81, 82, 83, 85, 89), "motion"),
+    76: "non-modal", 5.3: "non-modal",
     **dict.fromkeys((17, 18, 19), "plane"), **dict.fromkeys((20, 21), "units"),
     **dict.fromkeys((90, 91), "distance"), **dict.fromkeys((90.1, 91.1), "arc distance"),
     **dict.fromkeys((93, 94), "feed mode"), 40: "cutter radius", 97: "spindle speed mode",
@@ -32,8 +32,6 @@ M_GROUPS: dict[float, str] = {
 }
 #: codes LinuxCNC knows that retrofit refuses, and why
 REFUSED: dict[str, str] = {
-    **dict.fromkeys(("G5", "G5.1", "G5.2", "G5.3"), "splines are not supported; let the CAM "
-                    "output lines and arcs"),
     **dict.fromkeys(("G41", "G42", "G41.1", "G42.1"), "cutter radius compensation is not "
                     "supported; let the CAM output the tool centre path (G40)"),
     **dict.fromkeys(("G38.2", "G38.3", "G38.4", "G38.5"), "probing is not supported here"),

@@ -18,7 +18,7 @@ import math
 from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, Tool, ZMov
 from ..config import Machine
 from ..motion.arcs import arc_extent, arc_points
-from . import coords, cycles
+from . import coords, cycles, splines
 from .arcwords import arc_center, plane_axes
 from .blocks import Block
 from .errors import RuleError
@@ -77,16 +77,20 @@ class Translator:
             coords.tool_length(self, block)
         if "coordinate system" in g:
             coords.select_system(self, g["coordinate system"])
-        if block.motion is not None:
+        if block.motion is not None and block.motion not in splines.KEEP_MODE:
             s.motion = None if block.motion == 80 else block.motion
             if s.motion not in cycles.CYCLES:
                 s.cycle_start = None
+            if s.motion != 5.2:
+                s.nurbs = None
         nonmodal = g.get("non-modal")
         if nonmodal in coords.NONMODAL:
             coords.NONMODAL[nonmodal](self, block)
         elif nonmodal == 76:
             self._needs_encoder("G76")
             g76(self, block)
+        elif nonmodal == 5.3:
+            splines.finish(self, block)
         else:
             self._motion(block, mode)
         stop = block.m.get("stopping")
@@ -105,6 +109,7 @@ class Translator:
         if block.g:
             self.state.motion = block.g["motion"]
             self.state.cycle_start = None
+            self.state.nurbs = None
         self._motion(block, self.state.motion)
         return False
 
@@ -192,6 +197,9 @@ class Translator:
 
     # -- motion ----------------------------------------------------------------------------
     def _motion(self, block: Block, mode) -> None:
+        if mode in splines.MODES:
+            splines.run(self, block, mode)
+            return
         if not block.axes:
             if block.motion in (2, 3) and any(c in block.values for c in "IJK"):
                 self._arc(block, mode, dict(self.state.position))   # a full circle where it is

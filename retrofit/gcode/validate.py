@@ -91,13 +91,18 @@ def check_word_use(block, mode) -> None:
     arc = mode in (2, 3) and (moving or (block.motion in (2, 3) and nonmodal not in AXIS_NONMODAL))
     cycle = mode in CYCLE_CODES and moving
     g76 = nonmodal == 76
+    spline = mode in (5, 5.1) and block.motion == mode
+    nurbs = mode == 5.2 and nonmodal not in AXIS_NONMODAL
     uses = {
-        "I": arc or g76, "J": arc or g76, "K": arc or g76 or (mode == 33 and moving),
+        "I": arc or g76 or spline, "J": arc or g76 or spline,
+        "K": arc or g76 or (mode == 33 and moving),
         "R": arc or cycle or g76 or nonmodal == 10,
         "P": nonmodal in (4, 10) or arc or g76 or (cycle and mode in (82, 89))
-        or g.get("path control") == 64,
-        "Q": g76 or (cycle and mode in (73, 83)) or g.get("path control") == 64,
-        "L": nonmodal == 10 or cycle or g76, "H": g.get("tool length") == 43 or g76, "E": g76,
+        or g.get("path control") == 64 or (spline and mode == 5) or nurbs,
+        "Q": g76 or (cycle and mode in (73, 83)) or g.get("path control") == 64
+        or (spline and mode == 5),
+        "L": nonmodal == 10 or cycle or g76 or nurbs, "H": g.get("tool length") == 43 or g76,
+        "E": g76,
     }
     for letter, used in uses.items():
         if letter in block.values and not used:
@@ -112,6 +117,8 @@ def check_word_use(block, mode) -> None:
         raise RuleError("G92 with no axis words (G92 X0 sets the current X to 0)")
 
 
-_USED_BY = {"I": "G2/G3 arcs, G76", "J": "G2/G3 arcs, G76", "K": "G2/G3 arcs, G33, G76",
-            "R": "G2/G3 arcs, canned cycles, G10, G76", "P": "G4, G10, G2/G3 turns, G82, G89, G64, G76",
-            "Q": "G73, G83, G64, G76", "L": "G10, canned cycles, G76", "H": "G43, G76", "E": "G76"}
+_USED_BY = {"I": "G2/G3 arcs, G5, G5.1, G76", "J": "G2/G3 arcs, G5, G5.1, G76",
+            "K": "G2/G3 arcs, G33, G76", "R": "G2/G3 arcs, canned cycles, G10, G76",
+            "P": "G4, G10, G2/G3 turns, G5, G5.2, G82, G89, G64, G76",
+            "Q": "G5, G73, G83, G64, G76", "L": "G10, canned cycles, G5.2, G76", "H": "G43, G76",
+            "E": "G76"}
