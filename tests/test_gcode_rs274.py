@@ -15,11 +15,12 @@ import math
 import re
 import shutil
 import subprocess
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
-from retrofit.commands import FMov, PMov, ZMov
+from retrofit.commands import FMov, Paus, PMov, ZMov
 from retrofit.config import load_machine
 from retrofit.errors import GcodeError
 from retrofit.gcode import load_program
@@ -51,7 +52,11 @@ RETROFIT_REFUSES = {
     "m70m72-demo": "M70-M73", "m73-demo": "M70-M73", "toplevel": "M70-M73",
     "mmount": "G43 H4 with no tool 4 in the table (rs274 applies 0)",
     "err-unclosed-sub": "an o-sub never closed (rs274 stops at the M2 inside it)",
+    "cycle-g87": "G87 back boring needs an oriented spindle stop",
 }
+#: programs where retrofit makes one rapid more than rs274: G88 retracts Z after its pause with
+#: the spindle stopped (rs274 leaves the retract to the operator's hands)
+RETRACT_AFTER_PAUSE = {"cycle-g88"}
 
 
 def canon_events(text: str) -> list[tuple]:
@@ -178,7 +183,24 @@ def test_retrofit_agrees_with_rs274(program):
         assert refusal is not None, f"rs274 refuses ({status}); retrofit runs it"
         return
     assert refusal is None, f"rs274 runs it; retrofit refuses: {refusal}"
+    if program.stem in RETRACT_AFTER_PAUSE:
+        compiled = _without_retract_after_pause(compiled)
     compare(canon_events(body), retrofit_points(compiled))
+
+
+def _without_retract_after_pause(program):
+    """``program`` without the FMOV that follows each PAUS (G88's retract), which is checked to be
+    a move of Z alone."""
+    keep = []
+    for k, cmd in enumerate(program.commands):
+        after_pause = k and isinstance(program.commands[k - 1], Paus)
+        if after_pause and isinstance(cmd, FMov):
+            before = next(c for c in reversed(program.commands[:k]) if isinstance(c, (FMov, PMov)))
+            assert [a for a, b in zip(cmd.axes, before.axes) if a != b][0][0] == "Z"
+            continue
+        keep.append(k)
+    return replace(program, commands=[program.commands[k] for k in keep],
+                   lines=[program.lines[k] for k in keep], files=[program.files[k] for k in keep])
 
 
 def test_the_corpus_is_large_enough_and_both_accept_most():

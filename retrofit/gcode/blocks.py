@@ -15,7 +15,8 @@ from .errors import RuleError
 #: G codes by modal group, as LinuxCNC groups them
 G_GROUPS: dict[float, str] = {
     **dict.fromkeys((4, 10, 28, 28.1, 30, 30.1, 53, 92, 92.1, 92.2, 92.3), "non-modal"),
-    **dict.fromkeys((0, 1, 2, 3, 5, 5.1, 5.2, 33, 73, 80, 81, 82, 83, 85, 89), "motion"),
+    **dict.fromkeys((0, 1, 2, 3, 5, 5.1, 5.2, 33, 73, 74, 80, 81, 82, 83, 84, 85, 86, 88, 89),
+                    "motion"),
     76: "non-modal", 5.3: "non-modal",
     **dict.fromkeys((17, 18, 19), "plane"), **dict.fromkeys((20, 21), "units"),
     **dict.fromkeys((90, 91), "distance"), **dict.fromkeys((90.1, 91.1), "arc distance"),
@@ -35,10 +36,8 @@ REFUSED: dict[str, str] = {
     **dict.fromkeys(("G41", "G42", "G41.1", "G42.1"), "cutter radius compensation is not "
                     "supported; let the CAM output the tool centre path (G40)"),
     **dict.fromkeys(("G38.2", "G38.3", "G38.4", "G38.5"), "probing is not supported here"),
-    "G33.1": "rigid tapping is not supported", "G84": "the tapping cycle is not supported",
-    "G74": "the tapping cycle is not supported",
-    **dict.fromkeys(("G86", "G87", "G88"), "this canned cycle stops the spindle mid-cycle; not "
-                    "supported"),
+    "G33.1": "rigid tapping is not supported",
+    "G87": "back boring needs an oriented spindle stop (M19), which retrofit does not have",
     "G95": "feed per revolution is not supported (the feed is not tied to the spindle outside "
            "G33/G76)", "G96": "constant surface speed is not supported (use G97 S<rpm>)",
     "G43.2": "G43.2 is not supported (use G43 H or G43.1)", "G52": "G52 is not supported (use G92)",

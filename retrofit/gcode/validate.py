@@ -71,7 +71,7 @@ AXIS_NONMODAL = (10, 28, 30, 92)
 #: letters every block may carry
 _ALWAYS = frozenset("FST")
 #: canned cycles (motion group)
-CYCLE_CODES = (73, 81, 82, 83, 85, 89)
+CYCLE_CODES = (73, 74, 81, 82, 83, 84, 85, 86, 88, 89)
 
 
 def check_word_use(block, mode) -> None:
@@ -97,7 +97,7 @@ def check_word_use(block, mode) -> None:
         "I": arc or g76 or spline, "J": arc or g76 or spline,
         "K": arc or g76 or (mode == 33 and moving),
         "R": arc or cycle or g76 or nonmodal == 10,
-        "P": nonmodal in (4, 10) or arc or g76 or (cycle and mode in (82, 89))
+        "P": nonmodal in (4, 10) or arc or g76 or (cycle and mode in (74, 82, 84, 86, 88, 89))
         or g.get("path control") == 64 or (spline and mode == 5) or nurbs,
         "Q": g76 or (cycle and mode in (73, 83)) or g.get("path control") == 64
         or (spline and mode == 5),
@@ -119,6 +119,6 @@ def check_word_use(block, mode) -> None:
 
 _USED_BY = {"I": "G2/G3 arcs, G5, G5.1, G76", "J": "G2/G3 arcs, G5, G5.1, G76",
             "K": "G2/G3 arcs, G33, G76", "R": "G2/G3 arcs, canned cycles, G10, G76",
-            "P": "G4, G10, G2/G3 turns, G5, G5.2, G82, G89, G64, G76",
+            "P": "G4, G10, G2/G3 turns, G5, G5.2, G74, G82, G84, G86, G88, G89, G64, G76",
             "Q": "G5, G73, G83, G64, G76", "L": "G10, canned cycles, G5.2, G76", "H": "G43, G76",
             "E": "G76"}

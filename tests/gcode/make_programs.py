@@ -88,6 +88,21 @@ def cycles() -> dict[str, str]:
             f"G90 X8 Y8\nG80\nG0 Z12\nM2\n") if not extra else (
             PRE + f"G0 X0 Y0 Z10\nF100\nG{ret} G{code} X1 Y1 Z-3 R2{words}\n"
             f"G91 {xy} Z-2 R-3 {extra}\nG90 G80\nG0 Z12\nM2\n")
+    for code, turn in ((84, "M3"), (74, "M4"), (86, "M3"), (86, "M4")):
+        words = " P0.2" if code != 86 else " P0.5"
+        name = f"cycle-g{code}" + ("-m4" if code == 86 and turn == "M4" else "")
+        progs[name] = PRE + (f"{turn} S300\nG0 X0 Y0 Z10\nF150\nG98 G{code} X1 Y1 Z-3 R2{words}\n"
+                             f"G99 X4 Y1\nG91 X2 Y0 Z-2 R-3{' L2' if code != 74 else ''}\nG90 G80\n"
+                             f"G0 Z12\nM2\n")        # rs274 takes no L with G74
+    progs["cycle-g84-no-p"] = PRE + "M3 S300\nG0 X0 Y0 Z10\nG98 G84 X1 Y1 Z-3 R2 F150\nG80\nM2\n"
+    progs["cycle-g88"] = PRE + "M3 S300\nG0 X0 Y0 Z10\nF150\nG88 X1 Y1 Z-3 R2 P0.5\nG80\nG0 Z12\nM2\n"
+    progs["cycle-g87"] = PRE + "M3 S300\nG0 X0 Y0 Z10\nF150\nG87 X1 Y1 Z-3 R2 I0.5 J0 K-1\nG80\nM2\n"
+    progs["err-cycle-g84-m4"] = PRE + "M4 S300\nG0 Z10\nG84 X1 Y1 Z-2 R1 F100\nM2\n"
+    progs["err-cycle-g74-m3"] = PRE + "M3 S300\nG0 Z10\nG74 X1 Y1 Z-2 R1 F100\nM2\n"
+    progs["err-cycle-g86-no-spindle"] = PRE + "G0 Z10\nG86 X1 Y1 Z-2 R1 P1 F100\nM2\n"
+    progs["err-cycle-g86-no-p"] = PRE + "M3 S300\nG0 Z10\nG86 X1 Y1 Z-2 R1 F100\nM2\n"
+    progs["err-cycle-g82-no-p"] = PRE + "G0 Z10\nG82 X1 Y1 Z-2 R1 F100\nM2\n"
+    progs["err-cycle-g88-no-p"] = PRE + "M3 S300\nG0 Z10\nG88 X1 Y1 Z-2 R1 F100\nM2\n"
     progs["err-cycle-r-below-z"] = PRE + "G0 Z10\nG81 X1 Y1 Z2 R1 F100\nM2\n"
     progs["err-cycle-g83-no-q"] = PRE + "G0 Z10\nG83 X1 Y1 Z-2 R1 F100\nM2\n"
     return progs
