@@ -65,6 +65,7 @@ class ModalState:
     cycle_start: float | None = None    # machine Z where the current run of cycles began
     spline_ij: tuple = (0.0, 0.0)       # G5's first control point when I J are left out (mm)
     nurbs: dict | None = None           # G5.2 control points collected until G5.3
+    exact_stop: bool = False            # G61/G61.1 (True) or G64
 
     @classmethod
     def start(cls, machine: Machine, start_mm: Mapping[str, float] | None = None) -> "ModalState":

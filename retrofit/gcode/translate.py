@@ -18,7 +18,7 @@ import math
 from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, Tool, ZMov
 from ..config import Machine
 from ..motion.arcs import arc_extent, arc_points
-from . import coords, cycles, splines
+from . import coords, cycles, pathcontrol, splines
 from .arcwords import arc_center, plane_axes
 from .blocks import Block
 from .errors import RuleError
@@ -49,6 +49,7 @@ class Translator:
         self._line = 0
         self._file = ""
         self.indexing = False             # ISTP emitted and not yet ended by CSTP (a G33 chain)
+        self.last_block = None            # (file, line) of the last move under G61
         self.names = machine.axis_names
         atc = machine.parts.get("atc")
         self.change_on_t = getattr(atc, "change_on", "M6") == "T"
@@ -184,6 +185,8 @@ class Translator:
             s.diameter = g["lathe diameter"] == 7
         if "return mode" in g:
             s.retract_r = g["return mode"] == 99
+        if "path control" in g:
+            pathcontrol.set_mode(self, block)
 
     def _end(self) -> None:
         """M2/M30: the spindle stops and the coolant goes off if they were on."""
@@ -298,6 +301,8 @@ class Translator:
     def _emit(self, command: Command) -> None:
         if self.state.pending and isinstance(command, (FMov, PMov, ZMov)):
             self.state.pending = {}
+        if self.state.exact_stop:
+            pathcontrol.stop_between_blocks(self, command)
         self.commands.append(command)
         self.lines.append(self._line)
         self.files.append(self._file)
