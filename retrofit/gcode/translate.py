@@ -18,7 +18,7 @@ import math
 from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, Tool, ZMov
 from ..config import Machine
 from ..motion.arcs import arc_extent, arc_points
-from . import coords, cycles, pathcontrol, splines
+from . import coords, cycles, pathcontrol, spindle, splines
 from .arcwords import arc_center, plane_axes
 from .blocks import Block
 from .errors import RuleError
@@ -65,7 +65,7 @@ class Translator:
         mode = block.motion if block.motion is not None else s.motion
         check_word_use(block, mode)
         if "feed mode" in g:
-            s.inverse_time = g["feed mode"] == 93
+            spindle.set_feed_mode(self, g["feed mode"])
         if "F" in block.values:
             self._feed_word(block.values["F"])
         self._tool_words(block)
@@ -143,7 +143,11 @@ class Translator:
 
     def _spindle(self, block: Block) -> None:
         s = self.state
-        if "S" in block.values:
+        if "spindle speed mode" in block.g:
+            spindle.set_speed_mode(self, block)
+        if "S" in block.values and s.css is not None:
+            spindle.surface_word(self, block)
+        elif "S" in block.values:
             rpm = block.values["S"]
             if rpm < 0.0 or rpm > MAX_RPM:
                 raise RuleError(f"{block.texts['S']}: a spindle speed is from 0 to {MAX_RPM:g} rpm "
@@ -234,10 +238,15 @@ class Translator:
         if "spindle" not in self.machine.parts:
             raise RuleError(f"{code} needs a spindle encoder with an index pulse ([spindle] in the "
                             f"machine file); machine {self.machine.name} has none")
+        if self.state.css is not None or self.state.per_rev:
+            raise RuleError(f"{code} under G96/G95: a thread needs a steady spindle speed and its "
+                            f"own pitch; G97 S<rpm> and G94 first")
 
     def rapid(self, end: dict[str, float], where: str = "") -> None:
         """A G0 move to ``end`` (machine mm)."""
         check_soft_limits(self.machine, end, where)
+        if self.state.css is not None:
+            spindle.follow(self, end["X"])
         self._emit(FMov(self._axes(end)))
         self.state.position = end
 
@@ -245,6 +254,9 @@ class Translator:
         """A G1 move to ``end`` (machine mm) at the programmed feed."""
         check_soft_limits(self.machine, end)
         s = self.state
+        if s.css is not None:
+            spindle.css_line(self, end, mode)
+            return
         if s.inverse_time or s.feed_sent != s.feed_mm_min:
             self._send_feed(math.dist(s.position.values(), end.values()), mode)
         self._emit(PMov(self._axes(end)))
@@ -277,7 +289,12 @@ class Translator:
         length = check_arc(self.machine, mode, *extent)
         chords = arc_points(*args, tolerance, int(turns) - 1)
         self._send_feed(length, mode)
+        x = names.index("X") if s.css is not None else None
         for p in chords:
+            if x is not None:
+                spindle.follow(self, p[x])
+                if s.per_rev:
+                    self._send_feed(length, mode)
             self._emit(PMov(tuple((n, clean_mm(v)) for n, v in zip(names, p))))
         s.position = end
 
@@ -290,6 +307,8 @@ class Translator:
                 raise RuleError(f"G{mode:g} under G93 needs F on its line (moves per minute)")
             feed = clean_mm(max(length_mm, 1e-9) * s.feed_mm_min)
             s.feed_mm_min = 0.0           # G93: every feed move gives its own F
+        elif s.per_rev:
+            feed = spindle.per_rev_feed(self, mode)
         check_feed(mode, feed)
         if s.feed_sent != feed:
             self._emit(PFdr(feed))

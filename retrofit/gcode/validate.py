@@ -108,7 +108,7 @@ def check_word_use(block, mode) -> None:
         if letter in block.values and not used:
             raise RuleError(f"{block.texts[letter]}: {letter} word with no G code that uses it "
                             f"({_USED_BY[letter]})")
-    if "D" in block.values:
+    if "D" in block.values and g.get("spindle speed mode") != 96:
         raise RuleError(f"{block.texts['D']}: D word with no G code that uses it (D is G41/G42's "
                         f"tool, not supported)")
     if nonmodal == 4 and "P" not in block.values:
