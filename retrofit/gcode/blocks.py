@@ -15,11 +15,13 @@ from .errors import RuleError
 #: G codes by modal group, as LinuxCNC groups them
 G_GROUPS: dict[float, str] = {
     **dict.fromkeys((4, 10, 28, 28.1, 30, 30.1, 53, 92, 92.1, 92.2, 92.3), "non-modal"),
-    **dict.fromkeys((0, 1, 2, 3, 33, 73, 80, 81, 82, 83, 85, 89), "motion"),
-    76: "non-modal",
+    **dict.fromkeys((0, 1, 2, 3, 5, 5.1, 5.2, 33, 73, 74, 80, 81, 82, 83, 84, 85, 86, 88, 89),
+                    "motion"),
+    76: "non-modal", 5.3: "non-modal",
     **dict.fromkeys((17, 18, 19), "plane"), **dict.fromkeys((20, 21), "units"),
     **dict.fromkeys((90, 91), "distance"), **dict.fromkeys((90.1, 91.1), "arc distance"),
-    **dict.fromkeys((93, 94), "feed mode"), 40: "cutter radius", 97: "spindle speed mode",
+    **dict.fromkeys((93, 94, 95), "feed mode"), 40: "cutter radius",
+    **dict.fromkeys((96, 97), "spindle speed mode"),
     **dict.fromkeys((43, 43.1, 49), "tool length"), **dict.fromkeys((98, 99), "return mode"),
     **dict.fromkeys((54, 55, 56, 57, 58, 59, 59.1, 59.2, 59.3), "coordinate system"),
     **dict.fromkeys((61, 61.1, 64), "path control"), **dict.fromkeys((7, 8), "lathe diameter"),
@@ -32,17 +34,12 @@ M_GROUPS: dict[float, str] = {
 }
 #: codes LinuxCNC knows that retrofit refuses, and why
 REFUSED: dict[str, str] = {
-    **dict.fromkeys(("G5", "G5.1", "G5.2", "G5.3"), "splines are not supported; let the CAM "
-                    "output lines and arcs"),
     **dict.fromkeys(("G41", "G42", "G41.1", "G42.1"), "cutter radius compensation is not "
                     "supported; let the CAM output the tool centre path (G40)"),
     **dict.fromkeys(("G38.2", "G38.3", "G38.4", "G38.5"), "probing is not supported here"),
-    "G33.1": "rigid tapping is not supported", "G84": "the tapping cycle is not supported",
-    "G74": "the tapping cycle is not supported",
-    **dict.fromkeys(("G86", "G87", "G88"), "this canned cycle stops the spindle mid-cycle; not "
-                    "supported"),
-    "G95": "feed per revolution is not supported (the feed is not tied to the spindle outside "
-           "G33/G76)", "G96": "constant surface speed is not supported (use G97 S<rpm>)",
+    "G33.1": "rigid tapping is not supported (the indexer follows a spindle turning one way); "
+             "tap with G84/G74 and a floating holder",
+    "G87": "back boring needs an oriented spindle stop (M19), which retrofit does not have",
     "G43.2": "G43.2 is not supported (use G43 H or G43.1)", "G52": "G52 is not supported (use G92)",
     **dict.fromkeys(("M62", "M63", "M64", "M65"), "digital outputs: the machine file names no "
                     "output pins"),

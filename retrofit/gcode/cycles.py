@@ -1,19 +1,29 @@
-"""Canned drilling cycles G73, G81, G82, G83, G85, G89 in the XY plane (G17), as LinuxCNC runs them.
+"""Canned cycles G73, G74, G81-G86, G88, G89 in the XY plane (G17), as LinuxCNC runs them.
 
-Words: X Y the hole, Z the bottom, R the retract plane, L repeats, P the dwell (G82, G89), Q the
-peck (G73, G83). Each hole: if Z is below R, rapid up to R first (once); rapid over the hole at
+Words: X Y the hole, Z the bottom, R the retract plane, L repeats, P the dwell (G82, G86, G88,
+G89, and G74/G84 at the bottom), Q the peck (G73, G83). Each hole: if Z is below R, rapid up to R first (once); rapid over the hole at
 the clearance height; rapid down to R; the cycle's cut; back to the clearance height -- the start
-height under G98, R under G99. Under G91, X and Y are steps from hole to hole (repeated L
+height under G98, R under G99. The spindle cycles: G74 (left hand, M4) and G84 (right hand, M3)
+tap with a floating holder -- feed in at F (program F = pitch x rpm), reverse the spindle, dwell,
+feed out, turn forward again; G86 bores, stops the spindle at the bottom and rapids out; G88
+bores, stops the spindle and pauses (M0) for the operator, then rapids out with the spindle
+stopped (LinuxCNC leaves the retract to the operator's hands; a stepper machine's position
+cannot be moved by hand) and restarts it. Under G91, X and Y are steps from hole to hole (repeated L
 times), R is measured from the current Z and Z from R.
 """
 
 from __future__ import annotations
 
+from ..commands import Paus, Spin
 from .errors import RuleError
 from .state import clean_mm
 from .threading import leave
 
-CYCLES = (73, 81, 82, 83, 85, 89)
+CYCLES = (73, 74, 81, 82, 83, 84, 85, 86, 88, 89)
+#: cycles that dwell P at the bottom and need P the first time
+DWELLING = (82, 86, 88, 89)
+#: cycles that need the spindle turning, and the direction they need (0: either)
+SPINDLE = {74: -1, 84: 1, 86: 0, 88: 0}
 #: G83's rapid stop above the last peck, and G73's chip-breaking retract (mm)
 PECK_CLEARANCE_MM = 0.254
 #: most holes one cycle block may drill (L)
@@ -31,6 +41,10 @@ def run(tr, block, mode) -> None:
         raise RuleError(f"G{mode:g}: R clearance plane unspecified in cycle")
     if mode in (73, 83) and "Q" not in v and s.cycle_q is None:
         raise RuleError(f"G{mode:g}: Q word missing (the peck depth)")
+    if mode in DWELLING and "P" not in v and s.cycle_p is None:
+        raise RuleError(f"G{mode:g}: dwell time P word missing (seconds at the bottom)")
+    if mode in SPINDLE:
+        _check_spindle(s, mode)
     repeats = v.get("L", 1.0)
     if repeats != int(repeats) or not 0 <= repeats <= MAX_REPEATS:
         raise RuleError(f"{block.texts['L']}: L repeats a cycle 0 to {MAX_REPEATS} times")
@@ -74,8 +88,42 @@ def run(tr, block, mode) -> None:
         height = clear
 
 
+def _check_spindle(s, mode) -> None:
+    need = SPINDLE[mode]
+    if not s.spindle or s.rpm <= 0.0:
+        raise RuleError(f"G{mode}: the spindle is not turning (M3 or M4 with S > 0 first)")
+    if need and s.spindle != need:
+        raise RuleError(f"G{mode}: the spindle turns {'counter' if need > 0 else ''}clockwise; "
+                        f"G{mode} taps {'right' if need > 0 else 'left'}-handed and needs "
+                        f"M{3 if need > 0 else 4}")
+
+
+def _spindle_cycle(tr, mode, bottom: float, clear: float) -> bool:
+    """G74, G84, G86, G88 at one hole (the tool at R); False for the other cycles."""
+    s = tr.state
+    if mode not in SPINDLE:
+        return False
+    at = lambda z: {**s.position, "Z": clean_mm(z)}  # noqa: E731
+    forward = Spin(s.rpm, s.spindle)
+    tr.feed_line(at(bottom), mode)
+    if mode in (74, 84):
+        tr._emit(Spin(s.rpm, -s.spindle))
+        tr._dwell(s.cycle_p or 0.0)
+        tr.feed_line(at(clear), mode)
+    else:
+        tr._dwell(s.cycle_p)
+        tr._emit(Spin(0.0, 0))
+        if mode == 88:
+            tr._emit(Paus(0))
+        tr.rapid(at(clear))
+    tr._emit(forward)
+    return True
+
+
 def _cut(tr, mode, r: float, bottom: float, clear: float) -> None:
     s = tr.state
+    if _spindle_cycle(tr, mode, bottom, clear):
+        return
     at = lambda z: {**s.position, "Z": clean_mm(z)}  # noqa: E731
     if mode in (73, 83):
         peck = s.to_mm(s.cycle_q)

@@ -63,6 +63,11 @@ class ModalState:
     cycle_q: float | None = None        # the last Q (peck) of a canned cycle
     cycle_p: float | None = None        # the last P (dwell) of a canned cycle
     cycle_start: float | None = None    # machine Z where the current run of cycles began
+    spline_ij: tuple = (0.0, 0.0)       # G5's first control point when I J are left out (mm)
+    nurbs: dict | None = None           # G5.2 control points collected until G5.3
+    exact_stop: bool = False            # G61/G61.1 (True) or G64
+    per_rev: bool = False               # G95: F in mm per spindle revolution
+    css: tuple | None = None            # G96: (surface speed m/min, rpm ceiling); None: G97
 
     @classmethod
     def start(cls, machine: Machine, start_mm: Mapping[str, float] | None = None) -> "ModalState":

@@ -18,7 +18,7 @@ import math
 from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, Tool, ZMov
 from ..config import Machine
 from ..motion.arcs import arc_extent, arc_points
-from . import coords, cycles
+from . import coords, cycles, pathcontrol, spindle, splines
 from .arcwords import arc_center, plane_axes
 from .blocks import Block
 from .errors import RuleError
@@ -49,6 +49,7 @@ class Translator:
         self._line = 0
         self._file = ""
         self.indexing = False             # ISTP emitted and not yet ended by CSTP (a G33 chain)
+        self.last_block = None            # (file, line) of the last move under G61
         self.names = machine.axis_names
         atc = machine.parts.get("atc")
         self.change_on_t = getattr(atc, "change_on", "M6") == "T"
@@ -64,7 +65,7 @@ class Translator:
         mode = block.motion if block.motion is not None else s.motion
         check_word_use(block, mode)
         if "feed mode" in g:
-            s.inverse_time = g["feed mode"] == 93
+            spindle.set_feed_mode(self, g["feed mode"])
         if "F" in block.values:
             self._feed_word(block.values["F"])
         self._tool_words(block)
@@ -77,16 +78,20 @@ class Translator:
             coords.tool_length(self, block)
         if "coordinate system" in g:
             coords.select_system(self, g["coordinate system"])
-        if block.motion is not None:
+        if block.motion is not None and block.motion not in splines.KEEP_MODE:
             s.motion = None if block.motion == 80 else block.motion
             if s.motion not in cycles.CYCLES:
                 s.cycle_start = None
+            if s.motion != 5.2:
+                s.nurbs = None
         nonmodal = g.get("non-modal")
         if nonmodal in coords.NONMODAL:
             coords.NONMODAL[nonmodal](self, block)
         elif nonmodal == 76:
             self._needs_encoder("G76")
             g76(self, block)
+        elif nonmodal == 5.3:
+            splines.finish(self, block)
         else:
             self._motion(block, mode)
         stop = block.m.get("stopping")
@@ -105,6 +110,7 @@ class Translator:
         if block.g:
             self.state.motion = block.g["motion"]
             self.state.cycle_start = None
+            self.state.nurbs = None
         self._motion(block, self.state.motion)
         return False
 
@@ -137,7 +143,11 @@ class Translator:
 
     def _spindle(self, block: Block) -> None:
         s = self.state
-        if "S" in block.values:
+        if "spindle speed mode" in block.g:
+            spindle.set_speed_mode(self, block)
+        if "S" in block.values and s.css is not None:
+            spindle.surface_word(self, block)
+        elif "S" in block.values:
             rpm = block.values["S"]
             if rpm < 0.0 or rpm > MAX_RPM:
                 raise RuleError(f"{block.texts['S']}: a spindle speed is from 0 to {MAX_RPM:g} rpm "
@@ -179,6 +189,8 @@ class Translator:
             s.diameter = g["lathe diameter"] == 7
         if "return mode" in g:
             s.retract_r = g["return mode"] == 99
+        if "path control" in g:
+            pathcontrol.set_mode(self, block)
 
     def _end(self) -> None:
         """M2/M30: the spindle stops and the coolant goes off if they were on."""
@@ -192,6 +204,9 @@ class Translator:
 
     # -- motion ----------------------------------------------------------------------------
     def _motion(self, block: Block, mode) -> None:
+        if mode in splines.MODES:
+            splines.run(self, block, mode)
+            return
         if not block.axes:
             if block.motion in (2, 3) and any(c in block.values for c in "IJK"):
                 self._arc(block, mode, dict(self.state.position))   # a full circle where it is
@@ -223,10 +238,15 @@ class Translator:
         if "spindle" not in self.machine.parts:
             raise RuleError(f"{code} needs a spindle encoder with an index pulse ([spindle] in the "
                             f"machine file); machine {self.machine.name} has none")
+        if self.state.css is not None or self.state.per_rev:
+            raise RuleError(f"{code} under G96/G95: a thread needs a steady spindle speed and its "
+                            f"own pitch; G97 S<rpm> and G94 first")
 
     def rapid(self, end: dict[str, float], where: str = "") -> None:
         """A G0 move to ``end`` (machine mm)."""
         check_soft_limits(self.machine, end, where)
+        if self.state.css is not None:
+            spindle.follow(self, end["X"])
         self._emit(FMov(self._axes(end)))
         self.state.position = end
 
@@ -234,6 +254,9 @@ class Translator:
         """A G1 move to ``end`` (machine mm) at the programmed feed."""
         check_soft_limits(self.machine, end)
         s = self.state
+        if s.css is not None:
+            spindle.css_line(self, end, mode)
+            return
         if s.inverse_time or s.feed_sent != s.feed_mm_min:
             self._send_feed(math.dist(s.position.values(), end.values()), mode)
         self._emit(PMov(self._axes(end)))
@@ -266,7 +289,12 @@ class Translator:
         length = check_arc(self.machine, mode, *extent)
         chords = arc_points(*args, tolerance, int(turns) - 1)
         self._send_feed(length, mode)
+        x = names.index("X") if s.css is not None else None
         for p in chords:
+            if x is not None:
+                spindle.follow(self, p[x])
+                if s.per_rev:
+                    self._send_feed(length, mode)
             self._emit(PMov(tuple((n, clean_mm(v)) for n, v in zip(names, p))))
         s.position = end
 
@@ -279,6 +307,8 @@ class Translator:
                 raise RuleError(f"G{mode:g} under G93 needs F on its line (moves per minute)")
             feed = clean_mm(max(length_mm, 1e-9) * s.feed_mm_min)
             s.feed_mm_min = 0.0           # G93: every feed move gives its own F
+        elif s.per_rev:
+            feed = spindle.per_rev_feed(self, mode)
         check_feed(mode, feed)
         if s.feed_sent != feed:
             self._emit(PFdr(feed))
@@ -290,6 +320,8 @@ class Translator:
     def _emit(self, command: Command) -> None:
         if self.state.pending and isinstance(command, (FMov, PMov, ZMov)):
             self.state.pending = {}
+        if self.state.exact_stop:
+            pathcontrol.stop_between_blocks(self, command)
         self.commands.append(command)
         self.lines.append(self._line)
         self.files.append(self._file)

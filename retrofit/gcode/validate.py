@@ -71,7 +71,7 @@ AXIS_NONMODAL = (10, 28, 30, 92)
 #: letters every block may carry
 _ALWAYS = frozenset("FST")
 #: canned cycles (motion group)
-CYCLE_CODES = (73, 81, 82, 83, 85, 89)
+CYCLE_CODES = (73, 74, 81, 82, 83, 84, 85, 86, 88, 89)
 
 
 def check_word_use(block, mode) -> None:
@@ -91,19 +91,24 @@ def check_word_use(block, mode) -> None:
     arc = mode in (2, 3) and (moving or (block.motion in (2, 3) and nonmodal not in AXIS_NONMODAL))
     cycle = mode in CYCLE_CODES and moving
     g76 = nonmodal == 76
+    spline = mode in (5, 5.1) and block.motion == mode
+    nurbs = mode == 5.2 and nonmodal not in AXIS_NONMODAL
     uses = {
-        "I": arc or g76, "J": arc or g76, "K": arc or g76 or (mode == 33 and moving),
+        "I": arc or g76 or spline, "J": arc or g76 or spline,
+        "K": arc or g76 or (mode == 33 and moving),
         "R": arc or cycle or g76 or nonmodal == 10,
-        "P": nonmodal in (4, 10) or arc or g76 or (cycle and mode in (82, 89))
-        or g.get("path control") == 64,
-        "Q": g76 or (cycle and mode in (73, 83)) or g.get("path control") == 64,
-        "L": nonmodal == 10 or cycle or g76, "H": g.get("tool length") == 43 or g76, "E": g76,
+        "P": nonmodal in (4, 10) or arc or g76 or (cycle and mode in (74, 82, 84, 86, 88, 89))
+        or g.get("path control") == 64 or (spline and mode == 5) or nurbs,
+        "Q": g76 or (cycle and mode in (73, 83)) or g.get("path control") == 64
+        or (spline and mode == 5),
+        "L": nonmodal == 10 or cycle or g76 or nurbs, "H": g.get("tool length") == 43 or g76,
+        "E": g76,
     }
     for letter, used in uses.items():
         if letter in block.values and not used:
             raise RuleError(f"{block.texts[letter]}: {letter} word with no G code that uses it "
                             f"({_USED_BY[letter]})")
-    if "D" in block.values:
+    if "D" in block.values and g.get("spindle speed mode") != 96:
         raise RuleError(f"{block.texts['D']}: D word with no G code that uses it (D is G41/G42's "
                         f"tool, not supported)")
     if nonmodal == 4 and "P" not in block.values:
@@ -112,6 +117,8 @@ def check_word_use(block, mode) -> None:
         raise RuleError("G92 with no axis words (G92 X0 sets the current X to 0)")
 
 
-_USED_BY = {"I": "G2/G3 arcs, G76", "J": "G2/G3 arcs, G76", "K": "G2/G3 arcs, G33, G76",
-            "R": "G2/G3 arcs, canned cycles, G10, G76", "P": "G4, G10, G2/G3 turns, G82, G89, G64, G76",
-            "Q": "G73, G83, G64, G76", "L": "G10, canned cycles, G76", "H": "G43, G76", "E": "G76"}
+_USED_BY = {"I": "G2/G3 arcs, G5, G5.1, G76", "J": "G2/G3 arcs, G5, G5.1, G76",
+            "K": "G2/G3 arcs, G33, G76", "R": "G2/G3 arcs, canned cycles, G10, G76",
+            "P": "G4, G10, G2/G3 turns, G5, G5.2, G74, G82, G84, G86, G88, G89, G64, G76",
+            "Q": "G5, G73, G83, G64, G76", "L": "G10, canned cycles, G5.2, G76", "H": "G43, G76",
+            "E": "G76"}

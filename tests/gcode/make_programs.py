@@ -88,9 +88,59 @@ def cycles() -> dict[str, str]:
             f"G90 X8 Y8\nG80\nG0 Z12\nM2\n") if not extra else (
             PRE + f"G0 X0 Y0 Z10\nF100\nG{ret} G{code} X1 Y1 Z-3 R2{words}\n"
             f"G91 {xy} Z-2 R-3 {extra}\nG90 G80\nG0 Z12\nM2\n")
+    for code, turn in ((84, "M3"), (74, "M4"), (86, "M3"), (86, "M4")):
+        words = " P0.2" if code != 86 else " P0.5"
+        name = f"cycle-g{code}" + ("-m4" if code == 86 and turn == "M4" else "")
+        progs[name] = PRE + (f"{turn} S300\nG0 X0 Y0 Z10\nF150\nG98 G{code} X1 Y1 Z-3 R2{words}\n"
+                             f"G99 X4 Y1\nG91 X2 Y0 Z-2 R-3{' L2' if code != 74 else ''}\nG90 G80\n"
+                             f"G0 Z12\nM2\n")        # rs274 takes no L with G74
+    progs["cycle-g84-no-p"] = PRE + "M3 S300\nG0 X0 Y0 Z10\nG98 G84 X1 Y1 Z-3 R2 F150\nG80\nM2\n"
+    progs["cycle-g88"] = PRE + "M3 S300\nG0 X0 Y0 Z10\nF150\nG88 X1 Y1 Z-3 R2 P0.5\nG80\nG0 Z12\nM2\n"
+    progs["cycle-g87"] = PRE + "M3 S300\nG0 X0 Y0 Z10\nF150\nG87 X1 Y1 Z-3 R2 I0.5 J0 K-1\nG80\nM2\n"
+    progs["err-cycle-g84-m4"] = PRE + "M4 S300\nG0 Z10\nG84 X1 Y1 Z-2 R1 F100\nM2\n"
+    progs["err-cycle-g74-m3"] = PRE + "M3 S300\nG0 Z10\nG74 X1 Y1 Z-2 R1 F100\nM2\n"
+    progs["err-cycle-g86-no-spindle"] = PRE + "G0 Z10\nG86 X1 Y1 Z-2 R1 P1 F100\nM2\n"
+    progs["err-cycle-g86-no-p"] = PRE + "M3 S300\nG0 Z10\nG86 X1 Y1 Z-2 R1 F100\nM2\n"
+    progs["err-cycle-g82-no-p"] = PRE + "G0 Z10\nG82 X1 Y1 Z-2 R1 F100\nM2\n"
+    progs["err-cycle-g88-no-p"] = PRE + "M3 S300\nG0 Z10\nG88 X1 Y1 Z-2 R1 F100\nM2\n"
     progs["err-cycle-r-below-z"] = PRE + "G0 Z10\nG81 X1 Y1 Z2 R1 F100\nM2\n"
     progs["err-cycle-g83-no-q"] = PRE + "G0 Z10\nG83 X1 Y1 Z-2 R1 F100\nM2\n"
     return progs
+
+
+def splines() -> dict[str, str]:
+    """G5, G5.1, G5.2/G5.3: rs274 prints a spline as NURBS_FEED without points, so each program
+    follows its spline with a G91 move whose absolute end shows where the spline ended."""
+    p = {}
+    p["spline-g5-chain"] = PRE + ("G0 X0 Y0\nG1 F100\nG5 I0 J3 P4 Q-1 X1 Y1\nG5 P0 Q-1 X2 Y2\n"
+                                  "G91 G1 X0.5\nG90 G0 X0\nM2\n")
+    p["spline-g5-keeps-mode"] = PRE + "G0 X1\nG5 I1 J0 P1 Q0 X2 Y0 F100\nX3\nG1 X4\nG5 I1 J1 P1 Q1 X6 Y0\nX7\nM2\n"
+    p["spline-g5-no-ij"] = PRE + "G0 X0 Y0\nG1 F100\nG5 P-2 Q1 X5 Y5\nG91 G1 Y1\nM2\n"
+    p["spline-g51"] = PRE + "G0 X0 Y0\nG1 F100\nG5.1 X5 Y0 I2 J2\nG5.1 X0 Y0 I-2 J-4\nG91 G1 X1\nM2\n"
+    p["spline-g5-g20-g91"] = PRE + ("G0 X1 Y1\nG20 G91 G1 F4\nG5 I0.04 J0.1 P0.1 Q-0.04 X0.2 Y0.1\n"
+                                    "G1 X0.04\nG21 G90 G0 X0 Y0\nM2\n")
+    p["spline-g5-offsets"] = PRE + ("G10 L2 P1 X3 Y-2\nG92 X1\nG0 X0 Y0\nG1 F100\n"
+                                    "G5 I1 J2 P-1 Q2 X4 Y1\nG91 G1 X1\nM2\n")
+    p["spline-nurbs-quarter"] = PRE + ("G0 X10 Y0\nG1 F100\nG5.2 X10 Y10 P0.7071067812\nX0 Y10 P1\n"
+                                       "G5.3\nG91 G1 X1\nM2\n")
+    p["spline-nurbs-order4"] = PRE + ("G0 X0 Y0\nG1 F200\nG5.2 P1 L4\nX5 Y10 P1\nX10 Y-5 P2\n"
+                                      "X15 Y5 P1\nX20 Y0 P0.5\nG5.3\nG91 G1 Y1\nM2\n")
+    p["spline-nurbs-g91"] = PRE + ("G0 X2 Y2\nG1 F100\nG91\nG5.2 X4 Y0 P1\nX4 Y4 P1\nX0 Y4 P1\n"
+                                   "G5.3\nG1 X1\nM2\n")
+    p["err-spline-g5-no-pq"] = PRE + "G0 X0 Y0\nG5 I1 J1 X2 Y2 F100\nM2\n"
+    p["err-spline-g5-only-i"] = PRE + "G0 X0 Y0\nG5 I1 P1 Q1 X2 Y2 F100\nM2\n"
+    p["err-spline-g51-no-j"] = PRE + "G0 X0 Y0\nG5.1 I1 X2 Y2 F100\nM2\n"
+    p["err-spline-g51-p"] = PRE + "G0 X0 Y0\nG5.1 I1 J1 P1 X2 Y2 F100\nM2\n"
+    p["err-spline-z"] = PRE + "G0 X0 Y0\nG5 I1 J0 P1 Q0 X2 Y0 Z-1 F100\nM2\n"
+    p["err-spline-g18"] = PRE + "G18\nG0 X0 Z0\nG5 I1 J1 P1 Q1 X2 Z1 F100\nM2\n"
+    p["err-spline-no-axes"] = PRE + "G0 X0 Y0\nG5 I1 J0 P1 Q0 F100\nM2\n"
+    p["err-nurbs-too-few"] = PRE + "G0 X0 Y0 F100\nG5.2 X1 Y1 P1 L4\nX2 Y0 P1\nG5.3\nM2\n"
+    p["err-nurbs-g53-alone"] = PRE + "G0 X0 Y0 F100\nG5.3\nM2\n"
+    p["err-nurbs-broken"] = PRE + "G0 X0 Y0 F100\nG5.2 X1 Y1 P1\nX2 Y0 P1\nG0 X3\nG5.3\nM2\n"
+    p["err-nurbs-no-weight"] = PRE + "G0 X0 Y0 F100\nG5.2 X1 Y1 P1\nX2 Y0\nX3 Y1 P1\nG5.3\nM2\n"
+    p["err-nurbs-one-axis"] = PRE + "G0 X0 Y0 F100\nG5.2 X1 Y1 P1\nX2 P1\nG5.3\nM2\n"
+    p["err-nurbs-after-end"] = PRE + "G0 X0 Y0 F100\nG5.2 X1 Y1 P1\nX2 Y0 P1\nG5.3\nX4 Y4\nM2\n"
+    return p
 
 
 def language() -> dict[str, str]:
@@ -180,7 +230,7 @@ def main() -> None:
     for old in OUT.glob("*.ngc"):
         if not old.name.startswith("hand-"):
             old.unlink()
-    programs = {**arcs(), **offsets(), **cycles(), **language()}
+    programs = {**arcs(), **offsets(), **cycles(), **splines(), **language()}
     for name, text in programs.items():
         (OUT / f"{name}.ngc").write_text(text)
     print(f"{len(programs)} programs written to {OUT}")
