@@ -30,8 +30,9 @@ from .expressions import read_expression, read_parameter, read_value
 
 _LINE_END = re.compile(r"\r\n|\r|\n")
 _PLAIN = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+))")
-#: a whole line of plain words and nothing else (the fast path: most CAM lines)
-_PLAIN_LINE = re.compile(r"(?:[A-NP-Za-np-z]\s*[-+]?\s*(?:\d+\.?\d*|\.\d+)\s*)+")
+#: a whole line of plain words and nothing else, after an optional line number (the fast path:
+#: most CAM lines); group 1 is the words
+_PLAIN_LINE = re.compile(r"\s*(?:[Nn]\s*\d+\s*)?((?:[A-MP-Za-mp-z]\s*[-+]?\s*(?:\d+\.?\d*|\.\d+)\s*)+)")
 _LINE_NUMBER = re.compile(r"N\d*\.?\d*")
 _OWORD = re.compile(r"O(<[^>]*>|\d+)([A-Z]+)")
 #: O-word keywords and whether they take a bracketed argument (None: no, 1: one, "*": any number)
@@ -68,8 +69,9 @@ def lex_lines(text: str) -> list[Line]:
     lines = []
     plain, findall = _PLAIN_LINE.fullmatch, _PLAIN.findall
     for number, raw in enumerate(split_lines(text), start=1):
-        if plain(raw) and raw[0] not in "nN":
-            code = "".join(raw.split()).upper()
+        match = plain(raw)
+        if match:
+            code = "".join(match.group(1).split()).upper()
             lines.append(Line(number, [(a, float(b)) for a, b in findall(code)], plain=True))
             continue
         try:
