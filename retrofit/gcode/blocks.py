@@ -15,7 +15,7 @@ from .errors import RuleError
 #: G codes by modal group, as LinuxCNC groups them
 G_GROUPS: dict[float, str] = {
     **dict.fromkeys((4, 10, 28, 28.1, 30, 30.1, 53, 92, 92.1, 92.2, 92.3), "non-modal"),
-    **dict.fromkeys((0, 1, 2, 3, 33, 73, 80, 81, 82, 83, 85, 89), "motion"),
+    **dict.fromkeys((0, 1, 2, 3, 33, 38.2, 38.3, 38.4, 38.5, 73, 80, 81, 82, 83, 85, 89), "motion"),
     76: "non-modal",
     **dict.fromkeys((17, 18, 19), "plane"), **dict.fromkeys((20, 21), "units"),
     **dict.fromkeys((90, 91), "distance"), **dict.fromkeys((90.1, 91.1), "arc distance"),
@@ -36,7 +36,6 @@ REFUSED: dict[str, str] = {
                     "output lines and arcs"),
     **dict.fromkeys(("G41", "G42", "G41.1", "G42.1"), "cutter radius compensation is not "
                     "supported; let the CAM output the tool centre path (G40)"),
-    **dict.fromkeys(("G38.2", "G38.3", "G38.4", "G38.5"), "probing is not supported here"),
     "G33.1": "rigid tapping is not supported", "G84": "the tapping cycle is not supported",
     "G74": "the tapping cycle is not supported",
     **dict.fromkeys(("G86", "G87", "G88"), "this canned cycle stops the spindle mid-cycle; not "

@@ -18,7 +18,7 @@ import math
 from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, Tool, ZMov
 from ..config import Machine
 from ..motion.arcs import arc_extent, arc_points
-from . import coords, cycles
+from . import coords, cycles, probing
 from .arcwords import arc_center, plane_axes
 from .blocks import Block
 from .errors import RuleError
@@ -39,8 +39,9 @@ _PLAIN_VALUES = frozenset("F")
 class Translator:
     """Turns blocks, in program order, into commands and the source line of each."""
 
-    def __init__(self, machine: Machine, state: ModalState, tool_table=None):
+    def __init__(self, machine: Machine, state: ModalState, tool_table=None, probe=None):
         self.machine = machine
+        self.probe = probe                # runs G38 moves on the machine (retrofit.gcode.probing)
         self.state = state
         self.tool_table = tool_table
         self.commands: list[Command] = []
@@ -212,7 +213,9 @@ class Translator:
             self.state.position = end
             return
         leave(self)
-        if mode == 0:
+        if mode in probing.PROBE_CODES:
+            probing.probe_move(self, block, mode, end)
+        elif mode == 0:
             self.rapid(end)
         elif mode == 1:
             self.feed_line(end, mode)
