@@ -47,6 +47,7 @@ REFUSED: dict[str, str] = {
                     "output pins"),
     "M66": "waiting on inputs: the machine file names no input pins",
     "M19": "spindle orientation is not supported",
+    "M61": "setting the tool number without a change is not supported (use T<n> M6)",
     **dict.fromkeys(("M70", "M71", "M72", "M73"), "saving modal state is not supported"),
 }
 #: 3D-printer codes seen in grbl-flavoured files: a CNC has no hot end, bed or extruder

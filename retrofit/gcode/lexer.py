@@ -9,6 +9,7 @@ comment). On each line, as LinuxCNC reads it:
 * a ``/`` first (block delete) is ignored: LinuxCNC's block-delete switch is off by default and
   the line runs; a line starting with ``%`` is a program delimiter,
   a line starting with ``$`` a grbl command (:mod:`retrofit.gcode.dialect`);
+* ``$n`` inside a line selects spindle n for M3/M4/M5/S (LinuxCNC; one spindle here: ``$0``);
 * ``N..`` first is the line number, ignored; ``O..`` first is an O-word (subroutines, loops);
 * the rest is words (a letter and a value) and parameter assignments (``#1=2``, ``#<x>=[#1*2]``).
 
@@ -169,7 +170,7 @@ def _words(code: str, pos: int, line: Line) -> None:
                 raise RuleError("a parameter at the start of a word must be assigned: #1=2.5")
             value, pos = read_value(code, pos + 1)
             line.assigns.append((target, value))
-        elif "A" <= ch <= "Z" and ch != "O":
+        elif "A" <= ch <= "Z" and ch != "O" or ch == "$":
             if pos + 1 >= len(code):
                 raise RuleError(f"word {ch!r} has no value (expected e.g. {ch}10)")
             value, pos = read_value(code, pos + 1)

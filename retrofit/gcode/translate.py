@@ -138,6 +138,9 @@ class Translator:
 
     def _spindle(self, block: Block) -> None:
         s = self.state
+        if block.values.get("$", 0.0) not in (0.0, -1.0):
+            raise RuleError(f"{block.texts['$']}: machine {self.machine.name} has one spindle, "
+                            f"$0 ($-1: every spindle)")
         if "S" in block.values:
             rpm = block.values["S"]
             if rpm < 0.0 or rpm > MAX_RPM:
