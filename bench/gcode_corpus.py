@@ -9,7 +9,9 @@ there) and retrofit's shipped examples -- is compiled twice:
 * on a suitable shipped machine: a lathe program (its name says lathe, or it selects G18/G7) on
   ``chivu-lathe``, anything else on ``grenoble-mill``; the machine's travel, axes and parts apply;
 * on the wide test mill of the differential test (``tests/gcode/rs274-mill.toml``: XYZ within
-  +-5000 mm, a tool table), which leaves only what the *language* refuses.
+  +-5000 mm, a tool table), which leaves only what the *language* refuses; there the plasma
+  programs' HAL feed pin ``#<_hal[plasmac.cut-feed-rate]>`` is given the operator's value
+  (1000), as ``tests/test_gcode_corpus.py`` does.
 
 It prints how many ran on each, and the first refusal reason of the others by count (the reason
 with its numbers taken out, so that alike reasons fall together). ``--list`` prints every file's
@@ -25,7 +27,7 @@ from pathlib import Path
 
 from retrofit.config import load_machine
 from retrofit.errors import GcodeError
-from retrofit.gcode import load_program
+from retrofit.gcode import compile_program
 from retrofit.tooltable import ToolTable
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -59,10 +61,16 @@ def reason(exc: GcodeError) -> str:
     return re.sub(r"'[^']*'|\"[^\"]*\"", "'..'", text)[:110]
 
 
-def compile_one(path: Path, machine, tools) -> str | None:
+HAL_FEED = "#<_hal[plasmac.cut-feed-rate]>"
+
+
+def compile_one(path: Path, machine, tools, hal_feed: str | None = None) -> str | None:
     """None when the program compiles, else the refusal's reason."""
+    text = path.read_text(encoding="utf-8")
+    if hal_feed is not None:
+        text = text.replace(HAL_FEED, hal_feed)
     try:
-        load_program(path, machine, tool_table=tools)
+        compile_program(text, machine, path.name, tool_table=tools, search_path=[path.parent])
     except GcodeError as exc:
         return reason(exc)
     return None
@@ -80,13 +88,13 @@ def main() -> None:
     for path in files:
         name = shipped_machine(path)
         on_shipped = compile_one(path, machines[name], None)
-        on_wide = compile_one(path, wide, tools)
+        on_wide = compile_one(path, wide, tools, hal_feed="1000")
         shipped[on_shipped or "ran"] += 1
         language[on_wide or "ran"] += 1
         rows.append((path.relative_to(ROOT), name, on_shipped, on_wide))
     print(f"corpus: {len(files)} programs ({', '.join(str(f.relative_to(ROOT)) for f in FOLDERS)})")
     for title, counts in ((f"on a shipped machine (chivu-lathe / grenoble-mill)", shipped),
-                          ("on the wide test mill (language only)", language)):
+                          ("on the wide test mill (language only; HAL feed 1000)", language)):
         print(f"\n{title}: {counts['ran']} of {len(files)} ran")
         for why, n in counts.most_common():
             if why != "ran":
