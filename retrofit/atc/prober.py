@@ -28,7 +28,8 @@ class SimProber:
                  start_mm: dict[str, float] | None = None):
         self.machine = machine
         self.spindle_tool = spindle_tool
-        self.cell = SimCell(machine, MagazineState.loaded(machine, spindle_tool), start_mm)
+        self.start_mm = start_mm
+        self.cell: SimCell | None = None     # made at the first probing move
         self.done = 0                 # commands of the expanded program the cell has run
         self.moves = 0                # probing moves made
 
@@ -47,6 +48,9 @@ class SimProber:
 
     def _catch_up(self, request: ProbeRequest) -> None:
         """Run the commands compiled since the last probing move (host commands expanded)."""
+        if self.cell is None:
+            self.cell = SimCell(self.machine, MagazineState.loaded(self.machine, self.spindle_tool),
+                                self.start_mm)
         program = Program(list(request.commands), list(request.lines), "<program>")
         try:
             expanded = expand_host_commands(program, self.machine, self.spindle_tool)
