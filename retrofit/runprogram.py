@@ -80,9 +80,13 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
     from .atc.front import expand_host_commands
     from .gcode import compile_program
     run = Run(machine, name)
-    # 1. program: G-code -> commands; TOOL and PAUS -> the changer's sequences and pauses
+    # 1. program: G-code -> commands (G38 probing moves made on the simulated machine as the
+    #    program is read); TOOL and PAUS -> the changer's sequences and pauses
+    prober = sim_prober(machine, spindle_tool)
     run.program = compile_program(text, machine, file=name, tool_table=tool_table,
-                                  spindle_tool=spindle_tool)
+                                  spindle_tool=spindle_tool, probe=prober)
+    if prober is not None and prober.moves:
+        refuse_real_probing(opts.urls, name)
     run.expanded = expand_host_commands(run.program, machine, spindle_tool)
     progress.done("compile")
     # 2. plan and 3. execute: by the planner and the fast path, or through the 002 controller
@@ -110,6 +114,25 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
     from .runreport import run_report
     run.report = run_report(run)
     return run
+
+
+def sim_prober(machine: Machine, spindle_tool: int = 0):
+    """The prober of G38 moves on the simulated machine (one with a tool setter and a changer),
+    or None: probing is then refused with its line."""
+    if "setter" not in machine.parts or "atc" not in machine.parts:
+        return None
+    from .atc.prober import SimProber
+    return SimProber(machine, spindle_tool)
+
+
+def refuse_real_probing(urls, name: str) -> None:
+    """A program whose probing moves were made on the simulated machine must not drive a real one."""
+    from .runner import is_real
+    real = [u for u in urls if is_real(u)]
+    if real:
+        raise OutputError(f"{real[0]}: {name} probes (G38) and its probe results come from the "
+                          "simulated machine; this host does not read a real machine's probe "
+                          "input: run it on sim://")
 
 
 def plan_expanded(expanded, machine: Machine, backlash_comp: bool, progress):

@@ -43,7 +43,7 @@ RETROFIT_REFUSES = {
     **dict.fromkeys(("comp", "comp-g1", "comp311", "comp311_2", "lathecomp", "g76", "lathe-g76",
                      "gmoccapy_2_tools_with_cutter_radius_compensation"), "G41/G42 compensation"),
     **dict.fromkeys(("gridprobe", "smartprobe", "tool-length-probe", "x-trim"),
-                    "G38 probing"),
+                    "G38 probing: the test machine has no probe input"),
     **dict.fromkeys(("lathe_g70_71_demo", "lathe_g7x_face_boring", "lathe_g7x_quadrants",
                      ), "G70/G71 lathe cycles"),
     **dict.fromkeys(("3D_Chips", "b-index", "daisy"), "axes A/B/C: not on the test machine"),

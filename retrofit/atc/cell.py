@@ -112,12 +112,17 @@ class SimCell:
         self.steps = tuple(log.final_target)
         return log
 
-    def probe(self, commands: Iterable[Command]) -> ProbeHit | None:
+    def beam_broken(self) -> bool:
+        """Whether the beam is broken now, by the tool really in the spindle."""
+        return self.beam is not None and self.beam.broken(self.carriage_mm(), self.magazine.state.spindle)
+
+    def probe(self, commands: Iterable[Command], until_broken: bool = True) -> ProbeHit | None:
         """Execute a probing move, checking the simulated beam after every step.
 
         The planned move's step times come from a trial run on a copy of the machine; the run is
-        cut at the first step after which the beam is broken, so every axis stops there. None
-        when the whole move passes without a break (the machine then stands at its end).
+        cut at the first step after which the beam is broken (``until_broken``; else at the first
+        after which it is clear again), so every axis stops there. None when the whole move
+        passes without that change (the machine then stands at its end).
         """
         if self.beam is None:
             raise ProbeError(f"machine {self.machine.name} has no tool setter ([setter] section)")
@@ -125,7 +130,7 @@ class SimCell:
         frames = _shifted(execute_fast(plan).frames, self.tick)
         trial = self._trial()
         trial.feed(frames)
-        tick = self._first_break(trial)
+        tick = self._first_break(trial, until_broken)
         if tick is None:
             self._feed_shifted(frames)
             self.steps = tuple(plan.moves[-1].target) if plan.moves else self.steps
@@ -147,14 +152,14 @@ class SimCell:
         finally:
             self.sim.traces = kept
 
-    def _first_break(self, trial: SimMachine) -> int | None:
-        """The first tick of the trial run after which the beam is broken."""
+    def _first_break(self, trial: SimMachine, broken: bool = True) -> int | None:
+        """The first tick of the trial run after which the beam is ``broken`` (or clear)."""
         names = self.machine.axis_names
         now = self.carriage_mm()
         tool = self.magazine.state.spindle
         for tick in sorted({t for n in names for t in trial.traces[n].ticks}):
             at = {n: trial.traces[n].at(tick, 0, now[n])[1] for n in names}
-            if self.beam.broken(at, tool):
+            if self.beam.broken(at, tool) == broken:
                 return tick
         return None
 

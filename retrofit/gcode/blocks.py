@@ -15,8 +15,8 @@ from .errors import RuleError
 #: G codes by modal group, as LinuxCNC groups them
 G_GROUPS: dict[float, str] = {
     **dict.fromkeys((4, 10, 28, 28.1, 30, 30.1, 53, 92, 92.1, 92.2, 92.3), "non-modal"),
-    **dict.fromkeys((0, 1, 2, 3, 5, 5.1, 5.2, 33, 73, 74, 80, 81, 82, 83, 84, 85, 86, 88, 89),
-                    "motion"),
+    **dict.fromkeys((0, 1, 2, 3, 5, 5.1, 5.2, 33, 38.2, 38.3, 38.4, 38.5, 73, 74, 80, 81, 82, 83,
+                     84, 85, 86, 88, 89), "motion"),
     76: "non-modal", 5.3: "non-modal",
     **dict.fromkeys((17, 18, 19), "plane"), **dict.fromkeys((20, 21), "units"),
     **dict.fromkeys((90, 91), "distance"), **dict.fromkeys((90.1, 91.1), "arc distance"),
@@ -36,7 +36,6 @@ M_GROUPS: dict[float, str] = {
 REFUSED: dict[str, str] = {
     **dict.fromkeys(("G41", "G42", "G41.1", "G42.1"), "cutter radius compensation is not "
                     "supported; let the CAM output the tool centre path (G40)"),
-    **dict.fromkeys(("G38.2", "G38.3", "G38.4", "G38.5"), "probing is not supported here"),
     "G33.1": "rigid tapping is not supported (the indexer follows a spindle turning one way); "
              "tap with G84/G74 and a floating holder",
     "G87": "back boring needs an oriented spindle stop (M19), which retrofit does not have",
@@ -45,6 +44,7 @@ REFUSED: dict[str, str] = {
                     "output pins"),
     "M66": "waiting on inputs: the machine file names no input pins",
     "M19": "spindle orientation is not supported",
+    "M61": "setting the tool number without a change is not supported (use T<n> M6)",
     **dict.fromkeys(("M70", "M71", "M72", "M73"), "saving modal state is not supported"),
 }
 #: 3D-printer codes seen in grbl-flavoured files: a CNC has no hot end, bed or extruder

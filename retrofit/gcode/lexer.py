@@ -9,6 +9,7 @@ comment). On each line, as LinuxCNC reads it:
 * a ``/`` first (block delete) is ignored: LinuxCNC's block-delete switch is off by default and
   the line runs; a line starting with ``%`` is a program delimiter,
   a line starting with ``$`` a grbl command (:mod:`retrofit.gcode.dialect`);
+* ``$n`` inside a line selects spindle n for M3/M4/M5/S (LinuxCNC; one spindle here: ``$0``);
 * ``N..`` first is the line number, ignored; ``O..`` first is an O-word (subroutines, loops);
 * the rest is words (a letter and a value) and parameter assignments (``#1=2``, ``#<x>=[#1*2]``).
 
@@ -30,8 +31,9 @@ from .expressions import read_expression, read_parameter, read_value
 
 _LINE_END = re.compile(r"\r\n|\r|\n")
 _PLAIN = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+))")
-#: a whole line of plain words and nothing else (the fast path: most CAM lines)
-_PLAIN_LINE = re.compile(r"(?:[A-NP-Za-np-z]\s*[-+]?\s*(?:\d+\.?\d*|\.\d+)\s*)+")
+#: a whole line of plain words and nothing else, after an optional line number (the fast path:
+#: most CAM lines); group 1 is the words
+_PLAIN_LINE = re.compile(r"\s*(?:[Nn]\s*\d+\s*)?((?:[A-MP-Za-mp-z]\s*[-+]?\s*(?:\d+\.?\d*|\.\d+)\s*)+)")
 _LINE_NUMBER = re.compile(r"N\d*\.?\d*")
 _OWORD = re.compile(r"O(<[^>]*>|\d+)([A-Z]+)")
 #: O-word keywords and whether they take a bracketed argument (None: no, 1: one, "*": any number)
@@ -68,8 +70,9 @@ def lex_lines(text: str) -> list[Line]:
     lines = []
     plain, findall = _PLAIN_LINE.fullmatch, _PLAIN.findall
     for number, raw in enumerate(split_lines(text), start=1):
-        if plain(raw) and raw[0] not in "nN":
-            code = "".join(raw.split()).upper()
+        match = plain(raw)
+        if match:
+            code = "".join(match.group(1).split()).upper()
             lines.append(Line(number, [(a, float(b)) for a, b in findall(code)], plain=True))
             continue
         try:
@@ -167,7 +170,7 @@ def _words(code: str, pos: int, line: Line) -> None:
                 raise RuleError("a parameter at the start of a word must be assigned: #1=2.5")
             value, pos = read_value(code, pos + 1)
             line.assigns.append((target, value))
-        elif "A" <= ch <= "Z" and ch != "O":
+        elif "A" <= ch <= "Z" and ch != "O" or ch == "$":
             if pos + 1 >= len(code):
                 raise RuleError(f"word {ch!r} has no value (expected e.g. {ch}10)")
             value, pos = read_value(code, pos + 1)

@@ -54,6 +54,9 @@ class Parameters:
         """The value of parameter ``ref``: a number or a (lower-case) name."""
         if isinstance(ref, str):
             table = self.globals if ref.startswith("_") else self.frames[-1]
+            if ref not in table and ref.startswith("_hal["):
+                raise RuleError(f"#<{ref}>: HAL pins are LinuxCNC's; retrofit has no HAL (set "
+                                f"the value in the program)")
             if ref not in table:
                 raise RuleError(f"named parameter #<{ref}> is not defined (assign it first: "
                                 f"#<{ref}>=0)")

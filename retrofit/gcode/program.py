@@ -247,7 +247,7 @@ def _read_text(path: Path) -> str:
 
 def compile_program(text: str, machine: Machine, file: str = "<string>",
                     start_mm: dict | None = None, *, tool_table=None, spindle_tool: int = 0,
-                    search_path=()) -> Program:
+                    search_path=(), probe=None) -> Program:
     """Translate G-code ``text`` for ``machine`` into retrofit commands.
 
     The whole program is run through the interpreter before anything is returned: on the first
@@ -256,7 +256,8 @@ def compile_program(text: str, machine: Machine, file: str = "<string>",
     where the machine stands when the program starts (axes not named there at 0 mm);
     ``tool_table`` a :class:`~retrofit.tooltable.ToolTable` for G43 and G10 L1;
     ``spindle_tool`` the tool in the spindle; ``search_path`` the folders where ``o<name> call``
-    finds ``name.ngc``.
+    finds ``name.ngc``; ``probe`` makes G38 probing moves on the machine
+    (:mod:`retrofit.gcode.probing`).
 
     >>> from retrofit.config import load_machine
     >>> prog = compile_program("G0 X10 Z2\\nG1 Z-5 F100", load_machine("chivu-lathe"))
@@ -269,7 +270,7 @@ def compile_program(text: str, machine: Machine, file: str = "<string>",
         raise GcodeError(str(exc), file) from None
     state.tool = int(spindle_tool)
     state.params.write(5400, float(spindle_tool))
-    translator = Translator(machine, state, tool_table)
+    translator = Translator(machine, state, tool_table, probe)
     interpreter = Interpreter(machine, translator, search_path)
     try:
         interpreter.run(scan(Source(file, lex_lines(text))))
@@ -282,7 +283,7 @@ def compile_program(text: str, machine: Machine, file: str = "<string>",
 
 
 def load_program(path: str | Path, machine: Machine | str, *, tool_table=None,
-                 spindle_tool: int = 0, search_path=()) -> Program:
+                 spindle_tool: int = 0, search_path=(), probe=None) -> Program:
     """Read and compile a G-code file (``.ngc``); ``machine`` is a Machine or a machine name.
 
     Errors name the file by its name, e.g. ``prog.ngc:12: ...``. Subroutine files are looked
@@ -294,4 +295,4 @@ def load_program(path: str | Path, machine: Machine | str, *, tool_table=None,
     text = _read_text(path)
     return compile_program(text, machine, file=path.name, tool_table=tool_table,
                            spindle_tool=spindle_tool,
-                           search_path=[path.parent, *search_path])
+                           search_path=[path.parent, *search_path], probe=probe)

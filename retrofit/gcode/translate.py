@@ -18,7 +18,7 @@ import math
 from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, Tool, ZMov
 from ..config import Machine
 from ..motion.arcs import arc_extent, arc_points
-from . import coords, cycles, pathcontrol, spindle, splines
+from . import coords, cycles, pathcontrol, probing, spindle, splines
 from .arcwords import arc_center, plane_axes
 from .blocks import Block
 from .errors import RuleError
@@ -39,8 +39,9 @@ _PLAIN_VALUES = frozenset("F")
 class Translator:
     """Turns blocks, in program order, into commands and the source line of each."""
 
-    def __init__(self, machine: Machine, state: ModalState, tool_table=None):
+    def __init__(self, machine: Machine, state: ModalState, tool_table=None, probe=None):
         self.machine = machine
+        self.probe = probe                # runs G38 moves on the machine (retrofit.gcode.probing)
         self.state = state
         self.tool_table = tool_table
         self.commands: list[Command] = []
@@ -143,6 +144,9 @@ class Translator:
 
     def _spindle(self, block: Block) -> None:
         s = self.state
+        if block.values.get("$", 0.0) not in (0.0, -1.0):
+            raise RuleError(f"{block.texts['$']}: machine {self.machine.name} has one spindle, "
+                            f"$0 ($-1: every spindle)")
         if "spindle speed mode" in block.g:
             spindle.set_speed_mode(self, block)
         if "S" in block.values and s.css is not None:
@@ -227,7 +231,9 @@ class Translator:
             self.state.position = end
             return
         leave(self)
-        if mode == 0:
+        if mode in probing.PROBE_CODES:
+            probing.probe_move(self, block, mode, end)
+        elif mode == 0:
             self.rapid(end)
         elif mode == 1:
             self.feed_line(end, mode)

@@ -98,7 +98,8 @@ def check_word_use(block, mode) -> None:
         "K": arc or g76 or (mode == 33 and moving),
         "R": arc or cycle or g76 or nonmodal == 10,
         "P": nonmodal in (4, 10) or arc or g76 or (cycle and mode in (74, 82, 84, 86, 88, 89))
-        or g.get("path control") == 64 or (spline and mode == 5) or nurbs,
+        or g.get("path control") == 64 or (spline and mode == 5) or nurbs
+        or block.m.get("override") in (50, 51, 52, 53),
         "Q": g76 or (cycle and mode in (73, 83)) or g.get("path control") == 64
         or (spline and mode == 5),
         "L": nonmodal == 10 or cycle or g76 or nurbs, "H": g.get("tool length") == 43 or g76,
@@ -108,6 +109,10 @@ def check_word_use(block, mode) -> None:
         if letter in block.values and not used:
             raise RuleError(f"{block.texts[letter]}: {letter} word with no G code that uses it "
                             f"({_USED_BY[letter]})")
+    if "$" in block.values and "spindle" not in block.m and block.m.get("override") != 51 \
+            and mode != 33 and nonmodal != 76 and "spindle speed mode" not in g:
+        raise RuleError(f"{block.texts['$']}: $ (spindle selection) word with no M3, M4, M5, M51, "
+                        f"G33, G76 or G97 to use it")
     if "D" in block.values and g.get("spindle speed mode") != 96:
         raise RuleError(f"{block.texts['D']}: D word with no G code that uses it (D is G41/G42's "
                         f"tool, not supported)")
@@ -119,6 +124,6 @@ def check_word_use(block, mode) -> None:
 
 _USED_BY = {"I": "G2/G3 arcs, G5, G5.1, G76", "J": "G2/G3 arcs, G5, G5.1, G76",
             "K": "G2/G3 arcs, G33, G76", "R": "G2/G3 arcs, canned cycles, G10, G76",
-            "P": "G4, G10, G2/G3 turns, G5, G5.2, G74, G82, G84, G86, G88, G89, G64, G76",
+            "P": "G4, G10, G2/G3 turns, G5, G5.2, G74, G82, G84, G86, G88, G89, G64, G76, M50-M53",
             "Q": "G5, G73, G83, G64, G76", "L": "G10, canned cycles, G5.2, G76", "H": "G43, G76",
             "E": "G76"}
