@@ -19,7 +19,8 @@ G_GROUPS: dict[float, str] = {
     76: "non-modal",
     **dict.fromkeys((17, 18, 19), "plane"), **dict.fromkeys((20, 21), "units"),
     **dict.fromkeys((90, 91), "distance"), **dict.fromkeys((90.1, 91.1), "arc distance"),
-    **dict.fromkeys((93, 94), "feed mode"), 40: "cutter radius", 97: "spindle speed mode",
+    **dict.fromkeys((93, 94), "feed mode"), 97: "spindle speed mode",
+    **dict.fromkeys((40, 41, 41.1, 42, 42.1), "cutter radius"),
     **dict.fromkeys((43, 43.1, 49), "tool length"), **dict.fromkeys((98, 99), "return mode"),
     **dict.fromkeys((54, 55, 56, 57, 58, 59, 59.1, 59.2, 59.3), "coordinate system"),
     **dict.fromkeys((61, 61.1, 64), "path control"), **dict.fromkeys((7, 8), "lathe diameter"),
@@ -34,8 +35,6 @@ M_GROUPS: dict[float, str] = {
 REFUSED: dict[str, str] = {
     **dict.fromkeys(("G5", "G5.1", "G5.2", "G5.3"), "splines are not supported; let the CAM "
                     "output lines and arcs"),
-    **dict.fromkeys(("G41", "G42", "G41.1", "G42.1"), "cutter radius compensation is not "
-                    "supported; let the CAM output the tool centre path (G40)"),
     **dict.fromkeys(("G38.2", "G38.3", "G38.4", "G38.5"), "probing is not supported here"),
     "G33.1": "rigid tapping is not supported", "G84": "the tapping cycle is not supported",
     "G74": "the tapping cycle is not supported",

@@ -104,6 +104,9 @@ class Interpreter:
         if isinstance(ref, str) and ref in _PREDEFINED:
             return _PREDEFINED[ref](self.tr.state)
         if not isinstance(ref, str) and 5420 <= ref <= 5428 and ref == int(ref):
+            if self.tr.comp.on:
+                raise RuleError(f"#{ref:g}: cannot read the current position with cutter radius "
+                                f"compensation on (it is the programmed point, not the tool's)")
             axis = "XYZABCUVW"[int(ref) - 5420]
             s = self.tr.state
             return s.program_position(axis) / (25.4 if s.inch else 1.0)

@@ -18,7 +18,7 @@ import math
 from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, Tool, ZMov
 from ..config import Machine
 from ..motion.arcs import arc_extent, arc_points
-from . import coords, cycles
+from . import coords, cycles, radiuscomp
 from .arcwords import arc_center, plane_axes
 from .blocks import Block
 from .errors import RuleError
@@ -52,6 +52,7 @@ class Translator:
         self.names = machine.axis_names
         atc = machine.parts.get("atc")
         self.change_on_t = getattr(atc, "change_on", "M6") == "T"
+        self.comp = radiuscomp.RadiusComp()     # G40/G41/G42
 
     def run(self, block: Block, file: str = "") -> bool:
         """Translate one block; True when it ends the program (M2, M30)."""
@@ -63,6 +64,8 @@ class Translator:
             return self._plain(block)
         mode = block.motion if block.motion is not None else s.motion
         check_word_use(block, mode)
+        if self.comp.on:
+            radiuscomp.before(self, block)
         if "feed mode" in g:
             s.inverse_time = g["feed mode"] == 93
         if "F" in block.values:
@@ -73,6 +76,10 @@ class Translator:
         if g.get("non-modal") == 4:
             self._dwell(block.values["P"])
         self._modes(block)
+        if "cutter radius" in g:
+            radiuscomp.switch(self, block)
+        if self.comp.on:
+            radiuscomp.after(self, block)
         if "tool length" in g:
             coords.tool_length(self, block)
         if "coordinate system" in g:
@@ -91,8 +98,10 @@ class Translator:
             self._motion(block, mode)
         stop = block.m.get("stopping")
         if stop in (0, 1, 60):
+            radiuscomp.stop(self)
             self._emit(Paus(stop))
         if stop in (2, 30):
+            radiuscomp.reset(self)
             self._end()
             return True
         return False
@@ -192,6 +201,8 @@ class Translator:
 
     # -- motion ----------------------------------------------------------------------------
     def _motion(self, block: Block, mode) -> None:
+        if self.comp.watching and radiuscomp.motion(self, block, mode):
+            return
         if not block.axes:
             if block.motion in (2, 3) and any(c in block.values for c in "IJK"):
                 self._arc(block, mode, dict(self.state.position))   # a full circle where it is
@@ -240,6 +251,13 @@ class Translator:
         self.state.position = end
 
     def _arc(self, block: Block, mode: int, end: dict[str, float]) -> None:
+        center, extra_turns = self.arc_centre(block, mode, end)
+        self.arc_move(self.state.position, end, center, mode, extra_turns)
+        self.state.position = end
+
+    def arc_centre(self, block: Block, mode: int, end: dict[str, float]):
+        """The centre (plane coordinates, mm) of a G2/G3 from the current position to ``end``
+        and its whole turns beyond the first (P)."""
         s = self.state
         first, second = plane_axes(self.machine, s.plane, mode)
         start = s.position
@@ -252,6 +270,13 @@ class Translator:
                             f"from 1 to 1000")
         center = arc_center(mode, s.plane, (start[first], start[second]), (end[first], end[second]),
                             words, block.texts, s.inch)
+        return center, int(turns) - 1
+
+    def arc_move(self, start: dict[str, float], end: dict[str, float], center, mode: int,
+                 extra_turns: int, emit=None) -> None:
+        """The chords (PMOV) of a G2 (``mode`` 2) or G3 arc around ``center`` (plane
+        coordinates), after its feed; ``emit`` takes the commands (default: in program order)."""
+        first, second = plane_axes(self.machine, self.state.plane, mode)
         names = self.names
         plane = (names.index(first), names.index(second))
         center_all = [0.0] * len(names)
@@ -260,15 +285,16 @@ class Translator:
                 mode == 2, plane)
         tolerance = self.machine.motion.arc_tolerance_mm
         try:
-            extent = arc_extent(*args, tolerance, int(turns) - 1)
+            extent = arc_extent(*args, tolerance, extra_turns)
         except ValueError:
             raise RuleError(f"G{mode}: the arc's centre or radius is not a finite number") from None
         length = check_arc(self.machine, mode, *extent)
-        chords = arc_points(*args, tolerance, int(turns) - 1)
-        self._send_feed(length, mode)
+        chords = arc_points(*args, tolerance, extra_turns)
+        if emit is None:
+            self._send_feed(length, mode)
+            emit = self._emit
         for p in chords:
-            self._emit(PMov(tuple((n, clean_mm(v)) for n, v in zip(names, p))))
-        s.position = end
+            emit(PMov(tuple((n, clean_mm(v)) for n, v in zip(names, p))))
 
     # -- output ----------------------------------------------------------------------------
     def _send_feed(self, length_mm: float = 0.0, mode=1) -> None:
@@ -288,6 +314,14 @@ class Translator:
         return tuple([(name, point[name]) for name in self.names])
 
     def _emit(self, command: Command) -> None:
+        held = self.comp.geometry
+        if held is not None and held.queue:       # a move is held back: wait behind it
+            held.hold((command, self._line, self._file))
+            return
+        self.put(command)
+
+    def put(self, command: Command) -> None:
+        """Append ``command`` now, with the source line of the block being translated."""
         if self.state.pending and isinstance(command, (FMov, PMov, ZMov)):
             self.state.pending = {}
         self.commands.append(command)

@@ -97,15 +97,14 @@ def check_word_use(block, mode) -> None:
         "P": nonmodal in (4, 10) or arc or g76 or (cycle and mode in (82, 89))
         or g.get("path control") == 64,
         "Q": g76 or (cycle and mode in (73, 83)) or g.get("path control") == 64,
-        "L": nonmodal == 10 or cycle or g76, "H": g.get("tool length") == 43 or g76, "E": g76,
+        "L": nonmodal == 10 or cycle or g76 or g.get("cutter radius") in (41.1, 42.1),
+        "H": g.get("tool length") == 43 or g76, "E": g76,
+        "D": g.get("cutter radius") in (41, 42, 41.1, 42.1),
     }
     for letter, used in uses.items():
         if letter in block.values and not used:
             raise RuleError(f"{block.texts[letter]}: {letter} word with no G code that uses it "
                             f"({_USED_BY[letter]})")
-    if "D" in block.values:
-        raise RuleError(f"{block.texts['D']}: D word with no G code that uses it (D is G41/G42's "
-                        f"tool, not supported)")
     if nonmodal == 4 and "P" not in block.values:
         raise RuleError("G4 needs P<seconds>, e.g. G4 P0.5")
     if nonmodal == 92 and not block.axes:
@@ -114,4 +113,5 @@ def check_word_use(block, mode) -> None:
 
 _USED_BY = {"I": "G2/G3 arcs, G76", "J": "G2/G3 arcs, G76", "K": "G2/G3 arcs, G33, G76",
             "R": "G2/G3 arcs, canned cycles, G10, G76", "P": "G4, G10, G2/G3 turns, G82, G89, G64, G76",
-            "Q": "G73, G83, G64, G76", "L": "G10, canned cycles, G76", "H": "G43, G76", "E": "G76"}
+            "Q": "G73, G83, G64, G76", "L": "G10, canned cycles, G76, G41.1/G42.1",
+            "H": "G43, G76", "E": "G76", "D": "G41, G42, G41.1, G42.1"}
