@@ -4,6 +4,7 @@ The differential corpus (tests/test_gcode_rs274.py, programs ``comp-*``) holds t
 against LinuxCNC's own ``rs274``; here every expected point is worked out by hand.
 """
 import math
+import re
 from pathlib import Path
 
 import pytest
@@ -130,6 +131,22 @@ def test_refusals_name_the_line_and_the_rule(text, line, message):
     assert str(err.value).startswith(f"p.ngc:{line}: {message}"), str(err.value)
 
 
+def test_a_program_ending_with_a_move_held_back_is_refused_not_cut_short():
+    with pytest.raises(GcodeError, match="ends with cutter radius compensation on .G41.1. and its "
+                                         "last move held back"):
+        compile_program("G0 X-10 Y0\nG41.1 D2\nG1 X10 Y0 F100\nX10 Y10\n", MILL)
+    # M2 sends the held move out where it ends: (9, 10) beside the programmed (10, 10)
+    assert moves("G0 X-10 Y0\nG41.1 D2\nG1 X10 Y0 F100\nX10 Y10\nM2\n")[-1] == (9, 10, 0)
+
+
+def test_a_gouge_found_at_g40_names_g40():
+    # G42 with a 10 mm tool: the second move is shorter than the pull-back of the inside corner
+    # that G40 leaves it in; rs274 refuses the same line ("Straight feed in concave corner")
+    with pytest.raises(GcodeError, match=r"p.ngc:6: G40: straight feed into an inside corner"):
+        compile_program("G20 F4\nG0 X0.0994 Y-1.4544\nG42.1 D0.3937\nG1 X0.6803 Y-0.2171\n"
+                        "G1 X0.7052 Y-0.9500\nG40 G1 X-2.2224 Y-1.2508\nM2", MILL, file="p.ngc")
+
+
 def test_g40_alone_and_comp_off_changes_nothing():
     plain = moves("G0 X1 Y1\nG1 X5 F100\nM2\n")
     assert moves("G40\nG0 X1 Y1\nG1 X5 F100\nG40\nM2\n") == plain
@@ -139,3 +156,46 @@ def test_find_turn_counts_counter_clockwise_positive():
     assert math.isclose(find_turn((1, 0), (0, 0), 1, (0, 1)), math.pi / 2)
     assert math.isclose(find_turn((1, 0), (0, 0), -1, (0, 1)), -3 * math.pi / 2)
     assert math.isclose(find_turn((1, 0), (0, 0), 2, (1, 0)), 4 * math.pi)
+
+
+#: each refusal of the corpus: what rs274 said (golden file) and what retrofit says
+SAME_REASON = {
+    "entry-too-short": ("entry move is not greater than the tool radius", "entry move of"),
+    "inside-corner-gouge": ("Straight feed in concave corner", "straight feed into an inside corner"),
+    "gouge-at-g40": ("Straight feed in concave corner", "G40: straight feed into an inside corner"),
+    "inside-arc-too-small": ("Tool radius not less than arc radius", "is not larger than the tool "
+                                                                       "radius"),
+    "line-arc-gouge": ("Arc to straight motion makes a corner", "arc then line make an inside "
+                                                                  "corner"),
+    "arc-after-g40": ("must be straight, not an arc", "must be straight"),
+    "plane-change": ("Cannot change planes", "cannot change planes"),
+    "g43": ("Cannot change tool offset", "cannot change tool offsets"),
+    "tool-change": ("Cannot change tools", "cannot change tools"),
+    "on-twice": ("Cannot turn cutter radius comp on when on", "is already on"),
+    "g19": ("allowed only in XY, XZ planes", "works in G17 (XY) or G18 (ZX) only"),
+    "g28": ("Cannot use g28 or g30", "G28: not allowed"),
+    "g92": ("Cannot change axis offsets", "G92: not allowed"),
+    "cycle": ("Cannot use canned cycles", "cannot use canned cycles"),
+    "coordinate-system": ("Cannot change coordinate systems", "cannot change coordinate systems"),
+    "read-position": ("Cannot read current position", "cannot read the current position"),
+    "g41-1-no-d": ("G41.1 with no D word", "G41.1 with no D word"),
+    "d-not-whole": ("requires D word to be a whole number", "D is a tool number, a whole number"),
+    "d-unknown-tool": ("Requested tool 8 not found", "requested tool 8 not found"),
+    "g53": ("Cannot use g53 with cutter radius comp", "cannot move in machine coordinates"),
+    "lathe-tool-in-g17": ("with lathe tool, but plane is not G18", "is a lathe tool"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(SAME_REASON))
+def test_corpus_refusals_are_for_the_reason_rs274_gives(name):
+    program = HERE / "programs" / f"err-crc-{name}.ngc"
+    status = (HERE / "golden" / "programs" / f"err-crc-{name}.canon").read_text().splitlines()[0]
+    theirs, ours = SAME_REASON[name]
+    assert status.startswith("# rs274 exit 1") and theirs in status
+    with pytest.raises(GcodeError, match=re.escape(ours)):
+        compile_program(program.read_text(), MILL, tool_table=TOOLS)
+
+
+def test_every_corpus_refusal_is_checked_for_its_reason():
+    names = {p.stem.removeprefix("err-crc-") for p in (HERE / "programs").glob("err-crc-*.ngc")}
+    assert names == set(SAME_REASON) and len(names) >= 20

@@ -276,6 +276,7 @@ def compile_program(text: str, machine: Machine, file: str = "<string>",
     interpreter = Interpreter(machine, translator, search_path)
     try:
         interpreter.run(scan(Source(file, lex_lines(text))))
+        translator.finish()
     except RuleError as exc:
         raise GcodeError(str(exc), getattr(exc, "file", file), getattr(exc, "line", None)) from None
     except RecursionError:

@@ -83,7 +83,7 @@ def switch(tr, block) -> None:
     comp = tr.comp
     if code == 40:
         if comp.geometry is not None:
-            _send(tr, comp.geometry.off())
+            _flush(tr, comp.geometry.off, "G40")
             comp.straight_next = not comp.geometry.first
         comp.on, comp.code, comp.geometry = False, 40.0, None
         return
@@ -208,16 +208,30 @@ def motion(tr, block, mode) -> bool:
     return True
 
 
-def stop(tr) -> None:
-    """M0, M1, M2, M30, M60: the held moves go out; M2/M30 also end compensation."""
+def stop(tr, code) -> None:
+    """M0, M1, M2, M30, M60 (``code``): the held moves go out where they end now."""
     if tr.comp.geometry is not None:
-        _send(tr, tr.comp.geometry.flush())
+        _flush(tr, tr.comp.geometry.flush, f"M{code:g}")
 
 
-def reset(tr) -> None:
-    """End of program: compensation off, as LinuxCNC resets it."""
-    stop(tr)
+def reset(tr, code) -> None:
+    """M2, M30: as :func:`stop`, and compensation is off, as LinuxCNC resets it."""
+    stop(tr, code)
     tr.comp.__init__()
+
+
+def finish(tr) -> None:
+    """The program's text ends (no M2): a move still held back is refused, not dropped."""
+    if tr.comp.geometry is not None and tr.comp.geometry.holding:
+        raise RuleError(f"the program ends with cutter radius compensation on (G{tr.comp.code:g}) "
+                        f"and its last move held back; end it with G40 and M2")
+
+
+def _flush(tr, flush, word: str) -> None:
+    try:
+        _send(tr, flush())
+    except CutterError as exc:
+        raise RuleError(f"{word}: {exc}") from None
 
 
 # -- output ------------------------------------------------------------------------------------

@@ -98,13 +98,17 @@ class Translator:
             self._motion(block, mode)
         stop = block.m.get("stopping")
         if stop in (0, 1, 60):
-            radiuscomp.stop(self)
+            radiuscomp.stop(self, stop)
             self._emit(Paus(stop))
         if stop in (2, 30):
-            radiuscomp.reset(self)
+            radiuscomp.reset(self, stop)
             self._end()
             return True
         return False
+
+    def finish(self) -> None:
+        """The end of the program's text without M2/M30: nothing may be left held back."""
+        radiuscomp.finish(self)
 
     def _plain(self, block: Block) -> bool:
         """A block of axis words and F only, the bulk of CAM output: the same steps as
