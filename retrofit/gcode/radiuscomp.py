@@ -72,9 +72,18 @@ def before(tr, block) -> None:
     if "tool change" in block.m or (tr.change_on_t and "T" in block.values):
         raise RuleError(f"{'M6' if 'tool change' in block.m else block.texts['T']}: cannot change "
                         f"tools with cutter radius compensation on; give G40 first")
-    if "override" in block.m:
-        raise RuleError(f"M{block.m['override']:g}: cannot change overrides with cutter radius "
+    code = block.m.get("override")
+    if code is not None:
+        raise RuleError(f"M{code:g}: cannot enable or disable overrides with cutter radius "
                         f"compensation on; give G40 first")
+
+
+def modes(tr, block) -> None:
+    """G40/G41/G42 of ``block``, then the refusals of the codes LinuxCNC runs after them."""
+    if "cutter radius" in block.g:
+        switch(tr, block)
+    if tr.comp.on:
+        after(tr, block)
 
 
 def switch(tr, block) -> None:

@@ -76,10 +76,8 @@ class Translator:
         if g.get("non-modal") == 4:
             self._dwell(block.values["P"])
         self._modes(block)
-        if "cutter radius" in g:
-            radiuscomp.switch(self, block)
-        if self.comp.on:
-            radiuscomp.after(self, block)
+        if self.comp.on or "cutter radius" in g:
+            radiuscomp.modes(self, block)
         if "tool length" in g:
             coords.tool_length(self, block)
         if "coordinate system" in g:

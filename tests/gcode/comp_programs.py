@@ -94,6 +94,8 @@ def refusals() -> dict[str, str]:
         "err-crc-d-unknown-tool": PRE + "G41 D8\nM2\n",
         "err-crc-g53": pre + "G41 D1\nG1 X20 Y0\nG53 G1 X30\nM2\n",
         "err-crc-lathe-tool-in-g17": PRE + "G41 D7\nM2\n",
+        "err-crc-override": pre + "G41 D1\nG1 X20 Y0\nM48\nM2\n",
+        "err-crc-g10-l2-in-use": pre + "G41 D1\nG1 X20 Y0\nG10 L2 P1 X5\nM2\n",
         "err-crc-gouge-at-g40": ("G20 G90 G94 G40 G17\nF4\nG0 X0.0994 Y-1.4544\nG42.1 D0.3937\n"
                                  "G1 X0.6803 Y-0.2171\nG1 X0.7052 Y-0.9500\n"
                                  "G40 G1 X-2.2224 Y-1.2508\nM2\n"),
