@@ -7,8 +7,8 @@ are SPIN, M7/M8/M9 COOL; M6 (and T on a machine that changes on T) is TOOL; M0/M
 Offsets (G5x, G92, G43) are kept here, never sent: see :mod:`retrofit.gcode.coords`.
 
 Within a block the words act in LinuxCNC's order: feed mode, F, S, T, M6, M3/M4/M5, M7/M8/M9,
-G4, plane, units, G40, G43/G49, G54.., G61/G64, G90/G91, G98/G99, then G10/G28/G30/G92 or the
-motion, then M0/M1/M2/M30/M60.
+G4, plane, units, G40/G41/G42 (:mod:`retrofit.gcode.radiuscomp`), G43/G49, G54.., G61/G64,
+G90/G91, G98/G99, then G10/G28/G30/G92 or the motion, then M0/M1/M2/M30/M60.
 """
 
 from __future__ import annotations
