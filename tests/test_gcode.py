@@ -277,7 +277,7 @@ def test_errors_name_file_line_and_rule(lathe, engraver, machine_name, line, tex
     ("G0 X[1/0]", "attempt to divide by zero"),
     ("G0 X1 E5", "E5: E word with no G code that uses it (G76)"),
     ("M104 S200", "M104 (hot-end temperature) is a 3D-printer code"),
-    ("G41 D1", "G41: cutter radius compensation is not supported"),
+    ("G41 D1", "G41 D1: requested tool 1 not found in the tool table"),
     ("G0 X1 X2", "X given twice in one block (X1, X2)"),
     ("G0 G1 X1", "two G codes used from the same modal group (motion): G0 and G1"),
     ("M3 M5", "two M codes used from the same modal group (spindle): M3 and M5"),

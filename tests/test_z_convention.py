@@ -47,7 +47,7 @@ G1 X20 F300
 G0 Z-5
 G49
 T0 M6
-G0 X5 Y5
+G0 X5 Y5 Z-5
 M2
 """
 
@@ -68,5 +68,6 @@ def test_a_tool_change_cycle_with_g43_on_tul_mill_ends_with_an_empty_spindle(tmp
     assert [c["line"] for c in rep["tool"]["changes"]] == [2, 10]
     assert (rep["tool"]["start"], rep["tool"]["end"]) == (0, 0)
     assert json.loads((tmp_path / "tul-mill.spindle.json").read_text())["spindle_tool"] == 0
+    # G49 leaves the machine where it is (as rs274); the last move goes to Z-5 with no offset
     ends = {axis: rep["axes"][axis]["carriage_mm"] for axis in "XYZE"}
     assert ends == pytest.approx({"X": 5.0, "Y": 5.0, "Z": -5.0, "E": 0.0}, abs=0.001)

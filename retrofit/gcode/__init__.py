@@ -3,8 +3,8 @@
 A student can follow a program through the package in this order: :mod:`.lexer` (lines into
 words), :mod:`.expressions` (``#`` parameters and ``[...]``), :mod:`.ocode` (subroutines and
 loops), :mod:`.blocks` (words into modal groups), :mod:`.state` (what a block leaves behind),
-:mod:`.translate`, :mod:`.coords`, :mod:`.cycles`, :mod:`.threading` (blocks into commands) and
-:mod:`.program` (the interpreter that runs them all)::
+:mod:`.translate`, :mod:`.coords`, :mod:`.cycles`, :mod:`.threading`, :mod:`.radiuscomp` with
+:mod:`.cutter` (blocks into commands) and :mod:`.program` (the interpreter that runs them all)::
 
     >>> from retrofit.config import load_machine
     >>> from retrofit.gcode import compile_program

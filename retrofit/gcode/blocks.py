@@ -20,8 +20,8 @@ G_GROUPS: dict[float, str] = {
     76: "non-modal", 5.3: "non-modal",
     **dict.fromkeys((17, 18, 19), "plane"), **dict.fromkeys((20, 21), "units"),
     **dict.fromkeys((90, 91), "distance"), **dict.fromkeys((90.1, 91.1), "arc distance"),
-    **dict.fromkeys((93, 94, 95), "feed mode"), 40: "cutter radius",
-    **dict.fromkeys((96, 97), "spindle speed mode"),
+    **dict.fromkeys((93, 94, 95), "feed mode"), **dict.fromkeys((96, 97), "spindle speed mode"),
+    **dict.fromkeys((40, 41, 41.1, 42, 42.1), "cutter radius"),
     **dict.fromkeys((43, 43.1, 49), "tool length"), **dict.fromkeys((98, 99), "return mode"),
     **dict.fromkeys((54, 55, 56, 57, 58, 59, 59.1, 59.2, 59.3), "coordinate system"),
     **dict.fromkeys((61, 61.1, 64), "path control"), **dict.fromkeys((7, 8), "lathe diameter"),
@@ -34,8 +34,6 @@ M_GROUPS: dict[float, str] = {
 }
 #: codes LinuxCNC knows that retrofit refuses, and why
 REFUSED: dict[str, str] = {
-    **dict.fromkeys(("G41", "G42", "G41.1", "G42.1"), "cutter radius compensation is not "
-                    "supported; let the CAM output the tool centre path (G40)"),
     "G33.1": "rigid tapping is not supported (the indexer follows a spindle turning one way); "
              "tap with G84/G74 and a floating holder",
     "G87": "back boring needs an oriented spindle stop (M19), which retrofit does not have",

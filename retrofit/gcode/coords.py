@@ -150,9 +150,11 @@ def tool_length(tr, block) -> None:
         offsets = dict(tool.offsets_mm) if tool else {}
         s.tool_offset = {n: offsets[n] for n in tr.machine.axis_names if n in offsets}
     s.params.write(TOOL_Z, s.tool_offset.get("Z", 0.0))
-    for axis in set(before) | set(s.tool_offset):      # LinuxCNC keeps the program position:
-        delta = s.tool_offset.get(axis, 0.0) - before.get(axis, 0.0)   # the next move takes it up
-        if delta:
+    if "tool change" not in block.m:
+        return              # the machine stays where it is; the program position changes
+    for axis in set(before) | set(s.tool_offset):      # in the block of M6, LinuxCNC keeps the
+        delta = s.tool_offset.get(axis, 0.0) - before.get(axis, 0.0)   # program position:
+        if delta:                                      # the next move takes the offset up
             s.pending[axis] = s.pending.get(axis, 0.0) + delta
 
 

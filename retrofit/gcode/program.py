@@ -104,6 +104,9 @@ class Interpreter:
         if isinstance(ref, str) and ref in _PREDEFINED:
             return _PREDEFINED[ref](self.tr.state)
         if not isinstance(ref, str) and 5420 <= ref <= 5428 and ref == int(ref):
+            if self.tr.comp.on:
+                raise RuleError(f"#{ref:g}: cannot read the current position with cutter radius "
+                                f"compensation on (it is the programmed point, not the tool's)")
             axis = "XYZABCUVW"[int(ref) - 5420]
             s = self.tr.state
             return s.program_position(axis) / (25.4 if s.inch else 1.0)
@@ -274,6 +277,7 @@ def compile_program(text: str, machine: Machine, file: str = "<string>",
     interpreter = Interpreter(machine, translator, search_path)
     try:
         interpreter.run(scan(Source(file, lex_lines(text))))
+        translator.finish()
     except RuleError as exc:
         raise GcodeError(str(exc), getattr(exc, "file", file), getattr(exc, "line", None)) from None
     except RecursionError:

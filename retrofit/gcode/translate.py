@@ -7,8 +7,8 @@ are SPIN, M7/M8/M9 COOL; M6 (and T on a machine that changes on T) is TOOL; M0/M
 Offsets (G5x, G92, G43) are kept here, never sent: see :mod:`retrofit.gcode.coords`.
 
 Within a block the words act in LinuxCNC's order: feed mode, F, S, T, M6, M3/M4/M5, M7/M8/M9,
-G4, plane, units, G40, G43/G49, G54.., G61/G64, G90/G91, G98/G99, then G10/G28/G30/G92 or the
-motion, then M0/M1/M2/M30/M60.
+G4, plane, units, G40/G41/G42 (:mod:`retrofit.gcode.radiuscomp`), G43/G49, G54.., G61/G64,
+G90/G91, G98/G99, then G10/G28/G30/G92 or the motion, then M0/M1/M2/M30/M60.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import math
 from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, Tool, ZMov
 from ..config import Machine
 from ..motion.arcs import arc_extent, arc_points
-from . import coords, cycles, pathcontrol, probing, spindle, splines
+from . import coords, cycles, pathcontrol, probing, radiuscomp, spindle, splines
 from .arcwords import arc_center, plane_axes
 from .blocks import Block
 from .errors import RuleError
@@ -54,6 +54,7 @@ class Translator:
         self.names = machine.axis_names
         atc = machine.parts.get("atc")
         self.change_on_t = getattr(atc, "change_on", "M6") == "T"
+        self.comp = radiuscomp.RadiusComp()     # G40/G41/G42
 
     def run(self, block: Block, file: str = "") -> bool:
         """Translate one block; True when it ends the program (M2, M30)."""
@@ -65,6 +66,8 @@ class Translator:
             return self._plain(block)
         mode = block.motion if block.motion is not None else s.motion
         check_word_use(block, mode)
+        if self.comp.on:
+            radiuscomp.before(self, block)
         if "feed mode" in g:
             spindle.set_feed_mode(self, g["feed mode"])
         if "F" in block.values:
@@ -75,6 +78,8 @@ class Translator:
         if g.get("non-modal") == 4:
             self._dwell(block.values["P"])
         self._modes(block)
+        if self.comp.on or "cutter radius" in g:
+            radiuscomp.modes(self, block)
         if "tool length" in g:
             coords.tool_length(self, block)
         if "coordinate system" in g:
@@ -97,11 +102,17 @@ class Translator:
             self._motion(block, mode)
         stop = block.m.get("stopping")
         if stop in (0, 1, 60):
+            radiuscomp.stop(self, stop)
             self._emit(Paus(stop))
         if stop in (2, 30):
+            radiuscomp.reset(self, stop)
             self._end()
             return True
         return False
+
+    def finish(self) -> None:
+        """The end of the program's text without M2/M30: nothing may be left held back."""
+        radiuscomp.finish(self)
 
     def _plain(self, block: Block) -> bool:
         """A block of axis words and F only, the bulk of CAM output: the same steps as
@@ -208,6 +219,8 @@ class Translator:
 
     # -- motion ----------------------------------------------------------------------------
     def _motion(self, block: Block, mode) -> None:
+        if self.comp.watching and radiuscomp.motion(self, block, mode):
+            return
         if mode in splines.MODES:
             splines.run(self, block, mode)
             return
@@ -269,6 +282,13 @@ class Translator:
         self.state.position = end
 
     def _arc(self, block: Block, mode: int, end: dict[str, float]) -> None:
+        center, extra_turns = self.arc_centre(block, mode, end)
+        self.arc_move(self.state.position, end, center, mode, extra_turns)
+        self.state.position = end
+
+    def arc_centre(self, block: Block, mode: int, end: dict[str, float]):
+        """The centre (plane coordinates, mm) of a G2/G3 from the current position to ``end``
+        and its whole turns beyond the first (P)."""
         s = self.state
         first, second = plane_axes(self.machine, s.plane, mode)
         start = s.position
@@ -281,6 +301,13 @@ class Translator:
                             f"from 1 to 1000")
         center = arc_center(mode, s.plane, (start[first], start[second]), (end[first], end[second]),
                             words, block.texts, s.inch)
+        return center, int(turns) - 1
+
+    def arc_move(self, start: dict[str, float], end: dict[str, float], center, mode: int,
+                 extra_turns: int, emit=None) -> None:
+        """The chords (PMOV) of a G2 (``mode`` 2) or G3 arc around ``center`` (plane
+        coordinates), after its feed; ``emit`` takes the commands (default: in program order)."""
+        first, second = plane_axes(self.machine, self.state.plane, mode)
         names = self.names
         plane = (names.index(first), names.index(second))
         center_all = [0.0] * len(names)
@@ -289,20 +316,22 @@ class Translator:
                 mode == 2, plane)
         tolerance = self.machine.motion.arc_tolerance_mm
         try:
-            extent = arc_extent(*args, tolerance, int(turns) - 1)
+            extent = arc_extent(*args, tolerance, extra_turns)
         except ValueError:
             raise RuleError(f"G{mode}: the arc's centre or radius is not a finite number") from None
         length = check_arc(self.machine, mode, *extent)
-        chords = arc_points(*args, tolerance, int(turns) - 1)
-        self._send_feed(length, mode)
+        chords = arc_points(*args, tolerance, extra_turns)
+        if emit is None:
+            self._send_feed(length, mode)
+            emit = self._emit
+        s = self.state
         x = names.index("X") if s.css is not None else None
         for p in chords:
             if x is not None:
                 spindle.follow(self, p[x])
                 if s.per_rev:
                     self._send_feed(length, mode)
-            self._emit(PMov(tuple((n, clean_mm(v)) for n, v in zip(names, p))))
-        s.position = end
+            emit(PMov(tuple((n, clean_mm(v)) for n, v in zip(names, p))))
 
     # -- output ----------------------------------------------------------------------------
     def _send_feed(self, length_mm: float = 0.0, mode=1) -> None:
@@ -324,6 +353,14 @@ class Translator:
         return tuple([(name, point[name]) for name in self.names])
 
     def _emit(self, command: Command) -> None:
+        held = self.comp.geometry
+        if held is not None and held.queue:       # a move is held back: wait behind it
+            held.hold((command, self._line, self._file))
+            return
+        self.put(command)
+
+    def put(self, command: Command) -> None:
+        """Append ``command`` now, with the source line of the block being translated."""
         if self.state.pending and isinstance(command, (FMov, PMov, ZMov)):
             self.state.pending = {}
         if self.state.exact_stop:

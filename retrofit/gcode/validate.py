@@ -102,8 +102,9 @@ def check_word_use(block, mode) -> None:
         or block.m.get("override") in (50, 51, 52, 53),
         "Q": g76 or (cycle and mode in (73, 83)) or g.get("path control") == 64
         or (spline and mode == 5),
-        "L": nonmodal == 10 or cycle or g76 or nurbs, "H": g.get("tool length") == 43 or g76,
-        "E": g76,
+        "L": nonmodal == 10 or cycle or g76 or nurbs or g.get("cutter radius") in (41.1, 42.1),
+        "H": g.get("tool length") == 43 or g76, "E": g76,
+        "D": g.get("cutter radius") in (41, 42, 41.1, 42.1) or g.get("spindle speed mode") == 96,
     }
     for letter, used in uses.items():
         if letter in block.values and not used:
@@ -113,9 +114,6 @@ def check_word_use(block, mode) -> None:
             and mode != 33 and nonmodal != 76 and "spindle speed mode" not in g:
         raise RuleError(f"{block.texts['$']}: $ (spindle selection) word with no M3, M4, M5, M51, "
                         f"G33, G76 or G97 to use it")
-    if "D" in block.values and g.get("spindle speed mode") != 96:
-        raise RuleError(f"{block.texts['D']}: D word with no G code that uses it (D is G41/G42's "
-                        f"tool, not supported)")
     if nonmodal == 4 and "P" not in block.values:
         raise RuleError("G4 needs P<seconds>, e.g. G4 P0.5")
     if nonmodal == 92 and not block.axes:
@@ -125,5 +123,5 @@ def check_word_use(block, mode) -> None:
 _USED_BY = {"I": "G2/G3 arcs, G5, G5.1, G76", "J": "G2/G3 arcs, G5, G5.1, G76",
             "K": "G2/G3 arcs, G33, G76", "R": "G2/G3 arcs, canned cycles, G10, G76",
             "P": "G4, G10, G2/G3 turns, G5, G5.2, G74, G82, G84, G86, G88, G89, G64, G76, M50-M53",
-            "Q": "G5, G73, G83, G64, G76", "L": "G10, canned cycles, G5.2, G76", "H": "G43, G76",
-            "E": "G76"}
+            "Q": "G5, G73, G83, G64, G76", "L": "G10, canned cycles, G5.2, G76, G41.1/G42.1",
+            "H": "G43, G76", "E": "G76", "D": "G41, G42, G41.1, G42.1, G96"}

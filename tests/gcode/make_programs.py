@@ -11,6 +11,11 @@ from __future__ import annotations
 import itertools
 from pathlib import Path
 
+try:
+    from comp_programs import compensation, refusals
+except ImportError:               # imported as tests.gcode.make_programs
+    from .comp_programs import compensation, refusals
+
 OUT = Path(__file__).resolve().parent / "programs"
 PRE = "G21 G90 G94 G40 G49 G80 G54 G91.1 G17\n"
 
@@ -230,7 +235,8 @@ def main() -> None:
     for old in OUT.glob("*.ngc"):
         if not old.name.startswith("hand-"):
             old.unlink()
-    programs = {**arcs(), **offsets(), **cycles(), **splines(), **language()}
+    programs = {**arcs(), **offsets(), **cycles(), **splines(), **language(), **compensation(),
+                **refusals()}
     for name, text in programs.items():
         (OUT / f"{name}.ngc").write_text(text)
     print(f"{len(programs)} programs written to {OUT}")
