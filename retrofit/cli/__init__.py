@@ -50,8 +50,12 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         import signal
         signal.signal(signal.SIGINT, signal.SIG_IGN)      # one Ctrl-C ends the run, quietly
+        from ..atomic import PLANNED, WRITTEN
         lost = ", ".join(str(p) for p in not_written())
-        lost = f"; not written: {lost}" if lost else ""
+        if lost:
+            lost = f"; not written: {lost}"
+        elif not PLANNED and not WRITTEN:          # before the command knew its files
+            lost = "; nothing was written"
         print(f"retrofit: interrupted{lost}", file=sys.stderr)
         return 130
     except BrokenPipeError:                # output piped into `head` and the reader went away

@@ -8,7 +8,7 @@ try:
     from . import main
     code = main()
 except KeyboardInterrupt:                  # Ctrl-C while starting: nothing was written yet
-    print("retrofit: interrupted", file=sys.stderr)
+    print("retrofit: interrupted; nothing was written", file=sys.stderr)
     code = 130
 if code == 130:                            # interrupted: leave at once, without a second traceback
     sys.stdout.flush()
