@@ -1,0 +1,295 @@
+"""The controller's tick loop, compiled: a stretch of ticks of one running move at a time.
+
+The same rules as the readable tick (:meth:`Controller.tick`), in the same order, on the state
+packed into small arrays by :mod:`retrofit.controller.spans`:
+
+1. the frame: each axis's step generator gives its bits (003's ``PasAvans``), the port byte is
+   recorded when it changes, and the simulated carriage follows each rising edge;
+2. execute: a clock-timed move queues the steps of the cycles now due (their ticks computed
+   beforehand by :func:`clock_requests`); an ISTP move reads the spindle's encoder and runs
+   the indexer's two Bresenhams (counts -> base steps -> every axis);
+3. shape: each axis's next request starts a pulse when it is due and the generator allows.
+
+A span stops *before* any tick the readable controller must decide itself -- a switch that would
+change, the arming of an ISTP pass on an index pulse, the last cycle of a move -- and hands that
+tick back; so the two paths give the same frames, bit for bit, however they take turns.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..motion._jit import kernel
+from ..motion.profile import time_at
+from ..sim.spindle import F_RPM, F_TARGET, FRACTION_BITS, S_ANGLE, S_INDEX_COUNT, S_TICK, spindle_step
+
+# step generator slots (gen[a, :]) and timing slots (tim[a, :])
+G_HIGH, G_PERIOD, G_TICK, G_DIR, G_RISE, G_TURN = range(6)
+T_HIGH, T_LOW, T_SETUP, T_HOLD = range(4)
+# queue slots (qs[a, :]): first waiting, one past the last queued, one past the last known
+Q_HEAD, Q_TAIL, Q_KNOWN = range(3)
+# indexer slots (ix[:])
+(X_PHASE, X_SEEN, X_SNUM, X_SDEN, X_ONUM, X_ODEN, X_LEAD, X_COUNTS, X_STEPS, X_CAP, X_CYCLE,
+ X_N) = range(12)
+SYNC, ARMED, RUN = 1, 2, 3
+CLOCK, INDEX = 0, 1
+_EPS_MM = 1e-9
+
+
+@kernel
+def _profile_time(s, starts, offsets, rows):
+    """Seconds into a move of profile pieces (``MoveProfile.time_at``, the same arithmetic)."""
+    if starts.shape[0] == 1:
+        return time_at(s, rows[0])
+    i = 0
+    while i + 1 < starts.shape[0] and starts[i + 1] <= s:
+        i += 1
+    return offsets[i] + time_at(s - starts[i], rows[i])
+
+
+@kernel
+def _tick_of(position, length, n, t0, starts, offsets, rows, rate):
+    s = position * length / n
+    return np.int64(np.floor((t0 + _profile_time(s, starts, offsets, rows)) * rate + 0.5))
+
+
+@kernel
+def clock_requests(dda, n, c0, c_stop, delta, state, length, t0, starts, offsets, rows, rate,
+                   q_due, q_gen, qs, cycle_due):
+    """Steps of cycles ``c0 + 1 .. c_stop`` of a clock-timed move, appended to the axes' queues
+    (``q_due``: the tick wanted; ``q_gen``: the tick its cycle is computed for); ``cycle_due``
+    gets each cycle's tick. ``state`` is the interpolator's: Bresenham error terms, or for
+    004's digital integration the pulses sent and SHORT's numerator per axis (updated)."""
+    n_axes = delta.shape[0]
+    for k in range(c0 + 1, c_stop + 1):
+        due = _tick_of(float(k), length, n, t0, starts, offsets, rows, rate)
+        cycle_due[k - c0 - 1] = due
+        for a in range(n_axes):
+            d = abs(delta[a])
+            if d == 0:
+                continue
+            if dda:
+                sent = state[0, a]
+                if sent == d or state[1, a] // d != k:
+                    continue
+                state[0, a] = sent + 1
+                state[1, a] += n
+                wanted = _tick_of(float((sent + 1) * n) / d, length, n, t0, starts, offsets, rows, rate)
+            else:
+                state[0, a] += 2 * d
+                if not (state[0, a] > n or (state[0, a] == n and _tie(k, n, delta[a]))):
+                    continue
+                state[0, a] -= 2 * n
+                wanted = due
+            j = qs[a, Q_KNOWN]
+            q_due[a, j] = wanted
+            q_gen[a, j] = due
+            qs[a, Q_KNOWN] = j + 1
+
+
+@kernel
+def _tie(cycle, n, direction):
+    """002's tie rule (``bresenham._tie_steps``): on a tie, does the axis step at this cycle?"""
+    if 2 * cycle != n:
+        return 2 * cycle > n
+    return direction < 0
+
+
+@kernel
+def index_target(ix, count):
+    """Whole base steps due at encoder ``count`` (``IndexerTrack.target``, exact integers)."""
+    o_num, o_den, lead = ix[X_ONUM], ix[X_ODEN], ix[X_LEAD]
+    if count * o_den <= o_num - lead * o_den:
+        return 0
+    if lead and count * o_den < o_num + lead * o_den:
+        rel = count * o_den - o_num + lead * o_den
+        num = ix[X_SNUM] * rel * rel
+        den = ix[X_SDEN] * 4 * ix[X_COUNTS] * lead * o_den * o_den
+    else:
+        num = ix[X_SNUM] * (count * o_den - o_num)
+        den = ix[X_SDEN] * ix[X_COUNTS] * o_den
+    due = (2 * num + den) // (2 * den)
+    return min(max(due, 0), ix[X_STEPS])
+
+
+@kernel
+def _switch_would_change(gen, sim, gap, width, spm, sw_axis, sw_side, sw_trip, sw_hyst, sw_closed):
+    """True when a step rising in the next frame would open or close a switch."""
+    for a in range(gen.shape[0]):
+        if gen[a, G_HIGH] <= 0 or sim[a, 0] != 0:
+            continue
+        d = gen[a, G_DIR]
+        g = min(max(gap[a] + d, 0.0), width[a])
+        carriage = (sim[a, 1] + d - g) / spm[a]
+        for k in range(sw_axis.shape[0]):
+            if sw_axis[k] != a:
+                continue
+            slack = sw_hyst[k] if sw_closed[k] else 0.0
+            now = 1 if sw_side[k] * (carriage - sw_trip[k]) >= -slack - _EPS_MM else 0
+            if now != sw_closed[k]:
+                return True
+    return False
+
+
+@kernel
+def _frame(t, gen, smask, dmask, invert, has_sim, sim, gap, width):
+    """The port byte of frame ``t``; the generators advance, the carriages follow the rises."""
+    value = 0
+    for a in range(gen.shape[0]):
+        step = 0
+        if gen[a, G_HIGH] > 0:
+            step = 1
+            gen[a, G_HIGH] -= 1
+            gen[a, G_PERIOD] -= 1
+        elif gen[a, G_PERIOD] > 0:
+            gen[a, G_PERIOD] -= 1
+        gen[a, G_TICK] += 1
+        if step:
+            value |= smask[a]
+        if gen[a, G_DIR] > 0:
+            value |= dmask[a]
+        if has_sim:
+            if step == 1 and sim[a, 0] == 0:
+                sim[a, 1] += gen[a, G_DIR]
+                gap[a] = min(max(gap[a] + gen[a, G_DIR], 0.0), width[a])
+            sim[a, 0] = step
+    return value ^ invert
+
+
+@kernel
+def _turn(gen, tim, a, direction):
+    """``StepGenerator.set_direction``: False while the hold time forbids the turn."""
+    if direction == gen[a, G_DIR]:
+        return True
+    if (gen[a, G_TICK] + 1) - gen[a, G_RISE] < tim[a, T_HOLD]:
+        return False
+    gen[a, G_DIR] = direction
+    gen[a, G_TURN] = gen[a, G_TICK] + 1
+    return True
+
+
+@kernel
+def _shape(t, gen, tim, q_due, q_dir, qs, hint, motor, r_ticks, r_n):
+    """``PulseShaper.shape`` after frame ``t``."""
+    for a in range(gen.shape[0]):
+        head = qs[a, Q_HEAD]
+        if head == qs[a, Q_TAIL]:
+            if hint[a] != 0 and hint[a] != gen[a, G_DIR]:
+                _turn(gen, tim, a, hint[a])
+            continue
+        direction = q_dir[a, head]
+        if gen[a, G_DIR] != direction and not _turn(gen, tim, a, direction):
+            continue
+        if q_due[a, head] <= t + 1 and gen[a, G_PERIOD] == 0 and \
+                (gen[a, G_TICK] + 1) - gen[a, G_TURN] >= tim[a, T_SETUP]:
+            gen[a, G_HIGH] = tim[a, T_HIGH]
+            gen[a, G_PERIOD] = tim[a, T_HIGH] + tim[a, T_LOW]
+            gen[a, G_RISE] = gen[a, G_TICK] + 1
+            qs[a, Q_HEAD] = head + 1
+            r_ticks[a, r_n[a]] = t + 1
+            r_n[a] += 1
+            motor[a] += direction
+
+
+@kernel
+def _clock_execute(t, q_gen, qs, line_dir, left, hint, win_hint):
+    """The cycles due by ``t + 1`` join the queues; the hint of an axis whose steps are all
+    queued passes to the next move in the window."""
+    for a in range(qs.shape[0]):
+        j = qs[a, Q_TAIL]
+        while j < qs[a, Q_KNOWN] and q_gen[a, j] <= t + 1:
+            j += 1
+            left[a] -= 1
+        qs[a, Q_TAIL] = j
+        hint[a] = line_dir[a] if left[a] > 0 else win_hint[a]
+
+
+@kernel
+def _index_cycles(t, due, ix, err, inc, line_dir, q_due, q_dir, qs):
+    """The line's Bresenham cycles up to base step ``due``; their steps wanted at ``t + 1``."""
+    n = ix[X_N]
+    while ix[X_CYCLE] < due:
+        ix[X_CYCLE] += 1
+        k = ix[X_CYCLE]
+        for a in range(err.shape[0]):
+            err[a] += inc[a]
+            if err[a] > n or (err[a] == n and _tie(k, n, line_dir[a])):
+                err[a] -= 2 * n
+                j = qs[a, Q_TAIL]
+                q_due[a, j] = t + 1
+                q_dir[a, j] = line_dir[a]
+                qs[a, Q_TAIL] = j + 1
+
+
+@kernel
+def _index_decide(ix, si, sf, qs):
+    """What the ISTP move does at this tick: (phase, seen index, base steps due), or phase 0
+    when the readable controller must take the tick (arming on an index, the last cycle)."""
+    phase, seen, due = ix[X_PHASE], ix[X_SEEN], 0
+    count = si[S_ANGLE] >> FRACTION_BITS
+    if phase == SYNC:
+        pending = False
+        for a in range(qs.shape[0]):
+            if qs[a, Q_HEAD] < qs[a, Q_TAIL]:
+                pending = True
+        if pending or not sf[F_RPM] == sf[F_TARGET]:
+            seen = si[S_INDEX_COUNT]
+        elif si[S_INDEX_COUNT] != seen:
+            return 0, seen, due
+    if phase == ARMED and count * ix[X_ODEN] >= ix[X_ONUM] - ix[X_LEAD] * ix[X_ODEN]:
+        phase = RUN
+    if phase == RUN:
+        if count > ix[X_CAP]:
+            return 0, seen, due
+        due = index_target(ix, count)
+        if due >= ix[X_STEPS]:
+            return 0, seen, due
+    return phase, seen, due
+
+
+@kernel
+def run_span(kind, t, t_end, gen, tim, smask, dmask, invert, last, q_due, q_dir, q_gen, qs, motor,
+             r_ticks, r_n, f_ticks, f_values, line_dir, left, win_hint, stop_due,
+             has_sim, sim, gap, width, spm, sw_axis, sw_side, sw_trip, sw_hyst, sw_closed,
+             ix, err, inc, si, sf, spar, draws, history):
+    """Ticks ``t`` .. at most ``t_end - 1`` of one running move (``kind`` CLOCK or INDEX).
+
+    Returns (first tick not run, last byte, frames recorded, spindle ticks run).
+    """
+    hint = np.zeros(gen.shape[0], dtype=np.int64)
+    if kind == CLOCK:
+        for a in range(gen.shape[0]):
+            hint[a] = line_dir[a] if left[a] > 0 else win_hint[a]
+    n_f = 0
+    h = 0
+    while t < t_end:
+        phase, seen, due = 0, 0, 0
+        if kind == CLOCK:
+            if stop_due <= t + 1:
+                break
+        else:
+            while si[S_TICK] < t:
+                spindle_step(si, sf, spar, draws, si[S_TICK] + 1)
+                history[h] = si[S_ANGLE]
+                h += 1
+            phase, seen, due = _index_decide(ix, si, sf, qs)
+            if phase == 0:
+                break
+        if has_sim and _switch_would_change(gen, sim, gap, width, spm, sw_axis, sw_side, sw_trip,
+                                            sw_hyst, sw_closed):
+            break
+        value = _frame(t, gen, smask, dmask, invert, has_sim, sim, gap, width)
+        if value != last:
+            f_ticks[n_f] = t
+            f_values[n_f] = value
+            n_f += 1
+            last = value
+        if kind == CLOCK:
+            _clock_execute(t, q_gen, qs, line_dir, left, hint, win_hint)
+        else:
+            ix[X_PHASE], ix[X_SEEN] = phase, seen
+            if phase == RUN:
+                _index_cycles(t, due, ix, err, inc, line_dir, q_due, q_dir, qs)
+        _shape(t, gen, tim, q_due, q_dir, qs, hint, motor, r_ticks, r_n)
+        t += 1
+    return t, last, n_f, h
