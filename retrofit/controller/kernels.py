@@ -7,11 +7,13 @@ packed into small arrays by :mod:`retrofit.controller.spans`:
    recorded when it changes, and the simulated carriage follows each rising edge;
 2. execute: a clock-timed move queues the steps of the cycles now due (their ticks computed
    beforehand by :func:`clock_requests`); an ISTP move reads the spindle's encoder and runs
-   the indexer's two Bresenhams (counts -> base steps -> every axis);
+   the indexer's two Bresenhams (counts -> base steps -> every axis); a homing jogs its axis
+   towards (or off) its switch;
 3. shape: each axis's next request starts a pulse when it is due and the generator allows.
 
 A span stops *before* any tick the readable controller must decide itself -- a switch that would
-change, the arming of an ISTP pass on an index pulse, the last cycle of a move -- and hands that
+change, the arming of an ISTP pass on an index pulse, the last cycle of a move, the end of a
+homing's back-off -- and hands that
 tick back; so the two paths give the same frames, bit for bit, however they take turns.
 """
 
@@ -32,7 +34,10 @@ Q_HEAD, Q_TAIL, Q_KNOWN = range(3)
 (X_PHASE, X_SEEN, X_SNUM, X_SDEN, X_ONUM, X_ODEN, X_LEAD, X_COUNTS, X_STEPS, X_CAP, X_CYCLE,
  X_N) = range(12)
 SYNC, ARMED, RUN = 1, 2, 3
-CLOCK, INDEX = 0, 1
+# homing jog slots: integers (hj[:]) and floats (hf[:])
+J_AXIS, J_DIR, J_STEPS, J_MAX, J_STOP = range(5)
+J_SPEED, J_OWED, J_TARGET, J_ACCEL, J_DT = range(5)
+CLOCK, INDEX, HOME = 0, 1, 2
 _EPS_MM = 1e-9
 
 
@@ -248,11 +253,30 @@ def _index_decide(ix, si, sf, qs):
 
 
 @kernel
+def _jog(t, hj, hf, q_due, q_dir, qs):
+    """``homing.Jog.step`` after frame ``t``: ramp towards the target speed, step when owed."""
+    accel_dt = hf[J_ACCEL] * hf[J_DT]
+    if hf[J_SPEED] < hf[J_TARGET]:
+        hf[J_SPEED] = min(hf[J_TARGET], hf[J_SPEED] + accel_dt)
+    else:
+        hf[J_SPEED] = max(hf[J_TARGET], hf[J_SPEED] - accel_dt)
+    hf[J_OWED] = min(hf[J_OWED] + hf[J_SPEED] * hf[J_DT], 2.0)
+    a = hj[J_AXIS]
+    if hf[J_OWED] >= 1.0 and qs[a, Q_HEAD] == qs[a, Q_TAIL]:
+        hf[J_OWED] -= 1.0
+        hj[J_STEPS] += 1
+        j = qs[a, Q_TAIL]
+        q_due[a, j] = t + 1
+        q_dir[a, j] = hj[J_DIR]
+        qs[a, Q_TAIL] = j + 1
+
+
+@kernel
 def run_span(kind, t, t_end, gen, tim, smask, dmask, invert, last, q_due, q_dir, q_gen, qs, motor,
              r_ticks, r_n, f_ticks, f_values, line_dir, left, win_hint, stop_due,
              has_sim, sim, gap, width, spm, sw_axis, sw_side, sw_trip, sw_hyst, sw_closed,
-             ix, err, inc, si, sf, spar, draws, history):
-    """Ticks ``t`` .. at most ``t_end - 1`` of one running move (``kind`` CLOCK or INDEX).
+             ix, err, inc, si, sf, spar, draws, history, hj, hf):
+    """Ticks ``t`` .. at most ``t_end - 1`` of one running move (``kind`` CLOCK, INDEX or HOME).
 
     Returns (first tick not run, last byte, frames recorded, spindle ticks run).
     """
@@ -266,6 +290,9 @@ def run_span(kind, t, t_end, gen, tim, smask, dmask, invert, last, q_due, q_dir,
         phase, seen, due = 0, 0, 0
         if kind == CLOCK:
             if stop_due <= t + 1:
+                break
+        elif kind == HOME:
+            if hj[J_STEPS] > hj[J_MAX] or hj[J_STEPS] >= hj[J_STOP]:
                 break
         else:
             while si[S_TICK] < t:
@@ -286,6 +313,8 @@ def run_span(kind, t, t_end, gen, tim, smask, dmask, invert, last, q_due, q_dir,
             last = value
         if kind == CLOCK:
             _clock_execute(t, q_gen, qs, line_dir, left, hint, win_hint)
+        elif kind == HOME:
+            _jog(t, hj, hf, q_due, q_dir, qs)
         else:
             ix[X_PHASE], ix[X_SEEN] = phase, seen
             if phase == RUN:

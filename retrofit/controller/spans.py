@@ -16,6 +16,7 @@ from ..frames import PortFrames
 from ..motion._jit import compiled
 from ..sim.spindle import S_TICK
 from . import kernels as K
+from .homing import HomeRun
 from .indexrun import IndexRun
 from .runs import ClockRun
 
@@ -44,6 +45,7 @@ class SpanRunner:
         self.usable = sim is None or all(m is None for m in sim.motors)
         self.sw = self._switch_arrays(machine, sim)
         self.spm = np.array([a.steps_per_mm for a in machine.axes], dtype=np.float64)
+        self.ticks = 0                          # ticks run by the compiled loop so far
 
     @staticmethod
     def _switch_arrays(machine, sim):
@@ -67,20 +69,28 @@ class SpanRunner:
         elif isinstance(run, IndexRun) and (run.phase in ("armed", "run")
                                             or (run.phase == "sync" and run.seen is not None)):
             work = self._index_work(run)
+        elif isinstance(run, HomeRun):
+            work = self._home_work(run)
         else:
             return False
         if work is None or not compiled(work):
             return False
         t0 = self.ctl._tick
+        t_end = min(end, t0 + SPAN_TICKS)
         if isinstance(run, ClockRun):
-            self._clock(run, min(end, t0 + SPAN_TICKS))
+            self._clock(run, t_end)
+        elif isinstance(run, IndexRun):
+            self._index(run, t_end)
         else:
-            self._index(run, min(end, t0 + SPAN_TICKS))
+            self._home(run, t_end)
+        self.ticks += self.ctl._tick - t0
         return self.ctl._tick > t0
 
     def _limit_closed(self) -> bool:
-        switches = self.ctl.io.switches
-        return any(switches.named(name).kind == "limit" for name in self.ctl.processor.closed)
+        """A closed limit switch (other than one a homing seeks): every tick is the controller's."""
+        switches, run = self.ctl.io.switches, self.ctl.processor.run
+        return any(switches.named(name).kind == "limit"
+                   and not (isinstance(run, HomeRun) and run.owns(name)) for name in self.ctl.processor.closed)
 
     def _clock_work(self, run: ClockRun):
         """Ticks to go in the run, this move included (None: nothing for the compiled loop)."""
@@ -125,12 +135,17 @@ class SpanRunner:
         width = np.array([s.width for s in sim.screws], dtype=np.float64)
         return True, state, gap, width, np.array([int(s.closed) for s in self.sw[0]], dtype=np.int64)
 
-    def _call(self, kind, t_end, queues, clock, index, spindle):
+    def _call(self, kind, t_end, queues, clock=None, index=None, spindle=None, home=None):
         """Run the kernel and unpack what every path shares; returns the kernel's queue state."""
         proc = self.ctl.processor
         gen, q_due, q_dir, q_gen, qs, motor = queues
         has_sim, sim, gap, width, closed = self._sim_state()
         n_axes, t = len(gen), self.ctl._tick
+        zeros = np.zeros(n_axes, np.int64)
+        clock = clock or (zeros, zeros, zeros, 0)
+        index = index or (np.zeros(K.X_N + 1, np.int64), zeros, zeros)
+        spindle = spindle or (np.zeros(5, np.int64), np.zeros(4), np.zeros(4), np.zeros(1))
+        home = home or (np.zeros(5, np.int64), np.zeros(5))
         r_ticks = np.zeros((n_axes, q_due.shape[1]), dtype=np.int64)
         r_n = np.zeros(n_axes, dtype=np.int64)
         f_ticks = np.empty(t_end - t, dtype=np.int64)
@@ -140,7 +155,7 @@ class SpanRunner:
         t_out, last, n_f, h = K.run_span(
             kind, t, t_end, gen, self.tim, self.smask, self.dmask, self.invert, last, q_due, q_dir, q_gen,
             qs, motor, r_ticks, r_n, f_ticks, f_values, *clock, has_sim, sim, gap, width, self.spm,
-            *self.sw[1:3], self.sw[3], self.sw[4], closed, *index, *spindle, history)
+            *self.sw[1:3], self.sw[3], self.sw[4], closed, *index, *spindle, history, *home)
         self._unpack_pulses(gen, q_due, q_dir, qs, motor, r_ticks, r_n, last)
         self._feed(f_ticks[:n_f], f_values[:n_f])
         self.ctl._tick = int(t_out)
@@ -199,7 +214,7 @@ class SpanRunner:
         left = np.array([abs(d) - s for d, s in zip(line.delta, before)], dtype=np.int64)
         win = np.array([proc.window_hint(a) for a in range(line.axes)], dtype=np.int64)
         clock = (np.array(line.direction, dtype=np.int64), left, win, stop_due)
-        qs, _ = self._call(K.CLOCK, t_end, queues, clock, self._no_index(line.axes), self._no_spindle())
+        qs, _ = self._call(K.CLOCK, t_end, queues, clock=clock)
         generated = [abs(d) - int(r) for d, r in zip(line.delta, left)]
         cycles = c0 + int(np.searchsorted(cycle_due[:-1], self.ctl._tick, side="right"))
         self._set_clock(run, cycles, generated)
@@ -227,14 +242,6 @@ class SpanRunner:
             ex.short_num = [line.n * (k + 1) for k in steps]
             ex._position = position
             run.sent = list(steps)
-
-    @staticmethod
-    def _no_index(n_axes: int):
-        return (np.zeros(K.X_N + 1, np.int64), np.zeros(n_axes, np.int64), np.zeros(n_axes, np.int64))
-
-    @staticmethod
-    def _no_spindle():
-        return (np.zeros(5, np.int64), np.zeros(4), np.zeros(4), np.zeros(1))
 
     # -- an ISTP move -------------------------------------------------------------------------------
     def _count_cap(self, run: IndexRun) -> int:
@@ -271,7 +278,7 @@ class SpanRunner:
                  np.zeros(line.axes, np.int64), 0)
         draws = spindle.draws_until(t_end)
         si, sf, par = spindle.state()
-        _, history = self._call(K.INDEX, t_end, queues, clock, index, (si, sf, par, draws))
+        _, history = self._call(K.INDEX, t_end, queues, clock=clock, index=index, spindle=(si, sf, par, draws))
         spindle.set_state(si, sf, history)
         if int(si[S_TICK]) >= 0:
             proc._spindle_tick = -1                 # read it again (same values) when next asked
@@ -283,3 +290,35 @@ class SpanRunner:
             ex.bresenham.error = [int(e) for e in index[1]]
             made = [(done * inc - int(e)) // line.error_dec for inc, e in zip(line.error_inc, index[1])]
             ex.bresenham._position = [s + d * k for s, d, k in zip(line.start, line.direction, made)]
+
+    # -- a homing ----------------------------------------------------------------------------------
+    def _home_work(self, run: HomeRun):
+        """Ticks to go (a guess: the axis's whole travel at the latch feed), or None when the tick
+        is the controller's (a switch it waits for is closed, a back-off starts counting)."""
+        closed = self.ctl.processor.closed
+        if run.phase == "seek" and run.seek_switch.name not in closed:
+            pass
+        elif run.phase == "latch" and run.ref_switch.name not in closed:
+            pass
+        elif not (run.phase == "backoff" and (self._backoff_clear(run) is False or run.backoff_from is not None)):
+            return None
+        axis = self.ctl.machine.axes[run.i]
+        return self.ctl._tick + round(run.max_steps / axis.steps_per_mm / (run.how.latch_mm_min / 60.0)
+                                      * self.ctl.processor.rate)
+
+    def _backoff_clear(self, run: HomeRun) -> bool:
+        closed = self.ctl.processor.closed
+        return run.seek_switch.name not in closed and run.ref_switch.name not in closed
+
+    def _home(self, run: HomeRun, t_end: int) -> None:
+        jog, axis = run.jog, self.ctl.machine.axes[run.i]
+        stop = 1 << 62
+        if run.phase == "backoff" and self._backoff_clear(run):
+            stop = run.backoff_from + round(run.how.backoff_mm * axis.steps_per_mm)
+        feed = run.fast_mm_min() if run.phase != "latch" else run.how.latch_mm_min
+        hj = np.array([run.i, jog.direction, jog.steps, run.max_steps, stop], dtype=np.int64)
+        hf = np.array([jog.speed, jog.owed, run._speed(feed), jog.accel, jog.dt], dtype=np.float64)
+        room = [0] * len(self.ctl.machine.axes)
+        room[run.i] = min(max(t_end - self.ctl._tick, 0) // 2, run.max_steps - jog.steps) + 2
+        self._call(K.HOME, t_end, self._common(room), home=(hj, hf))
+        jog.steps, jog.speed, jog.owed = int(hj[K.J_STEPS]), float(hf[K.J_SPEED]), float(hf[K.J_OWED])
