@@ -193,7 +193,7 @@ class SpanRunner:
         line, n, c0 = run.line, run.line.n, run.cycle
         c_stop = min(n - 1, c0 + SPAN_CYCLES)
         before = self._steps_so_far(run)
-        queues = self._common([abs(d) - s for d, s in zip(line.delta, before)])
+        queues = self._common([min(abs(d) - s, c_stop - c0 + 1) for d, s in zip(line.delta, before)])
         q_due, q_gen, qs = queues[1], queues[3], queues[4]
         state = np.zeros((2, line.axes), dtype=np.int64)
         if run.bresenham is not None:
