@@ -148,3 +148,30 @@ def test_a_thread_runs_almost_entirely_compiled_and_cuts_the_same_helix():
     z = sim.traces["Z"]
     assert np.array_equal(z.carriage_mm, ref_sim.traces["Z"].carriage_mm)
     assert ctl.spans.ticks > 0.99 * ctl.ticks
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(1, 400), st.integers(1, 10**6), st.sampled_from([100, 400, 4096]),
+       st.integers(0, 10**9), st.integers(1, 10**6), st.integers(0, 3000), st.integers(0, 10**6),
+       st.integers(-4000, 10**6))
+def test_the_compiled_indexer_counts_the_steps_of_the_exact_one(s_num, s_den, counts, o_num, o_den, lead,
+                                                                steps, ahead):
+    """The compiled indexer's integer target equals ``IndexerTrack.target`` (exact fractions) at
+    every count the span lets it see; past that count the span hands the move back."""
+    from fractions import Fraction
+    from retrofit.controller import kernels as K
+    from retrofit.controller.spans import SpanRunner
+    from retrofit.motion.indexer import IndexerTrack
+    s = Fraction(s_num, s_den)
+    if s > counts:
+        return
+    origin = Fraction(o_num, o_den) if not lead else Fraction(o_num % 100_000)
+    track = IndexerTrack(s, counts, origin, lead, steps)
+    count = max(0, int(origin) + ahead)                   # around the reference index and after
+    cap = SpanRunner._count_cap(type("Run", (), {"track": track})())
+    if count > cap:
+        return
+    ix = np.zeros(K.X_N + 1, np.int64)
+    ix[[K.X_SNUM, K.X_SDEN, K.X_ONUM, K.X_ODEN, K.X_LEAD, K.X_COUNTS, K.X_STEPS]] = (
+        track.s_num, track.s_den, track.o_num, track.o_den, lead, counts, steps)
+    assert K.index_target(ix, count) == track.target(count)

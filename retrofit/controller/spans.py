@@ -1,11 +1,11 @@
 """Stretches of a controller's run handed to its compiled tick loop (:mod:`.kernels`).
 
-While a clock-timed move or an ISTP move runs, :class:`SpanRunner` packs the controller's state
--- step generators, request queues, the simulated carriages and switches, the spindle, the
-indexer -- into arrays, lets the compiled loop run as many ticks as it can, and unpacks it. The
-readable objects stay the one source of truth: between spans the controller ticks in Python, and
-a span stops before every tick the readable controller has to decide (see the kernels' module
-doc). Starting a move, homing, dwells and halts stay in Python.
+While a clock-timed move, an ISTP move or a homing runs, :class:`SpanRunner` packs the
+controller's state -- step generators, request queues, the simulated carriages and switches, the
+spindle, the indexer, the homing jog -- into arrays, lets the compiled loop run as many ticks as
+it can, and unpacks it. The readable objects stay the one source of truth: between spans the
+controller ticks in Python, and a span stops before every tick the readable controller has to
+decide (see the kernels' module doc). Starting a move, dwells, halts and commands stay in Python.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import numpy as np
 
 from ..frames import PortFrames
 from ..motion._jit import compiled
-from ..sim.spindle import S_TICK
+from ..sim.spindle import FRACTION_BITS, S_TICK
 from . import kernels as K
 from .homing import HomeRun
 from .indexrun import IndexRun
@@ -96,12 +96,13 @@ class SpanRunner:
         """Ticks to go in the run, this move included (None: nothing for the compiled loop)."""
         if run.done or run.profile is None or run.cycle >= run.line.n - 1:
             return None
-        return self.ctl._tick + max(round(run.end_time * self.ctl.processor.rate) - self.ctl._tick, 0)
+        return max(round(run.end_time * self.ctl.processor.rate), self.ctl._tick)
 
     def _index_work(self, run: IndexRun):
+        """Ticks to go in the run, this move included (None: its integers would not fit)."""
         proc = self.ctl.processor
         spindle = proc.sim_spindle
-        if spindle is None or (run.phase != "sync" and self._count_cap(run) < spindle.angle >> 16):
+        if spindle is None or (run.phase != "sync" and self._count_cap(run) < spindle.angle >> FRACTION_BITS):
             return None
         revs = (run.line.n - (run.executor.bresenham.cycle if run.executor else 0)) / max(float(run.s), 1e-9)
         return self.ctl._tick + round(revs * 60.0 / max(run.rpm, 1e-9) * proc.rate)
@@ -244,16 +245,19 @@ class SpanRunner:
             run.sent = list(steps)
 
     # -- an ISTP move -------------------------------------------------------------------------------
-    def _count_cap(self, run: IndexRun) -> int:
-        """The highest encoder count for which the indexer's integers fit in int64."""
+    @staticmethod
+    def _count_cap(run: IndexRun) -> int:
+        """The highest encoder count for which the indexer's integers fit in int64 (-1: none)."""
         track = run.track
         if track is None:
             return 0
-        o_num, o_den, lead = abs(track.o_num), track.o_den, track.lead
-        den = track.s_den * max(4 * lead, 1) * track.counts * o_den * o_den
-        if lead and 2 * track.s_num * (2 * lead * o_den + 2) ** 2 + den >= _INT_ROOM:
-            return -1
-        room = (_INT_ROOM - den) // (2 * track.s_num) - o_num
+        s_num, o_num, o_den, lead = track.s_num, abs(track.o_num), track.o_den, track.lead
+        if lead:                        # the lead-in: (count - start) * o_den < 2 * lead * o_den
+            den = track.s_den * 4 * track.counts * lead * o_den * o_den
+            if 2 * s_num * (2 * lead * o_den + 1) ** 2 + den >= _INT_ROOM:
+                return -1
+        den = track.s_den * track.counts * o_den
+        room = (_INT_ROOM - den) // (2 * s_num) - o_num - lead * o_den if den < _INT_ROOM else -1
         return room // o_den if room > 0 else -1
 
     def _index(self, run: IndexRun, t_end: int) -> None:
