@@ -62,8 +62,6 @@ class SpanRunner:
         some ran (the controller then ticks the next one itself)."""
         proc = self.ctl.processor
         run = proc.run
-        if not self.usable or proc.error or proc.stopped or self._limit_closed():
-            return False
         if isinstance(run, ClockRun):
             work = self._clock_work(run)
         elif isinstance(run, IndexRun) and (run.phase in ("armed", "run")
@@ -75,11 +73,15 @@ class SpanRunner:
             return False
         if work is None or not compiled(work):
             return False
+        if not self.usable or proc.error or proc.stopped or self._limit_closed():
+            return False
         t0 = self.ctl._tick
         t_end = min(end, t0 + SPAN_TICKS)
         if isinstance(run, ClockRun):
             self._clock(run, t_end)
         elif isinstance(run, IndexRun):
+            if run.phase != "sync" and self._count_cap(run) < proc.sim_spindle.angle >> FRACTION_BITS:
+                return False                        # its integers would not fit: the controller's
             self._index(run, t_end)
         else:
             self._home(run, t_end)
@@ -99,10 +101,9 @@ class SpanRunner:
         return max(round(run.end_time * self.ctl.processor.rate), self.ctl._tick)
 
     def _index_work(self, run: IndexRun):
-        """Ticks to go in the run, this move included (None: its integers would not fit)."""
+        """Ticks to go in the run, this move included."""
         proc = self.ctl.processor
-        spindle = proc.sim_spindle
-        if spindle is None or (run.phase != "sync" and self._count_cap(run) < spindle.angle >> FRACTION_BITS):
+        if proc.sim_spindle is None:
             return None
         revs = (run.line.n - (run.executor.bresenham.cycle if run.executor else 0)) / max(float(run.s), 1e-9)
         return self.ctl._tick + round(revs * 60.0 / max(run.rpm, 1e-9) * proc.rate)
