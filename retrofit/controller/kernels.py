@@ -6,7 +6,7 @@ packed into small arrays by :mod:`retrofit.controller.spans`:
 1. the frame: each axis's step generator gives its bits (003's ``PasAvans``), the port byte is
    recorded when it changes, and the simulated carriage follows each rising edge;
 2. execute: a clock-timed move queues the steps of the cycles now due (their ticks computed
-   beforehand by :func:`clock_requests`); an ISTP move reads the spindle's encoder and runs
+   beforehand by the fast path's :func:`~retrofit.motion.fast.move_requests`); an ISTP move reads the spindle's encoder and runs
    the indexer's two Bresenhams (counts -> base steps -> every axis); a homing jogs its axis
    towards (or off) its switch;
 3. shape: each axis's next request starts a pulse when it is due and the generator allows.
@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..motion._jit import kernel
-from ..motion.profile import time_at
+from ..motion.fast import _tie
 from ..sim.spindle import F_RPM, F_TARGET, FRACTION_BITS, S_ANGLE, S_INDEX_COUNT, S_TICK, spindle_step
 
 # step generator slots (gen[a, :]) and timing slots (tim[a, :])
@@ -39,65 +39,6 @@ J_AXIS, J_DIR, J_STEPS, J_MAX, J_STOP = range(5)
 J_SPEED, J_OWED, J_TARGET, J_ACCEL, J_DT = range(5)
 CLOCK, INDEX, HOME = 0, 1, 2
 _EPS_MM = 1e-9
-
-
-@kernel
-def _profile_time(s, starts, offsets, rows):
-    """Seconds into a move of profile pieces (``MoveProfile.time_at``, the same arithmetic)."""
-    if starts.shape[0] == 1:
-        return time_at(s, rows[0])
-    i = 0
-    while i + 1 < starts.shape[0] and starts[i + 1] <= s:
-        i += 1
-    return offsets[i] + time_at(s - starts[i], rows[i])
-
-
-@kernel
-def _tick_of(position, length, n, t0, starts, offsets, rows, rate):
-    s = position * length / n
-    return np.int64(np.floor((t0 + _profile_time(s, starts, offsets, rows)) * rate + 0.5))
-
-
-@kernel
-def clock_requests(dda, n, c0, c_stop, delta, state, length, t0, starts, offsets, rows, rate,
-                   q_due, q_gen, qs, cycle_due):
-    """Steps of cycles ``c0 + 1 .. c_stop`` of a clock-timed move, appended to the axes' queues
-    (``q_due``: the tick wanted; ``q_gen``: the tick its cycle is computed for); ``cycle_due``
-    gets each cycle's tick. ``state`` is the interpolator's: Bresenham error terms, or for
-    004's digital integration the pulses sent and SHORT's numerator per axis (updated)."""
-    n_axes = delta.shape[0]
-    for k in range(c0 + 1, c_stop + 1):
-        due = _tick_of(float(k), length, n, t0, starts, offsets, rows, rate)
-        cycle_due[k - c0 - 1] = due
-        for a in range(n_axes):
-            d = abs(delta[a])
-            if d == 0:
-                continue
-            if dda:
-                sent = state[0, a]
-                if sent == d or state[1, a] // d != k:
-                    continue
-                state[0, a] = sent + 1
-                state[1, a] += n
-                wanted = _tick_of(float((sent + 1) * n) / d, length, n, t0, starts, offsets, rows, rate)
-            else:
-                state[0, a] += 2 * d
-                if not (state[0, a] > n or (state[0, a] == n and _tie(k, n, delta[a]))):
-                    continue
-                state[0, a] -= 2 * n
-                wanted = due
-            j = qs[a, Q_KNOWN]
-            q_due[a, j] = wanted
-            q_gen[a, j] = due
-            qs[a, Q_KNOWN] = j + 1
-
-
-@kernel
-def _tie(cycle, n, direction):
-    """002's tie rule (``bresenham._tie_steps``): on a tie, does the axis step at this cycle?"""
-    if 2 * cycle != n:
-        return 2 * cycle > n
-    return direction < 0
 
 
 @kernel

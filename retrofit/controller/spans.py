@@ -14,6 +14,7 @@ import numpy as np
 
 from ..frames import PortFrames
 from ..motion._jit import compiled
+from ..motion.fast import move_requests
 from ..sim.spindle import FRACTION_BITS, S_TICK
 from . import kernels as K
 from .homing import HomeRun
@@ -207,8 +208,10 @@ class SpanRunner:
         rows = np.array(profile.rows, np.float64)
         cycle_due = np.zeros(c_stop - c0 + 1, dtype=np.int64)
         delta = np.array(line.delta, dtype=np.int64)
-        K.clock_requests(run.bresenham is None, n, c0, c_stop + 1, delta, state, profile.length, run.t0,
-                         starts, offsets, rows, proc.rate, q_due, q_gen, qs, cycle_due)
+        fill = qs[:, K.Q_KNOWN].copy()
+        move_requests(run.bresenham is None, n, c0, c_stop + 1, delta, state, profile.length, run.t0,
+                      starts, offsets, rows, proc.rate, q_due, q_gen, fill, cycle_due)
+        qs[:, K.Q_KNOWN] = fill
         stop_due = int(cycle_due[-1])          # cycle c_stop + 1 is left to the controller
         q_dir = queues[2]
         for a in range(line.axes):
