@@ -175,3 +175,27 @@ def test_the_compiled_indexer_counts_the_steps_of_the_exact_one(s_num, s_den, co
     ix[[K.X_SNUM, K.X_SDEN, K.X_ONUM, K.X_ODEN, K.X_LEAD, K.X_COUNTS, K.X_STEPS]] = (
         track.s_num, track.s_den, track.o_num, track.o_den, lead, counts, steps)
     assert K.index_target(ix, count) == track.target(count)
+
+
+def test_the_compiled_spindle_turns_as_the_readable_one_tick_for_tick():
+    """A spindle with a wandering load, sped up, reversed and stopped: advanced in long compiled
+    stretches it has the angle, index pulses and speed of one stepped tick by tick in Python."""
+    from retrofit.sim.spindle import SimSpindle
+    settings = MITIC.parts["spindle"]
+    settings = replace(settings, sim=replace(settings.sim, load_noise=0.1, seed=5))
+    readable, compiled_ = SimSpindle(settings, MITIC.tick_us), SimSpindle(settings, MITIC.tick_us)
+    for spindle in (readable, compiled_):
+        spindle.command(0, 1200.0, 1)
+    for tick, rpm, direction in ((50_000, 300.0, -1), (90_000, 0.0, 0), (120_000, 2000.0, 1)):
+        for t in range(readable.tick + 1, tick):
+            readable._step(t)
+        readable.command(tick, rpm, direction)
+        compiled_.read(tick // 3)                          # a read part way, as the controller does
+        compiled_.command(tick, rpm, direction)
+    for t in range(readable.tick + 1, 200_000):
+        readable._step(t)
+    compiled_.advance_to(199_999)
+    assert np.array_equal(np.frombuffer(readable.history, np.int64), np.frombuffer(compiled_.history, np.int64))
+    assert (readable.index_count, readable.index_tick, readable.rpm) == \
+        (compiled_.index_count, compiled_.index_tick, compiled_.rpm)
+    assert readable.index_count > 400 * 100                 # it really turned, many revolutions
