@@ -32,7 +32,7 @@ T_HIGH, T_LOW, T_SETUP, T_HOLD = range(4)
 Q_HEAD, Q_TAIL, Q_KNOWN = range(3)
 # indexer slots (ix[:])
 (X_PHASE, X_SEEN, X_SNUM, X_SDEN, X_ONUM, X_ODEN, X_LEAD, X_COUNTS, X_STEPS, X_CAP, X_CYCLE,
- X_N) = range(12)
+ X_LAST_COUNT, X_LAST_DUE, X_N) = range(14)
 SYNC, ARMED, RUN = 1, 2, 3
 # homing jog slots: integers (hj[:]) and floats (hf[:])
 J_AXIS, J_DIR, J_STEPS, J_MAX, J_STOP = range(5)
@@ -187,7 +187,9 @@ def _index_decide(ix, si, sf, qs):
     if phase == RUN:
         if count > ix[X_CAP]:
             return 0, seen, due
-        due = index_target(ix, count)
+        if count != ix[X_LAST_COUNT]:                  # the target moves only with the count
+            ix[X_LAST_COUNT], ix[X_LAST_DUE] = count, index_target(ix, count)
+        due = ix[X_LAST_DUE]
         if due >= ix[X_STEPS]:
             return 0, seen, due
     return phase, seen, due
@@ -210,6 +212,34 @@ def _jog(t, hj, hf, q_due, q_dir, qs):
         q_due[a, j] = t + 1
         q_dir[a, j] = hj[J_DIR]
         qs[a, Q_TAIL] = j + 1
+
+
+@kernel
+def _quiet_until(t, t_end, timed, gen, dmask, invert, last, q_due, q_dir, q_gen, qs, hint, stop_due):
+    """The first tick from ``t`` on whose frame or shaping changes something (``t``: this one),
+    when no step is under way, none is due and the directions wait for nothing; ``timed``: the
+    clock's cycles decide when requests come (else one tick at a time, the encoder decides)."""
+    value = 0
+    until = t_end
+    if timed:
+        until = min(until, stop_due - 1)
+    for a in range(gen.shape[0]):
+        if gen[a, G_HIGH] > 0 or gen[a, G_PERIOD] > 0:
+            return t
+        if gen[a, G_DIR] > 0:
+            value |= dmask[a]
+        head = qs[a, Q_HEAD]
+        if head < qs[a, Q_TAIL]:
+            if q_dir[a, head] != gen[a, G_DIR]:
+                return t
+            until = min(until, q_due[a, head] - 1)
+        elif hint[a] != 0 and hint[a] != gen[a, G_DIR]:
+            return t
+        if timed and qs[a, Q_TAIL] < qs[a, Q_KNOWN]:
+            until = min(until, q_gen[a, qs[a, Q_TAIL]] - 1)
+    if value ^ invert != last or until <= t:
+        return t
+    return until if timed else t + 1
 
 
 @kernel
@@ -243,6 +273,16 @@ def run_span(kind, t, t_end, gen, tim, smask, dmask, invert, last, q_due, q_dir,
             phase, seen, due = _index_decide(ix, si, sf, qs)
             if phase == 0:
                 break
+        if kind != HOME and (kind == CLOCK or phase != RUN or due <= ix[X_CYCLE]):
+            quiet = _quiet_until(t, t_end, kind == CLOCK, gen, dmask, invert, last, q_due, q_dir, q_gen, qs,
+                                 hint, stop_due)
+            if quiet > t:                              # frames alone: the generators' clocks run on
+                for a in range(gen.shape[0]):
+                    gen[a, G_TICK] += quiet - t
+                if kind == INDEX:
+                    ix[X_PHASE], ix[X_SEEN] = phase, seen
+                t = quiet
+                continue
         if has_sim and _switch_would_change(gen, sim, gap, width, spm, sw_axis, sw_side, sw_trip,
                                             sw_hyst, sw_closed):
             break

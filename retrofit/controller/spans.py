@@ -277,6 +277,7 @@ class SpanRunner:
         track = run.track
         ix = np.zeros(K.X_N + 1, dtype=np.int64)
         ix[K.X_PHASE], ix[K.X_SEEN], ix[K.X_CYCLE], ix[K.X_N] = phase, run.seen or 0, cycle, line.n
+        ix[K.X_LAST_COUNT] = -1
         if track is not None:
             ix[K.X_SNUM], ix[K.X_SDEN], ix[K.X_ONUM], ix[K.X_ODEN] = track.s_num, track.s_den, track.o_num, track.o_den
             ix[K.X_LEAD], ix[K.X_COUNTS], ix[K.X_STEPS] = track.lead, track.counts, track.steps
