@@ -6,15 +6,16 @@ packed into small arrays by :mod:`retrofit.controller.spans`:
 1. the frame: each axis's step generator gives its bits (003's ``PasAvans``), the port byte is
    recorded when it changes, and the simulated carriage follows each rising edge;
 2. execute: a clock-timed move queues the steps of the cycles now due (their ticks computed
-   beforehand by the fast path's :func:`~retrofit.motion.fast.move_requests`); an ISTP move reads the spindle's encoder and runs
-   the indexer's two Bresenhams (counts -> base steps -> every axis); a homing jogs its axis
-   towards (or off) its switch;
+   beforehand by the fast path's :func:`~retrofit.motion.fast.move_requests`); an ISTP move
+   reads the spindle's encoder and runs the indexer's two Bresenhams (counts -> base steps ->
+   every axis); a homing jogs its axis towards (or off) its switch;
 3. shape: each axis's next request starts a pulse when it is due and the generator allows.
 
-A span stops *before* any tick the readable controller must decide itself -- a switch that would
+Ticks in which none of that can change anything are passed over (:func:`_quiet_until`). A span
+stops *before* any tick the readable controller must decide itself -- a switch that would
 change, the arming of an ISTP pass on an index pulse, the last cycle of a move, the end of a
-homing's back-off -- and hands that
-tick back; so the two paths give the same frames, bit for bit, however they take turns.
+homing's back-off -- and hands that tick back; so the two paths give the same frames, bit for
+bit, however they take turns.
 """
 
 from __future__ import annotations
@@ -266,7 +267,7 @@ def run_span(kind, t, t_end, gen, tim, smask, dmask, invert, last, q_due, q_dir,
             if hj[J_STEPS] > hj[J_MAX] or hj[J_STEPS] >= hj[J_STOP]:
                 break
         else:
-            while si[S_TICK] < t:
+            while si[S_TICK] < t:                      # the spindle to the end of tick t
                 spindle_step(si, sf, spar, draws, si[S_TICK] + 1)
                 history[h] = si[S_ANGLE]
                 h += 1
