@@ -173,14 +173,16 @@ def make_controller(machine: Machine, backlash_comp: bool = True, simulate: bool
 
     With ``simulate`` it drives a simulated machine and reads its inputs, as the MCU reads its
     pins: ZMOV finds the switches and ISTP follows the spindle's encoder. Without, nothing is
-    wired: no switch closes and there is no encoder, as for the firmware under QEMU.
+    wired: no switch closes and there is no encoder, as for the firmware under QEMU. It ticks
+    in readable Python (``kernels=False``): a device answers its link within milliseconds, and
+    loading the compiled tick loop mid-run would keep it silent for a second.
     """
     from .controller import Controller
     sim = None
     if simulate:
         from .sim import SimMachine
         sim = SimMachine(machine)
-    return Controller(machine, backlash_comp=backlash_comp, sim=sim)
+    return Controller(machine, backlash_comp=backlash_comp, sim=sim, kernels=False)
 
 
 def parse_listen(text: str) -> tuple[str, int]:

@@ -102,9 +102,6 @@ def test_hold_stands_the_axes_still_and_resume_finishes_the_program(lathe):
     assert report["axes"]["Z"]["carriage_mm"] == pytest.approx(5.0, abs=0.021)
 
 
-@pytest.mark.xfail(strict=True, reason="the controller re-plans a move from its last computed cycle, not from "
-                                       "the tick the feed changes: after a near-zero feed the steps it owes "
-                                       "since that cycle come out at once (controller/runs.py ClockRun.replan)")
 def test_resume_after_hold_comes_back_at_the_programmed_feed_without_a_burst(lathe):
     from retrofit.console.views import axis_steps
     import numpy as np

@@ -92,3 +92,48 @@ def test_without_lookahead_every_junction_stops(lathe):
 def test_reversal_needs_a_full_stop(lathe):
     plan = plan_program([PFdr(600), PMov((("X", -5.0),)), PMov((("X", 0.0),))], lathe, backlash_comp=False)
     assert plan.moves[0].profile[3] == 0.0 and plan.moves[1].profile[1] == 0.0
+
+
+def random_kinematics(machine, data, n):
+    """``n`` straight moves and dwells between random lattice points, with random feeds."""
+    from retrofit.motion.lookahead import Kinematics
+    from retrofit.motion.planner import kinematics
+    out, here = [], (0, 0)
+    for _ in range(n):
+        if data.draw(st.integers(0, 5)) == 0:
+            out.append(Kinematics(0.0, np.zeros(2), 1.0, 1.0, stop_before=True))
+            continue
+        there = tuple(data.draw(st.integers(-60, 60)) for _ in range(2))
+        out.append(kinematics(machine, here, there, data.draw(st.sampled_from([2.0, 10.0, 50.0]))))
+        here = there
+    return out
+
+
+@settings(max_examples=60)
+@given(st.data(), st.sampled_from([1, 3, 16]), st.sampled_from([1.0, 0.25]))
+def test_a_window_slid_along_a_program_plans_the_program_s_speeds(lathe, data, depth, scale):
+    """The controller's window planner (``plan_window``) and the whole-program planner
+    (``plan_speeds``) are one planner: entry, exit and acceleration of every move agree exactly."""
+    from copy import deepcopy
+    from retrofit.motion.lookahead import plan_speeds, plan_window
+    moves = random_kinematics(lathe, data, data.draw(st.integers(1, 12)))
+    whole = deepcopy(moves)
+    speeds = plan_speeds(whole, depth, 0.02, scale, axis_accel(lathe), axis_step(lathe))
+    entry, prev = 0.0, None
+    for i, move in enumerate(moves):
+        if move.length_mm == 0.0:                # a dwell: the controller stops and starts afresh
+            entry, prev = 0.0, move
+            assert speeds[i] == (0.0, 0.0)
+            continue
+        exit_, accel = plan_window(prev, moves[i:i + depth + 1], entry, depth, 0.02, scale,
+                                   axis_accel(lathe), axis_step(lathe))
+        assert (entry, exit_, accel) == (*speeds[i], whole[i].a_max_mm_s2)
+        entry, prev = exit_, move
+
+
+def axis_accel(machine):
+    return np.array([a.max_accel_mm_s2 for a in machine.axes])
+
+
+def axis_step(machine):
+    return np.array([a.step_mm for a in machine.axes])

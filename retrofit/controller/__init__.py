@@ -27,6 +27,7 @@ from ..link.replies import Busy, Err, Position, Status
 from ..runlog import RunLog
 from .processor import Processor
 from .settings import machine_io
+from .spans import SpanRunner
 from .status import position_reply, status_reply
 
 __all__ = ["Controller"]
@@ -43,6 +44,10 @@ class Controller:
     sim : SimMachine, optional
         A simulated machine to drive and read: its switches and its spindle's encoder are this
         controller's inputs. Without one, no switch ever closes and ISTP cannot run.
+    kernels : bool
+        Let :meth:`run_until_idle` and :meth:`run_until_room` run the stretches of a move by the
+        compiled tick loop (:mod:`retrofit.controller.spans`), the same frames as ticking in
+        Python; False keeps every tick in readable Python (the reference).
 
     Examples
     --------
@@ -58,7 +63,7 @@ class Controller:
 
     QUEUE_DEPTH = 3
 
-    def __init__(self, machine: Machine, *, backlash_comp: bool = True, sim=None):
+    def __init__(self, machine: Machine, *, backlash_comp: bool = True, sim=None, kernels: bool = True):
         self.machine = machine
         self.sim = sim
         self.io = machine_io(machine)
@@ -68,6 +73,7 @@ class Controller:
         self._source = None                   # a program being streamed (see stream)
         self._tick = 0
         self._idle_frame = False
+        self.spans = SpanRunner(self) if kernels else None
 
     # -- the interpreter: commands in ----------------------------------------------------------
     def submit(self, cmd: Command) -> object | None:
@@ -170,6 +176,10 @@ class Controller:
         end = self._tick + max_ticks
         pulses = self.processor.pulses
         while self._tick < end:
+            if self.spans is not None and self.spans.run(end):
+                if done():
+                    return True
+                continue
             self.tick()
             if done():
                 return True

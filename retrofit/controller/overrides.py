@@ -39,7 +39,7 @@ class FeedOverrides:
         run = self.run
         if isinstance(run, ClockRun) and reached(run.entry):
             run.entry.kin = self._with_feed(run.entry, cmd.feed)
-            self._replan(run)
+            self._replan(run, run.position_at_tick(tick))
 
     def window_grew(self) -> None:
         """A move was prepared while one runs: if what the window now holds lets the running move
@@ -55,7 +55,7 @@ class FeedOverrides:
         exit_v, accel = self.planner.plan(run.prev, moves, v, length=rest)
         if exit_v <= run.profile.exit_speed:
             return
-        self._replan(run)
+        self._replan(run, s)
 
     def _feed_group(self) -> int:
         """The programmed feed an MFDR changes: the running PMOV's, else the next PMOV's."""
@@ -72,18 +72,17 @@ class FeedOverrides:
         kin.stop_before = entry.kin.stop_before
         return kin
 
-    def _replan(self, run: ClockRun) -> None:
-        """Re-plan the rest of the running move with its new speed cap."""
+    def _replan(self, run: ClockRun, s: float) -> None:
+        """Re-plan the rest of the running move, from ``s`` mm on, with its new speed cap."""
         if run.done or run.profile is None:
             return
         kin = run.entry.kin
-        s = run.position_mm()
         rest = run.profile.length - s
         v = run.profile.speed_at(s)
         moves = [kin] + [e.kin for e in self.window if e.is_move]
         exit_v, accel = self.planner.plan(run.prev, moves, v, length=rest)
         exit_v = max(exit_v, math.sqrt(max(v * v - 2.0 * accel * rest, 0.0)))   # braking takes room
-        run.replan(kin, exit_v, accel)
+        run.replan(kin, exit_v, accel, s)
         self.t_plan = run.end_time
         self.exit_speed = run.profile.exit_speed
         self.prev_kin = kin

@@ -153,6 +153,11 @@ class Processor(FeedOverrides):
                 return ahead
         elif run is not None and not isinstance(run, DwellRun):
             return 0
+        return self.window_hint(axis)
+
+    def window_hint(self, axis: int) -> int:
+        """Direction of the first prepared move that moves ``axis`` (0: none, or one behind an
+        ISTP move or a homing)."""
         for entry in self.window:
             if isinstance(entry, LineEntry):
                 delta = entry.end[axis] - entry.start[axis]

@@ -88,6 +88,18 @@ class MoveProfile:
         i = bisect.bisect_right(self.starts, s) - 1
         return self.offsets[i] + _time_at(s - self.starts[i], self.rows[i])
 
+    def position_at(self, t: float, lo: float, hi: float) -> float:
+        """The position (mm) reached ``t`` seconds into the move, searched between ``lo`` and
+        ``hi`` mm (``time_at(lo) <= t``): the largest ``s`` there with ``time_at(s) <= t``."""
+        while True:
+            mid = 0.5 * (lo + hi)
+            if not lo < mid < hi:
+                return lo
+            if self.time_at(mid) <= t:
+                lo = mid
+            else:
+                hi = mid
+
     def speed_at(self, s: float) -> float:
         i = bisect.bisect_right(self.starts, s) - 1
         return speed_at(s - self.starts[i], self.rows[i])

@@ -29,14 +29,14 @@ class ProgramError(MotionError):
 
 def run_commands(commands: Iterable[Command], machine: Machine, *, backlash_comp: bool = True,
                  sim=None, controller: Controller | None = None,
-                 max_ticks: int = DEFAULT_MAX_TICKS) -> Controller:
+                 max_ticks: int = DEFAULT_MAX_TICKS, kernels: bool = True) -> Controller:
     """Run ``commands`` to the end, the queue kept full; return the controller (its frames, run
-    log, position).
+    log, position). ``kernels=False`` ticks every tick in readable Python (the reference).
 
     Raises ProgramError (a MotionError) when the controller refuses a command or halts with an
     error; ``command_index`` is the index in ``commands`` of the command at fault.
     """
-    ctl = controller or Controller(machine, backlash_comp=backlash_comp, sim=sim)
+    ctl = controller or Controller(machine, backlash_comp=backlash_comp, sim=sim, kernels=kernels)
     if ctl.processor.error or ctl.processor.stopped:
         raise ProgramError(f"{machine.name}: the controller is halted ({ctl.fault or 'STOP'}); send INIT",
                            None)

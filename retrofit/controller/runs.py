@@ -86,12 +86,23 @@ class ClockRun:
         """How far along the move (mm) the cycles computed so far have got."""
         return float(self.cycle) * self.profile.length / self.line.n
 
-    def replan(self, kin: Kinematics, exit_speed: float, accel: float) -> None:
-        """Follow a new speed cap from here: the rest of the move re-planned from the current speed."""
+    def position_at_tick(self, tick: int) -> float:
+        """Where along the move (mm) the tool is on the profile at ``tick``: past the last cycle
+        computed, short of the next one (whose step is due later)."""
+        s = self.position_mm()
+        t = tick / self.rate - self.t0
+        if self.done or self.profile.time_at(s) >= t:
+            return s
+        nxt = min(float(self.cycle + 1) * self.profile.length / self.line.n, self.profile.length)
+        return self.profile.position_at(t, s, nxt)
+
+    def replan(self, kin: Kinematics, exit_speed: float, accel: float, s: float) -> None:
+        """Follow a new speed cap from ``s`` mm on (see :meth:`position_at_tick`): the rest of the
+        move re-planned from the speed there, so the steps owed since the last cycle come at the
+        new pace, not at once."""
         self.kin = kin
         if self.done:
             return
-        s = self.position_mm()
         v = self.profile.speed_at(s)
         self.profile.replan(s, ramp_pieces(self.profile.length - s, v, kin.v_max_mm_s, exit_speed, accel))
         self._due = None

@@ -37,56 +37,112 @@ def _base_steps(start, end):
 
 
 @kernel
-def _bresenham_requests(starts, ends, profiles, t0s, has_profile, rate, out_ticks, out_dirs, counts):
-    """Per-axis requested ticks and directions of every move, cycle by cycle (002's execute)."""
+def _pieces_time(s, starts, offsets, rows):
+    """Seconds to ``s`` mm into a move whose profile is in pieces (``rows`` starting at ``starts``
+    mm and ``offsets`` s), as the controller's ``MoveProfile`` keeps a re-planned move."""
+    i = 0
+    while i + 1 < starts.shape[0] and starts[i + 1] <= s:
+        i += 1
+    return offsets[i] + time_at(s - starts[i], rows[i])
+
+
+@kernel
+def _tie(cycle, n, direction):
+    """002's tie rule (``bresenham._tie_steps``): on a tie, does the axis step at this cycle?"""
+    if 2 * cycle != n:
+        return 2 * cycle > n
+    return direction < 0
+
+
+@kernel
+def move_requests(dda, n, c0, c_stop, delta, state, length, t0, starts, offsets, rows, rate,
+                  out_ticks, out_cycle, fill, cycle_due):
+    """Step requests of cycles ``c0 + 1 .. c_stop`` of one move of ``n`` cycles (002's execute).
+
+    Each axis's requests go to ``out_ticks[a, fill[a]]`` (``fill`` advances): the tick each step
+    is wanted on, nearest the time the profile (one row, or the pieces of a re-planned move) is
+    at the step's place. ``state`` is the interpolator's, updated: Bresenham's error terms
+    (row 0), or for 004's digital integration the pulses sent (row 0) and SHORT's numerator
+    (row 1). When given (non-empty), ``out_cycle`` gets the tick of the cycle that makes each
+    request and ``cycle_due`` the tick of each cycle.
+    """
+    first = rows[0]
+    single = starts.shape[0] == 1
+    if dda:
+        for a in range(delta.shape[0]):        # pulse j of d: at cycle j n // d, j n / d intervals in
+            d = abs(delta[a])
+            j = state[0, a] + 1
+            while j <= d and n * j < (c_stop + 1) * d:
+                s = float(j * n) / d * length / n
+                t = time_at(s, first) if single else _pieces_time(s, starts, offsets, rows)
+                out_ticks[a, fill[a]] = np.int64(np.floor((t0 + t) * rate + 0.5))
+                if out_cycle.shape[1]:
+                    s = float((n * j) // d) * length / n
+                    t = time_at(s, first) if single else _pieces_time(s, starts, offsets, rows)
+                    out_cycle[a, fill[a]] = np.int64(np.floor((t0 + t) * rate + 0.5))
+                fill[a] += 1
+                j += 1
+            state[0, a] = j - 1
+            state[1, a] = n * j
+    for k in range(c0 + 1, c_stop + 1):
+        if dda and not cycle_due.shape[0]:
+            break
+        s = float(k) * length / n
+        t = time_at(s, first) if single else _pieces_time(s, starts, offsets, rows)
+        due = np.int64(np.floor((t0 + t) * rate + 0.5))
+        if cycle_due.shape[0]:
+            cycle_due[k - c0 - 1] = due
+        for a in range(delta.shape[0]):
+            d = abs(delta[a])
+            if dda or d == 0:
+                continue
+            state[0, a] += 2 * d
+            if not (state[0, a] > n or (state[0, a] == n and _tie(k, n, delta[a]))):
+                continue
+            state[0, a] -= 2 * n
+            out_ticks[a, fill[a]] = due
+            if out_cycle.shape[1]:
+                out_cycle[a, fill[a]] = due
+            fill[a] += 1
+
+
+@kernel
+def _plan_requests(dda, starts, ends, profiles, t0s, has_profile, rate, out_ticks, out_dirs, counts):
+    """Per-axis requested ticks and directions of every move, move by move (:func:`move_requests`)."""
     n_moves, n_axes = starts.shape
     fill = np.zeros(n_axes, dtype=np.int64)
-    error = np.zeros(n_axes, dtype=np.int64)
+    before = np.zeros(n_axes, dtype=np.int64)
+    state = np.zeros((2, n_axes), dtype=np.int64)
+    origin = np.zeros(1)
+    no_cycle = np.zeros((n_axes, 0), dtype=np.int64)
+    no_due = np.zeros(0, dtype=np.int64)
     for m in range(n_moves):
         if has_profile[m]:
             n = _base_steps(starts[m], ends[m])
-            p = profiles[m]
-            length = p[P_LEN]
+            delta = ends[m] - starts[m]
             for a in range(n_axes):
-                error[a] = 0
-            for k in range(1, n + 1):
-                s = float(k) * length / n
-                tick = np.int64(np.floor((t0s[m] + time_at(s, p)) * rate + 0.5))
-                for a in range(n_axes):
-                    delta = ends[m, a] - starts[m, a]
-                    if delta == 0:
-                        continue
-                    error[a] += 2 * abs(delta)
-                    if error[a] > n or (error[a] == n and (2 * k > n if 2 * k != n else delta < 0)):
-                        error[a] -= 2 * n
-                        out_ticks[a, fill[a]] = tick
-                        out_dirs[a, fill[a]] = 1 if delta > 0 else -1
-                        fill[a] += 1
+                before[a] = fill[a]
+                state[0, a] = 0
+                state[1, a] = n                       # 004: SHORT starts at COUNT = n / d
+            move_requests(dda, n, 0, n, delta, state, profiles[m, P_LEN], t0s[m], origin, origin,
+                          profiles[m:m + 1], rate, out_ticks, no_cycle, fill, no_due)
+            for a in range(n_axes):
+                for j in range(before[a], fill[a]):
+                    out_dirs[a, j] = 1 if delta[a] > 0 else -1
         for a in range(n_axes):
             counts[m, a] = fill[a]
 
 
 @kernel
+def _bresenham_requests(starts, ends, profiles, t0s, has_profile, rate, out_ticks, out_dirs, counts):
+    """Per-axis requested ticks and directions of every move, cycle by cycle (002's execute)."""
+    _plan_requests(False, starts, ends, profiles, t0s, has_profile, rate, out_ticks, out_dirs, counts)
+
+
+@kernel
 def _dda_requests(starts, ends, profiles, t0s, has_profile, rate, out_ticks, out_dirs, counts):
     """The same for 004's digital integration: pulse k of d sits at k·n/d base intervals."""
-    n_moves, n_axes = starts.shape
-    fill = np.zeros(n_axes, dtype=np.int64)
-    for m in range(n_moves):
-        if has_profile[m]:
-            n = _base_steps(starts[m], ends[m])
-            p = profiles[m]
-            length = p[P_LEN]
-            for a in range(n_axes):
-                delta = ends[m, a] - starts[m, a]
-                d = abs(delta)
-                for k in range(1, d + 1):
-                    position = float(k * n) / d
-                    s = position * length / n
-                    out_ticks[a, fill[a]] = np.int64(np.floor((t0s[m] + time_at(s, p)) * rate + 0.5))
-                    out_dirs[a, fill[a]] = 1 if delta > 0 else -1
-                    fill[a] += 1
-        for a in range(n_axes):
-            counts[m, a] = fill[a]
+    _plan_requests(True, starts, ends, profiles, t0s, has_profile, rate, out_ticks, out_dirs, counts)
 
 
 @kernel

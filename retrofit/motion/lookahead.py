@@ -56,11 +56,6 @@ def junction_speed(prev: Kinematics, nxt: Kinematics, deviation_mm: float,
                            use_axes, axis_accel if use_axes else np.zeros(n), axis_step if use_axes else np.zeros(n)))
 
 
-def turns(before: Kinematics, after: Kinematics) -> bool:
-    """True when passing from ``before`` into ``after`` changes direction (the rule of :func:`plan_speeds`)."""
-    return bool(_dot(np.asarray(before.unit, np.float64), np.asarray(after.unit, np.float64)) < 1.0 - 1e-12)
-
-
 @kernel
 def _dot(a, b):
     total = 0.0
@@ -111,33 +106,99 @@ def _jump_limit(before, after, accel, step):
 
 
 @kernel
-def _speeds(units, lengths, v_max, a_max, stop_before, depth, deviation_mm, accel_scale, use_axes,
-            axis_accel, axis_step, entries, exits):
-    """Junctions, turning moves' acceleration cut (``a_max`` in place), then the two passes."""
-    n = lengths.shape[0]
-    junction = np.zeros(n + 1)
-    for i in range(1, n):
+def _junctions(units, lengths, v_max, a_max, stop_before, deviation_mm, use_axes, axis_accel, axis_step,
+               junction):
+    """``junction[i]``: speed from move ``i - 1`` into move ``i`` (``junction[0]`` and ``junction[n]``
+    stay 0: the tool starts and ends at rest)."""
+    for i in range(1, lengths.shape[0]):
         if not (stop_before[i] or lengths[i - 1] == 0.0 or lengths[i] == 0.0):
             junction[i] = _junction(units[i - 1], units[i], v_max[i - 1], v_max[i], a_max[i - 1], a_max[i],
                                     deviation_mm, use_axes, axis_accel, axis_step)
+
+
+@kernel
+def _cut_turning(units, junction, a_max):
+    """A move that turns at speed at either end keeps ``1 - JUNCTION_SHARE`` of its acceleration."""
+    n = a_max.shape[0]
     turns = np.zeros(n + 1, np.bool_)
     for j in range(1, n):
         turns[j] = _dot(units[j - 1], units[j]) < 1.0 - 1e-12
     for i in range(n):
         if (junction[i] > 0.0 and turns[i]) or (junction[i + 1] > 0.0 and turns[i + 1]):
             a_max[i] *= 1.0 - JUNCTION_SHARE
+
+
+@kernel
+def _exit_speed(i, entry, length, last, junction, lengths, v_max, a_max, accel_scale):
+    """Exit speed of move ``i`` entered at ``entry`` with ``length`` mm to go, when the tool must be
+    able to stop at the end of move ``last - 1`` (a backward pass, then what ``i`` can reach)."""
+    v_next = 0.0                                          # stop at the end of what is seen
+    for j in range(last - 1, i, -1):
+        reach = math.sqrt(v_next * v_next + 2.0 * a_max[j] * accel_scale * lengths[j])
+        v_next = min(junction[j], v_max[j], reach)
+    reach_up = math.sqrt(entry * entry + 2.0 * a_max[i] * accel_scale * length)
+    return min(v_next, reach_up, v_max[i])
+
+
+@kernel
+def _speeds(units, lengths, v_max, a_max, stop_before, depth, deviation_mm, accel_scale, use_axes,
+            axis_accel, axis_step, entries, exits):
+    """Junctions, turning moves' acceleration cut (``a_max`` in place), then the two passes."""
+    n = lengths.shape[0]
+    junction = np.zeros(n + 1)
+    _junctions(units, lengths, v_max, a_max, stop_before, deviation_mm, use_axes, axis_accel, axis_step,
+               junction)
+    _cut_turning(units, junction, a_max)
     entry = 0.0
     for i in range(n):
-        last = min(n, i + depth)
-        v_next = 0.0                                      # stop at the end of what is queued
-        for j in range(last - 1, i, -1):
-            reach = math.sqrt(v_next * v_next + 2.0 * a_max[j] * accel_scale * lengths[j])
-            v_next = min(junction[j], v_max[j], reach)
-        reach_up = math.sqrt(entry * entry + 2.0 * a_max[i] * accel_scale * lengths[i])
-        exit_ = min(v_next, reach_up, v_max[i])
+        exit_ = _exit_speed(i, entry, lengths[i], min(n, i + depth), junction, lengths, v_max, a_max,
+                            accel_scale)
         entries[i] = entry
         exits[i] = exit_
         entry = exit_
+
+
+def _arrays(moves: list[Kinematics], n_axes: int):
+    """Units, lengths, speed and acceleration caps and stops of ``moves`` as arrays (a move of no
+    length, such as a dwell, gets a zero direction whatever its own)."""
+    n = len(moves)
+    units = np.zeros((n, n_axes), dtype=np.float64)
+    for i, m in enumerate(moves):
+        if m.length_mm != 0.0:
+            units[i] = m.unit
+    return (units, np.array([m.length_mm for m in moves], dtype=np.float64),
+            np.array([m.v_max_mm_s for m in moves], dtype=np.float64),
+            np.array([m.a_max_mm_s2 for m in moves], dtype=np.float64),
+            np.array([m.stop_before for m in moves], dtype=np.bool_))
+
+
+def _axis_limits(n_axes: int, axis_accel, axis_step):
+    use_axes = axis_accel is not None
+    return (use_axes, np.asarray(axis_accel if use_axes else np.zeros(n_axes), np.float64),
+            np.asarray(axis_step if use_axes else np.zeros(n_axes), np.float64))
+
+
+def plan_window(prev: Kinematics | None, moves: list[Kinematics], entry: float, depth: int,
+                deviation_mm: float, accel_scale: float = 1.0, axis_accel: np.ndarray | None = None,
+                axis_step: np.ndarray | None = None, length: float | None = None) -> tuple[float, float]:
+    """(exit speed, acceleration) of ``moves[0]``, entered at ``entry`` mm/s after ``prev`` (None:
+    from rest), with ``moves[1:]`` queued behind it: :func:`plan_speeds`' rules for one move, run
+    by the same kernels, for a controller that sees its program a window at a time.
+
+    ``length`` replaces the first move's length when only its rest is planned.
+    """
+    ahead = ([prev] if prev is not None else []) + list(moves)
+    i = len(ahead) - len(moves)
+    n_axes = max(len(m.unit) for m in ahead)
+    units, lengths, v_max, a_max, stop_before = _arrays(ahead, n_axes)
+    use_axes, accel, step = _axis_limits(n_axes, axis_accel, axis_step)
+    junction = np.zeros(len(ahead) + 1)
+    _junctions(units, lengths, v_max, a_max, stop_before, float(deviation_mm), use_axes, accel, step, junction)
+    _cut_turning(units, junction, a_max)
+    run = lengths[i] if length is None else length
+    exit_ = _exit_speed(i, float(entry), float(run), min(len(ahead), i + int(depth)), junction, lengths,
+                        v_max, a_max, float(accel_scale))
+    return float(exit_), float(a_max[i])
 
 
 def plan_speeds(moves: list[Kinematics], depth: int, deviation_mm: float, accel_scale: float = 1.0,
@@ -155,16 +216,11 @@ def plan_speeds(moves: list[Kinematics], depth: int, deviation_mm: float, accel_
         return []
     compiled(n * 100)                     # a thousand moves pay for loading the compiler
     n_axes = len(moves[0].unit)
-    units = np.array([m.unit for m in moves], dtype=np.float64).reshape(n, n_axes)
-    lengths = np.array([m.length_mm for m in moves], dtype=np.float64)
-    v_max = np.array([m.v_max_mm_s for m in moves], dtype=np.float64)
-    a_max = np.array([m.a_max_mm_s2 for m in moves], dtype=np.float64)
-    stop_before = np.array([m.stop_before for m in moves], dtype=np.bool_)
-    use_axes = axis_accel is not None
+    units, lengths, v_max, a_max, stop_before = _arrays(moves, n_axes)
+    use_axes, accel, step = _axis_limits(n_axes, axis_accel, axis_step)
     entries, exits = np.zeros(n), np.zeros(n)
     _speeds(units, lengths, v_max, a_max, stop_before, int(depth), float(deviation_mm), float(accel_scale),
-            use_axes, np.asarray(axis_accel if use_axes else np.zeros(n_axes), np.float64),
-            np.asarray(axis_step if use_axes else np.zeros(n_axes), np.float64), entries, exits)
+            use_axes, accel, step, entries, exits)
     for move, a in zip(moves, a_max.tolist()):
         move.a_max_mm_s2 = a
     return list(zip(entries.tolist(), exits.tolist()))

@@ -22,6 +22,8 @@ from .lookahead import Kinematics, plan_speeds
 
 #: the exponential profile starts from this speed (a stepper's start frequency), mm/s
 EXP_START_MM_S = 1.0
+#: the look-ahead's passes assume this share of the acceleration under the exponential profile
+EXP_ACCEL_SCALE = 0.25
 
 
 @dataclass
@@ -67,7 +69,7 @@ def plan_program(commands: Iterable[Command], machine: Machine, backlash_comp: b
     settings = machine.motion
     exponential = settings.profile == "exponential"
     speeds = plan_speeds([s.kin for s in segments], settings.lookahead, settings.junction_deviation_mm,
-                         accel_scale=0.25 if exponential else 1.0,
+                         accel_scale=EXP_ACCEL_SCALE if exponential else 1.0,
                          axis_accel=np.array([a.max_accel_mm_s2 for a in machine.axes]),
                          axis_step=np.array([a.step_mm for a in machine.axes]))
     plan = Plan(machine, start)
@@ -75,15 +77,21 @@ def plan_program(commands: Iterable[Command], machine: Machine, backlash_comp: b
     for seg, (entry, exit_) in zip(segments, speeds):
         row = None
         if seg.kin.length_mm > 0.0:
-            k = seg.kin
-            row = (prof.exponential(k.length_mm, entry, k.v_max_mm_s, exit_, k.a_max_mm_s2,
-                                    min(EXP_START_MM_S, k.v_max_mm_s)) if exponential
-                   else prof.trapezoid(k.length_mm, entry, k.v_max_mm_s, exit_, k.a_max_mm_s2))
+            row = profile_row(seg.kin, entry, exit_, seg.kin.a_max_mm_s2, exponential)
         move = PlannedMove(seg.start, seg.end, seg.target, t, row, seg.dwell_s, seg.index)
         plan.moves.append(move)
         t = t + move.duration_s
     plan.end_s = t
     return plan
+
+
+def profile_row(kin: Kinematics, entry: float, exit_: float, accel: float, exponential: bool) -> np.ndarray:
+    """The velocity profile row of a move of ``kin`` from ``entry`` to ``exit_`` mm/s at ``accel``:
+    an exponential ramp (from a stepper's start speed) or a trapezoid."""
+    if exponential:
+        return prof.exponential(kin.length_mm, entry, kin.v_max_mm_s, exit_, accel,
+                                min(EXP_START_MM_S, kin.v_max_mm_s))
+    return prof.trapezoid(kin.length_mm, entry, kin.v_max_mm_s, exit_, accel)
 
 
 def kinematics(machine: Machine, start: Sequence[int], end: Sequence[int], feed_mm_s: float) -> Kinematics:
