@@ -94,3 +94,45 @@ def test_axis_words_in_the_g80_block_are_refused_as_rs274_does():
     # rs274: "Cannot use axis values with g80"
     with pytest.raises(GcodeError, match=r"p.ngc:1: cannot use axis values with G80"):
         compile_program("G21 G80 X1\n", MACHINE, "p.ngc")
+
+
+# -- comments with a '(' inside -------------------------------------------------------------------
+
+@pytest.mark.parametrize("line, moves", [
+    # GRBL-Plotter's scripts: an inner comment left open, a note in brackets inside a comment
+    ("( G91 G0 Z30 \t\t\t( move brush upwards in relative coordinates)", []),
+    ("(Move to the sensor at machine coordinates (HOMING NEEDED!))", []),
+    ("G0 X1 (a (nested) note) Y2", [(1.0, 2.0, 0.0)]),
+], ids=["inner-open", "inner-pair", "nested-then-words"])
+def test_a_paren_inside_a_comment_is_part_of_it(line, moves):
+    # grbl ends a comment at its first ')' and skips a ')' outside one; a nested pair is read
+    # as one comment (rs274 refuses both: "Nested comment found")
+    assert ends(f"G21\n{line}\nM2\n") == moves
+
+
+def test_a_comment_never_closed_is_still_refused_with_its_line():
+    with pytest.raises(GcodeError, match=r"p.ngc:2: comment '\(' is not closed on this line"):
+        compile_program("G21\nG0 X1 (open (and open\nM2\n", MACHINE, "p.ngc")
+
+
+# -- laser output: S on every G1 line ---------------------------------------------------------------
+
+#: shaped as FluidNC's tree_laser_mode.nc and LaserGRBL raster output: M4 S0, then G1 with an S
+#: power per line, G0 with S0 between the rows
+LASER = ("G21 G90\nG0 X0 Y0\nM4 S0\nF1000\nG0 X71 Y0.333 S0\nG1 X70.667 S43\nX70.333 S65\n"
+         "X70 S43\nG0 X60 Y0.667 S0\nG1 X60.333 S20\nX61 S0\nM5\nM2\n")
+
+
+def test_laser_power_per_line_runs_with_the_power_before_each_move():
+    program = compile_program(LASER, MACHINE, "p.ngc")
+    listing = [str(c) for c in program.commands]
+    assert listing.index("SPIN S43 D-1") < listing.index("PMOV X70.667 Y0.333 Z0")
+    assert listing.index("SPIN S65 D-1") < listing.index("PMOV X70.333 Y0.333 Z0")
+    assert ends(LASER)[-1] == (61.0, 0.667, 0.0)
+
+
+@needs_rs274
+def test_laser_power_per_line_moves_as_rs274(tmp_path):
+    status, body = rs274(LASER, tmp_path)
+    assert status == "ok"
+    compare(canon_events(body), retrofit_points(compile_program(LASER, MACHINE, "p.ngc")))
