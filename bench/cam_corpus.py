@@ -34,6 +34,8 @@ from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
 from retrofit.tooltable import ToolTable
 
+from gcode_corpus import reason  # bench/ is the script's folder: the same reasons, by count
+
 ROOT = Path(__file__).resolve().parent.parent
 SUFFIXES = {".nc", ".ngc", ".gcode", ".gc", ".tap", ".cnc", ".g"}
 #: refusals another machine file would lift
@@ -47,15 +49,6 @@ START = (0.0, 0.0, 0.0)
 
 def programs(folder: Path) -> list[Path]:
     return sorted(p for p in folder.rglob("*") if p.is_file() and p.suffix.lower() in SUFFIXES)
-
-
-def reason(exc: GcodeError) -> str:
-    """The rule of a refusal, without the file, line and numbers."""
-    text = str(exc).split(": ", 1)[-1]
-    text = re.sub(r"([A-Za-z]?)([-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?)(?![A-Za-z])",
-                  lambda m: m.group(0) if m.group(1) in ("G", "M") or m.group(1).islower()
-                  else m.group(1) + "#", text)
-    return re.sub(r"'[^']*'|\"[^\"]*\"", "'..'", text)[:110]
 
 
 def compile_one(path: Path, machine, tools):
