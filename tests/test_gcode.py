@@ -289,7 +289,7 @@ def test_errors_name_file_line_and_rule(lathe, engraver, machine_name, line, tex
     ("G4 P1000000", "G4 P1e+06: a dwell is from 0 to 86400 s"),
     ("G92", "G92 with no axis words"),
     ("G1 G92 X1", "cannot use two G codes that both use axis values: G1 and G92"),
-    ("X1", "cannot use axis values without a G code that uses them"),
+    ("G80 X1", "cannot use axis values with G80"),
     ("G1 X1 N5", "line number N must be the first word of the block"),
     ("G2 X10 Z0 R4", "G2 radius 4.000 mm is too small for the 10.000 mm from start to end"),
     ("G2 X1 Z1 R1" + "0" * 200, "R1e+200: the value is not a finite number within +-1e+09"),

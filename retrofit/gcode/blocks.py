@@ -134,6 +134,9 @@ def _add_code(block: Block, letter: str, value: float) -> None:
         raise RuleError(f"unknown {'G' if letter == 'G' else 'M'} code used: {name}")
     group = groups[code]
     codes = block.g if letter == "G" else block.m
+    if group == "motion" and 80 in (code, codes.get(group)) and group in codes:
+        codes[group] = code if code != 80 else codes[group]   # as rs274: the other code wins
+        return
     if group in codes:
         raise RuleError(f"two {letter} codes used from the same modal group ({group}): "
                         f"{code_name(letter, codes[group])} and {name}")

@@ -3,7 +3,9 @@
 Only ``\\n``, ``\\r\\n`` and ``\\r`` end a line (a form feed or U+2028 inside a comment stays in the
 comment). On each line, as LinuxCNC reads it:
 
-* ``( ... )`` comments end on the same line, ``;`` starts a comment to the end of the line;
+* ``( ... )`` comments end on the same line (a ``(`` inside one nests, or where the line has too
+  few ``)`` to match, the first ``)`` ends it, as grbl reads it); ``;`` starts a comment to the
+  end of the line;
   ``(MSG,text)``, ``(DEBUG,text)`` and ``(PRINT,text)`` are kept as messages;
 * spaces are ignored and letters are upper-cased (``g 1 x - 5`` is ``G1X-5``);
 * a ``/`` first (block delete) is ignored: LinuxCNC's block-delete switch is off by default and
@@ -128,17 +130,28 @@ def _code_and_comments(raw: str) -> tuple[str, list]:
             out.append(raw[pos:])
             break
         out.append(raw[pos:paren])
-        close = raw.find(")", paren + 1)
-        if close < 0:
-            raise RuleError("comment '(' is not closed on this line (a comment ends with ')')")
-        if "(" in raw[paren + 1:close]:
-            raise RuleError("nested comment: '(' inside a ( ... ) comment")
+        close = _comment_end(raw, paren)
         _message(raw[paren + 1:close], messages)
         pos = close + 1
     code = "".join("".join(out).split()).upper()
     if ")" in code:
         raise RuleError("')' without an opening '('")
     return code, messages
+
+
+def _comment_end(raw: str, paren: int) -> int:
+    """Where the comment opened at ``raw[paren]`` closes. A ``(`` inside it nests, so the comment
+    ends at the matching ``)``; when the line has too few ``)`` for that, at the first one, as
+    grbl reads it (rs274 refuses both: "nested comment")."""
+    first = raw.find(")", paren + 1)
+    if first < 0:
+        raise RuleError("comment '(' is not closed on this line (a comment ends with ')')")
+    depth = 0
+    for pos in range(paren, len(raw)):
+        depth += {"(": 1, ")": -1}.get(raw[pos], 0)
+        if depth == 0:
+            return pos
+    return first
 
 
 def _message(text: str, messages: list) -> None:

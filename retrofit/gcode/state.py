@@ -43,6 +43,7 @@ class ModalState:
     feed_mm_min: float                  # programmed feed (F), or the machine's default
     params: Parameters = field(default_factory=Parameters)
     motion: float | None = None         # the motion mode (0, 1, 2, 3, 33, 73, 81...); None: G80
+    motion_given: bool = False          # a motion code (or G80) has been programmed
     inch: bool = False                  # G20 (True) or G21
     incremental: bool = False           # G91 (True) or G90
     arc_incremental: bool = True        # G91.1 (True, the default) or G90.1

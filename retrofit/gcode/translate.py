@@ -64,6 +64,8 @@ class Translator:
         if not block.m and (not g or (len(g) == 1 and g.get("motion") in (0, 1))) \
                 and not block.values.keys() - _PLAIN_VALUES:
             return self._plain(block)
+        if block.motion is not None:
+            s.motion_given = True
         mode = block.motion if block.motion is not None else s.motion
         check_word_use(block, mode)
         if self.comp.on:
@@ -120,7 +122,7 @@ class Translator:
         if "F" in block.values:
             self._feed_word(block.values["F"])
         if block.g:
-            self.state.motion = block.g["motion"]
+            self.state.motion, self.state.motion_given = block.g["motion"], True
             self.state.cycle_start = None
             self.state.nurbs = None
         self._motion(block, self.state.motion)
@@ -219,6 +221,8 @@ class Translator:
 
     # -- motion ----------------------------------------------------------------------------
     def _motion(self, block: Block, mode) -> None:
+        if mode is None and block.axes and not self.state.motion_given:
+            mode = self.state.motion = 0      # grbl: G0 is the motion mode from power-up
         if self.comp.watching and radiuscomp.motion(self, block, mode):
             return
         if mode in splines.MODES:
@@ -231,6 +235,9 @@ class Translator:
         if mode is None:
             raise RuleError("cannot use axis values without a G code that uses them (no motion "
                             "mode: G80 is in force; give G0, G1, G2 or G3)")
+        if mode == 80:
+            raise RuleError("cannot use axis values with G80 (it ends the motion mode; give G0, "
+                            "G1, G2 or G3)")
         machine_coords = block.g.get("non-modal") == 53
         if machine_coords and mode not in (0, 1):
             raise RuleError(f"G53 works with G0 or G1 only, not G{mode:g}")
