@@ -132,7 +132,7 @@ def stream_all(plan) -> int:
     """Every chunk of the plan's port frames, made and dropped (the streamed fast path)."""
     from retrofit.motion.stream import stream_frames
     frames = 0
-    for chunk in stream_frames(plan, 1 << 15, on_waypoint=lambda w: None):
+    for chunk in stream_frames(plan, 1 << 15, on_waypoints=lambda *columns: None):
         frames += len(chunk.ticks)
     return frames
 

@@ -255,7 +255,8 @@ def shape_fast(plan: Plan, requests: StepRequests):
 
 def plan_steps(plan: Plan) -> int:
     """Steps of all axes over the whole plan (the work a run has to do)."""
-    return sum(sum(abs(e - s) for s, e in zip(m.start, m.end)) for m in plan.moves if m.profile is not None)
+    a = plan.arrays()
+    return int((np.abs(a.ends - a.starts).sum(axis=1) * a.has_profile).sum())
 
 
 def execute_fast(plan: Plan):

@@ -160,11 +160,21 @@ def plan_speeds(moves: list[Kinematics], depth: int, deviation_mm: float, accel_
     v_max = np.array([m.v_max_mm_s for m in moves], dtype=np.float64)
     a_max = np.array([m.a_max_mm_s2 for m in moves], dtype=np.float64)
     stop_before = np.array([m.stop_before for m in moves], dtype=np.bool_)
-    use_axes = axis_accel is not None
-    entries, exits = np.zeros(n), np.zeros(n)
-    _speeds(units, lengths, v_max, a_max, stop_before, int(depth), float(deviation_mm), float(accel_scale),
-            use_axes, np.asarray(axis_accel if use_axes else np.zeros(n_axes), np.float64),
-            np.asarray(axis_step if use_axes else np.zeros(n_axes), np.float64), entries, exits)
+    entries, exits = speeds_of(units, lengths, v_max, a_max, stop_before, depth, deviation_mm, accel_scale,
+                               axis_accel, axis_step)
     for move, a in zip(moves, a_max.tolist()):
         move.a_max_mm_s2 = a
     return list(zip(entries.tolist(), exits.tolist()))
+
+
+def speeds_of(units, lengths, v_max, a_max, stop_before, depth: int, deviation_mm: float, accel_scale: float = 1.0,
+              axis_accel: np.ndarray | None = None, axis_step: np.ndarray | None = None):
+    """:func:`plan_speeds` on columns (``units`` [moves, axes], the rest [moves]): the (entries,
+    exits) arrays; ``a_max`` is cut in place for turning moves."""
+    n_axes = units.shape[1]
+    use_axes = axis_accel is not None
+    entries, exits = np.zeros(len(lengths)), np.zeros(len(lengths))
+    _speeds(units, lengths, v_max, a_max, stop_before, int(depth), float(deviation_mm), float(accel_scale),
+            use_axes, np.asarray(axis_accel if use_axes else np.zeros(n_axes), np.float64),
+            np.asarray(axis_step if use_axes else np.zeros(n_axes), np.float64), entries, exits)
+    return entries, exits

@@ -78,20 +78,27 @@ def _exponential_time(s, p):
 
 def trapezoid(length: float, v0: float, vc: float, v1: float, a: float) -> np.ndarray:
     """Profile row of a trapezoid over ``length`` mm (speeds mm/s, ``a`` mm/s²)."""
+    row = np.zeros(P_WIDTH)
+    trapezoid_into(row, length, v0, vc, v1, a)
+    return row
+
+
+@kernel
+def trapezoid_into(row, length, v0, vc, v1, a):
+    """Write the trapezoid's profile row into ``row`` (zeros beyond its columns)."""
     vc = max(vc, v0, v1)
     d1 = (vc * vc - v0 * v0) / (2.0 * a)
     d2 = (vc * vc - v1 * v1) / (2.0 * a)
     if d1 + d2 > length:                                # a triangle: the peak the length allows
-        vc = math.sqrt(max((2.0 * a * length + v0 * v0 + v1 * v1) / 2.0, max(v0, v1) ** 2))
+        faster = max(v0, v1)
+        vc = math.sqrt(max((2.0 * a * length + v0 * v0 + v1 * v1) / 2.0, faster * faster))
         d1 = min(max((vc * vc - v0 * v0) / (2.0 * a), 0.0), length)
         d2 = length - d1
-    t1 = (vc - v0) / a
-    tc = (length - d1 - d2) / vc if vc > 0 else 0.0
-    t2 = (vc - v1) / a
-    row = np.zeros(P_WIDTH)
-    row[[P_KIND, P_V0, P_VC, P_V1, P_A, P_LEN, P_D1, P_D2, P_T1, P_TC, P_T2]] = (
-        TRAPEZOID, v0, vc, v1, a, length, d1, d2, t1, tc, t2)
-    return row
+    row[P_KIND], row[P_V0], row[P_VC], row[P_V1], row[P_A] = TRAPEZOID, v0, vc, v1, a
+    row[P_LEN], row[P_D1], row[P_D2] = length, d1, d2
+    row[P_T1] = (vc - v0) / a
+    row[P_TC] = (length - d1 - d2) / vc if vc > 0 else 0.0
+    row[P_T2] = (vc - v1) / a
 
 
 def _ramp(v_start: float, v_end: float, a: float) -> tuple[float, float, float, float]:

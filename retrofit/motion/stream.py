@@ -20,11 +20,12 @@ from typing import Callable, Iterator
 import numpy as np
 
 from ..frames import PinMap, PortFrames
-from ..runlog import RunLog, Waypoint
+from ..runlog import RunLog, WaypointTable
 from ._jit import compiled, kernel
 from .execute import tick_of
-from .fast import _bresenham_requests, _dda_requests
+from .fast import _bresenham_requests, _dda_requests, plan_steps
 from .planner import Plan
+from .profile import P_T1, P_T2, P_TC
 
 _NEVER = -(1 << 40)
 _BIG = np.int64(1) << 62
@@ -149,63 +150,76 @@ class _Axes:
         self.risen_before = np.zeros(n_axes, np.int64)   # rises dropped from ``open_rises``
 
 
-def _window_requests(plan: Plan, lo: int, hi: int, rate: float):
-    """Step requests (wanted ticks, dirs) per axis of moves lo..hi-1 and each move's counts."""
-    machine = plan.machine
-    moves = plan.moves[lo:hi]
-    n_axes, n_moves = len(machine.axes), len(moves)
-    starts = np.array([m.start for m in moves], dtype=np.int64).reshape(n_moves, n_axes)
-    ends = np.array([m.end for m in moves], dtype=np.int64).reshape(n_moves, n_axes)
-    has_profile = np.array([m.profile is not None for m in moves], dtype=np.bool_)
-    profiles = np.zeros((n_moves, 15))
-    for i, move in enumerate(moves):
-        if move.profile is not None:
-            profiles[i] = move.profile
-    t0s = np.array([m.t0_s for m in moves], dtype=np.float64)
-    totals = np.abs(ends - starts)[has_profile].sum(axis=0) if n_moves else np.zeros(n_axes, np.int64)
-    width = int(totals.max()) if n_moves else 0
-    ticks = np.zeros((n_axes, width), dtype=np.int64)
-    dirs = np.zeros((n_axes, width), dtype=np.int8)
-    counts = np.zeros((n_moves, n_axes), dtype=np.int64)
-    requests = _dda_requests if machine.motion.interpolator == "dda" else _bresenham_requests
-    if n_moves:
-        requests(starts, ends, profiles, t0s, has_profile, rate, ticks, dirs, counts)
-    return [ticks[a, :int(totals[a])] for a in range(n_axes)], [dirs[a, :int(totals[a])] for a in range(n_axes)], counts
+class _Columns:
+    """What the stream reads of every move, as arrays: the plan's columns, steps per move, the
+    tick each move is loaded and ends, and the next move stepping each axis."""
+
+    def __init__(self, plan: Plan, rate: float):
+        a = self.arrays = plan.arrays()
+        self.sizes = np.abs(a.ends - a.starts).sum(axis=1) * a.has_profile
+        self.cumulative = np.cumsum(self.sizes)
+        self.loaded = np.floor(a.t0s * rate + 0.5).astype(np.int64)           # execute.tick_of
+        p = a.profiles
+        durations = np.where(a.has_profile, p[:, P_T1] + p[:, P_TC] + p[:, P_T2], a.dwells)
+        self.ends = np.floor((a.t0s + durations) * rate + 0.5).astype(np.int64)
+        n, n_axes = a.starts.shape
+        self.next_tick = np.empty((n + 1, n_axes), np.int64)
+        self.next_dir = np.empty((n + 1, n_axes), np.int8)
+        _next_moves(a.starts, a.ends, a.has_profile, self.loaded, self.next_tick, self.next_dir)
+
+    def window_end(self, lo: int, window_steps: int) -> int:
+        """End of the window of moves from ``lo``: as many as fit ``window_steps``, at least one."""
+        base = int(self.cumulative[lo - 1]) if lo else 0
+        return max(int(np.searchsorted(self.cumulative, base + window_steps, side="right")), lo + 1)
 
 
-def _next_moves(plan: Plan) -> np.ndarray:
-    """For each move boundary b (0..n) and axis: (start tick, direction) of the first move at or after
-    b that steps the axis, as arrays [n+1, axes] (tick _BIG and direction 0 when there is none)."""
-    n, n_axes = len(plan.moves), len(plan.machine.axes)
-    rate = 1e6 / plan.machine.tick_us
-    ticks = np.full((n + 1, n_axes), _BIG, np.int64)
-    dirs = np.zeros((n + 1, n_axes), np.int8)
+@kernel
+def _next_moves(starts, ends, has_profile, loaded, ticks, dirs):
+    """For each move boundary b (0..n) and axis: (start tick, direction) of the first move at or
+    after b that steps the axis (tick _BIG and direction 0 when there is none)."""
+    n, n_axes = starts.shape
+    for a in range(n_axes):
+        ticks[n, a], dirs[n, a] = _BIG, 0
     for m in range(n - 1, -1, -1):
-        ticks[m], dirs[m] = ticks[m + 1], dirs[m + 1]
-        move = plan.moves[m]
-        if move.profile is None:
-            continue
-        t = tick_of(move.t0_s, rate)
-        for a, (s, e) in enumerate(zip(move.start, move.end)):
-            if e != s:
-                ticks[m, a], dirs[m, a] = t, 1 if e > s else -1
-    return ticks, dirs
+        for a in range(n_axes):
+            ticks[m, a], dirs[m, a] = ticks[m + 1, a], dirs[m + 1, a]
+            if has_profile[m] and ends[m, a] != starts[m, a]:
+                ticks[m, a] = loaded[m]
+                dirs[m, a] = 1 if ends[m, a] > starts[m, a] else -1
+
+
+def _window_requests(plan: Plan, cols: _Columns, lo: int, hi: int, rate: float):
+    """Step requests (wanted ticks, dirs) per axis of moves lo..hi-1 and each move's counts."""
+    a = cols.arrays
+    n_axes, n_moves = a.starts.shape[1], hi - lo
+    starts, ends, has_profile = a.starts[lo:hi], a.ends[lo:hi], a.has_profile[lo:hi]
+    totals = (np.abs(ends - starts) * has_profile[:, None]).sum(axis=0)
+    width = int(totals.max())
+    ticks = np.empty((n_axes, width), dtype=np.int64)
+    dirs = np.empty((n_axes, width), dtype=np.int8)
+    counts = np.empty((n_moves, n_axes), dtype=np.int64)
+    requests = _dda_requests if plan.machine.motion.interpolator == "dda" else _bresenham_requests
+    requests(starts, ends, a.profiles[lo:hi], a.t0s[lo:hi], has_profile, rate, ticks, dirs, counts)
+    return [ticks[k, :int(totals[k])] for k in range(n_axes)], [dirs[k, :int(totals[k])] for k in range(n_axes)], counts
 
 
 def stream_frames(plan: Plan, window_steps: int = 1 << 20,
-                  on_waypoint: Callable[[Waypoint], None] | None = None,
+                  on_waypoints: Callable[[np.ndarray, np.ndarray, np.ndarray], None] | None = None,
                   progress: Callable[[float], None] | None = None) -> Iterator[PortFrames]:
     """The plan's port frames in consecutive chunks (equal, joined, to ``execute_fast``'s).
 
-    Moves are taken in windows of about ``window_steps`` steps. ``on_waypoint`` gets each move's
-    waypoint as soon as its last step is known; ``progress`` the fraction of moves done. The
-    generator's return value (``StopIteration.value``) is a :class:`StreamStats`.
+    Moves are taken in windows of about ``window_steps`` steps. ``on_waypoints(steps, loaded,
+    reached)`` gets the waypoints of each window's moves (arrays) as soon as their last steps are
+    known; ``progress`` the fraction of moves done. The generator's return value
+    (``StopIteration.value``) is a :class:`StreamStats`.
     """
     machine = plan.machine
     pins = PinMap(machine)
-    n_axes, n_moves = len(machine.axes), len(plan.moves)
+    n_axes, n_moves = len(machine.axes), len(plan.arrays())
     rate = 1e6 / machine.tick_us
-    next_tick, next_dir = _next_moves(plan)
+    if not compiled(plan_steps(plan)):           # a small run: one chunk by NumPy, no compiler to load
+        return (yield from _whole_run(plan, on_waypoints, progress))
+    cols = _Columns(plan, rate)
     period = np.array([a.pulse_high_ticks + a.pulse_low_ticks for a in machine.axes], np.int64)
     high = np.array([a.pulse_high_ticks for a in machine.axes], np.int64)
     step_mask = np.array(pins.step_masks, np.int64)
@@ -217,34 +231,31 @@ def stream_frames(plan: Plan, window_steps: int = 1 << 20,
     end = tick_of(plan.end_s, rate)
     first = True
     chunk_end = 0
-    sizes = [sum(abs(e - s) for s, e in zip(m.start, m.end)) if m.profile is not None else 0 for m in plan.moves]
-    if not compiled(sum(sizes)):           # a small run: one chunk by NumPy, no compiler to load
-        return (yield from _whole_run(plan, on_waypoint, progress))
     lo = 0
     while lo < n_moves or first:
-        hi, total = lo, 0
-        while hi < n_moves and (hi == lo or total + sizes[hi] <= window_steps):
-            total += sizes[hi]
-            hi += 1
-        wanted, dirs, counts = _window_requests(plan, lo, hi, rate)
+        hi = cols.window_end(lo, window_steps) if n_moves else 0
+        wanted, dirs, counts = _window_requests(plan, cols, lo, hi, rate) if n_moves else ([], [], None)
         window_rises = []
         for a, axis in enumerate(machine.axes):
-            rises = np.empty(len(wanted[a]), np.int64)
-            turn_ticks = np.empty(len(wanted[a]), np.int64)
-            turn_dirs = np.empty(len(wanted[a]), np.int8)
-            k = _shape_from(shape_state[a], wanted[a], dirs[a], period[a], axis.dir_setup_ticks,
-                            axis.dir_hold_ticks, rises, turn_ticks, turn_dirs)
-            _append(pending, a, rises, turn_ticks[:k], turn_dirs[:k], wanted[a])
-            window_rises.append(rises)
-            if len(rises):
+            size = len(wanted[a]) if n_moves else 0
+            rises = np.empty(size, np.int64)
+            turn_ticks = np.empty(size, np.int64)
+            turn_dirs = np.empty(size, np.int8)
+            if size:
+                k = _shape_from(shape_state[a], wanted[a], dirs[a], period[a], axis.dir_setup_ticks,
+                                axis.dir_hold_ticks, rises, turn_ticks, turn_dirs)
+                _append(pending, a, rises, turn_ticks[:k], turn_dirs[:k], wanted[a])
                 end = max(end, int(rises[-1]) + int(period[a]) - 1)
-            stats.steps[a] += len(rises)
-        _waypoints(plan, lo, hi, rate, counts, window_rises, on_waypoint)
+            window_rises.append(rises)
+            stats.steps[a] += size
+        if on_waypoints is not None and hi > lo:
+            on_waypoints(cols.arrays.targets[lo:hi], cols.loaded[lo:hi],
+                         _reached(counts, window_rises, cols.ends[lo:hi]))
         stats.lag = max(stats.lag, _settle_lag(pending, final=hi >= n_moves))
         limit = _BIG
         if hi < n_moves:      # no later event, and no later waypoint, comes before the limit
-            limit = min(_limit(shape_state, next_tick[hi], next_dir[hi], period, machine),
-                        tick_of(plan.moves[hi].t0_s, rate))
+            limit = min(_limit(shape_state, cols.next_tick[hi], cols.next_dir[hi], period, machine),
+                        int(cols.loaded[hi]))
         chunk = _merge(pending, limit, high, step_mask, dir_mask, pins.invert, bits_last, first)
         first = False
         chunk_end = max(chunk_end, limit) if hi < n_moves else max(end, 0) + 1
@@ -259,13 +270,25 @@ def stream_frames(plan: Plan, window_steps: int = 1 << 20,
     return stats
 
 
-def _whole_run(plan: Plan, on_waypoint, progress):
+def _reached(counts, window_rises, move_ends) -> np.ndarray:
+    """Each move's reached tick: its last rising edge (``execute.run_log``'s rule), else its end."""
+    reached = np.full(len(counts), -1, np.int64)
+    for a, rises in enumerate(window_rises):
+        c = counts[:, a]
+        stepped = c > np.concatenate(([0], c[:-1]))
+        if stepped.any():
+            reached[stepped] = np.maximum(reached[stepped], rises[c[stepped] - 1])
+    return np.where(reached >= 0, reached, move_ends)
+
+
+def _whole_run(plan: Plan, on_waypoints, progress):
     """The whole run as one chunk (``execute_numpy``, the same frames), for small programs."""
     from .vectorised import execute_numpy
     log = execute_numpy(plan)
-    for waypoint in log.waypoints:
-        if on_waypoint is not None:
-            on_waypoint(waypoint)
+    if on_waypoints is not None and log.waypoints:
+        on_waypoints(np.array([w.steps for w in log.waypoints], np.int64),
+                     np.array([w.loaded_tick for w in log.waypoints], np.int64),
+                     np.array([w.reached_tick for w in log.waypoints], np.int64))
     yield log.frames
     if progress is not None:
         progress(1.0)
@@ -279,20 +302,6 @@ def _append(pending: _Axes, a: int, rises, turn_ticks, turn_dirs, wanted) -> Non
     pending.turn_dirs[a] = np.concatenate((pending.turn_dirs[a], turn_dirs))
     pending.wanted[a] = np.concatenate((pending.wanted[a], wanted))
     pending.open_rises[a] = np.concatenate((pending.open_rises[a], rises))
-
-
-def _waypoints(plan: Plan, lo: int, hi: int, rate: float, counts, window_rises, on_waypoint) -> None:
-    """Each move's waypoint: reached at its last rising edge (``execute.run_log``'s rule)."""
-    if on_waypoint is None:
-        return
-    n_axes = counts.shape[1] if len(counts) else 0
-    for m in range(lo, hi):
-        row = counts[m - lo]
-        last = [int(window_rises[a][row[a] - 1]) for a in range(n_axes)
-                if row[a] > 0 and (m == lo or row[a] > counts[m - lo - 1][a])]
-        move = plan.moves[m]
-        reached = max(last) if last else tick_of(move.t0_s + move.duration_s, rate)
-        on_waypoint(Waypoint(move.target, loaded_tick=tick_of(move.t0_s, rate), reached_tick=reached))
 
 
 def _settle_lag(pending: _Axes, final: bool) -> int:
@@ -368,9 +377,9 @@ def _merge(pending: _Axes, limit: int, high, step_mask, dir_mask, invert: int, b
 def execute_streamed(plan: Plan, window_steps: int = 1 << 20) -> RunLog:
     """The whole run through :func:`stream_frames`, joined into one ``RunLog`` (for tests and
     small programs; a long run should consume the chunks as they come)."""
-    waypoints: list[Waypoint] = []
+    table = WaypointTable(len(plan.machine.axes))
     chunks = []
-    gen = stream_frames(plan, window_steps, on_waypoint=waypoints.append)
+    gen = stream_frames(plan, window_steps, on_waypoints=table.add)
     while True:
         try:
             chunks.append(next(gen))
@@ -379,7 +388,7 @@ def execute_streamed(plan: Plan, window_steps: int = 1 << 20) -> RunLog:
             break
     frames = PortFrames(np.concatenate([c.ticks for c in chunks]), np.concatenate([c.values for c in chunks]),
                         stats.end_tick)
-    log = RunLog(plan.machine, frames, waypoints=waypoints, start_steps=plan.start_steps)
+    log = RunLog(plan.machine, frames, waypoints=list(table), start_steps=plan.start_steps)
     log.steps_emitted = {a.name: int(n) for a, n in zip(plan.machine.axes, stats.steps)}
     log.max_following_error_steps = int(stats.lag)
     return log

@@ -11,8 +11,10 @@ from __future__ import annotations
 
 from typing import Callable
 
+import numpy as np
+
 from ..frames import PortFrames
-from ..runlog import RunLog
+from ..runlog import RunLog, WaypointTable
 from . import open_output
 from .sim import SimOutput
 
@@ -42,19 +44,22 @@ def deliver_plan(plan, urls: list[str], progress: Callable[[float], None] | None
             out.open()
         sim = sims[0].sim if sims else SimMachine(machine, plan.start_steps, **trace)
         feeds = [out.write for out in outputs] + ([] if sims else [sim.feed])
-        waypoints = log.waypoints
-        gen = stream_frames(plan, window_steps, on_waypoint=waypoints.append, progress=progress)
-        seen = 0
+        table = log.waypoints = WaypointTable(len(machine.axes))
+        watched = []
+
+        def waypoints(steps, loaded, reached) -> None:
+            table.add(steps, loaded, reached)
+            watched.append(reached)
+        gen = stream_frames(plan, window_steps, on_waypoints=waypoints, progress=progress)
         while True:
             try:
                 chunk = next(gen)
             except StopIteration as stop:
                 stats = stop.value
                 break
-            watched = [w.reached_tick for w in waypoints[seen:] if w.reached_tick is not None]
-            seen = len(waypoints)
             for s in {id(x.sim): x.sim for x in sims}.values() if sims else (sim,):
-                s.watch(watched)
+                s.watch(np.concatenate(watched) if watched else ())
+            watched.clear()
             for feed in feeds:
                 feed(chunk)
     finally:
