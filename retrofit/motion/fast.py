@@ -20,7 +20,7 @@ from ..frames import PinMap, PortFrames
 from ._jit import compiled, kernel
 from .execute import StepRequests, run_log, tick_of
 from .planner import Plan
-from .profile import P_LEN, time_at
+from .profile import P_LEN, ticks_at
 
 _NEVER = -(1 << 40)
 
@@ -42,16 +42,21 @@ def _bresenham_requests(starts, ends, profiles, t0s, has_profile, rate, out_tick
     n_moves, n_axes = starts.shape
     fill = np.zeros(n_axes, dtype=np.int64)
     error = np.zeros(n_axes, dtype=np.int64)
+    s = np.empty(1024)
+    ticks = np.empty(1024, np.int64)
     for m in range(n_moves):
         if has_profile[m]:
             n = _base_steps(starts[m], ends[m])
             p = profiles[m]
             length = p[P_LEN]
+            if n > s.shape[0]:
+                s, ticks = np.empty(2 * n), np.empty(2 * n, np.int64)
+            for k in range(n):                                  # cycle k + 1 of n
+                s[k] = float(k + 1) * length / n
+            ticks_at(s[:n], p, t0s[m], rate, ticks[:n])
             for a in range(n_axes):
                 error[a] = 0
             for k in range(1, n + 1):
-                s = float(k) * length / n
-                tick = np.int64(np.floor((t0s[m] + time_at(s, p)) * rate + 0.5))
                 for a in range(n_axes):
                     delta = ends[m, a] - starts[m, a]
                     if delta == 0:
@@ -59,7 +64,7 @@ def _bresenham_requests(starts, ends, profiles, t0s, has_profile, rate, out_tick
                     error[a] += 2 * abs(delta)
                     if error[a] > n or (error[a] == n and (2 * k > n if 2 * k != n else delta < 0)):
                         error[a] -= 2 * n
-                        out_ticks[a, fill[a]] = tick
+                        out_ticks[a, fill[a]] = ticks[k - 1]
                         out_dirs[a, fill[a]] = 1 if delta > 0 else -1
                         fill[a] += 1
         for a in range(n_axes):
@@ -70,23 +75,24 @@ def _bresenham_requests(starts, ends, profiles, t0s, has_profile, rate, out_tick
 def _dda_requests(starts, ends, profiles, t0s, has_profile, rate, out_ticks, out_dirs, counts):
     """The same for 004's digital integration: pulse k of d sits at k·n/d base intervals."""
     n_moves, n_axes = starts.shape
-    fill = np.zeros(n_axes, dtype=np.int64)
-    for m in range(n_moves):
-        if has_profile[m]:
-            n = _base_steps(starts[m], ends[m])
-            p = profiles[m]
-            length = p[P_LEN]
-            for a in range(n_axes):
+    s = np.empty(1024)
+    for a in range(n_axes):
+        fill = 0
+        for m in range(n_moves):
+            if has_profile[m]:
+                n = _base_steps(starts[m], ends[m])
+                length = profiles[m, P_LEN]
                 delta = ends[m, a] - starts[m, a]
                 d = abs(delta)
-                for k in range(1, d + 1):
-                    position = float(k * n) / d
-                    s = position * length / n
-                    out_ticks[a, fill[a]] = np.int64(np.floor((t0s[m] + time_at(s, p)) * rate + 0.5))
-                    out_dirs[a, fill[a]] = 1 if delta > 0 else -1
-                    fill[a] += 1
-        for a in range(n_axes):
-            counts[m, a] = fill[a]
+                if d > s.shape[0]:
+                    s = np.empty(2 * d)
+                for k in range(d):                              # pulse k + 1 of d
+                    position = float((k + 1) * n) / d
+                    s[k] = position * length / n
+                ticks_at(s[:d], profiles[m], t0s[m], rate, out_ticks[a, fill:fill + d])
+                out_dirs[a, fill:fill + d] = 1 if delta > 0 else -1
+                fill += d
+            counts[m, a] = fill
 
 
 @kernel

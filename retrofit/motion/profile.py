@@ -40,6 +40,35 @@ def time_at(s: float, p) -> float:
 
 
 @kernel
+def ticks_at(s, p, t0, rate, out) -> None:
+    """``out[k]``: the tick nearest ``t0 + time_at(s[k], p)`` (``s`` non-decreasing), at ``rate``
+    ticks per second. The same floats as :func:`time_at` step by step; a trapezoid's three
+    parts are taken as three branch-free loops, which the compiler runs several steps at a time."""
+    count = s.shape[0]
+    if p[P_KIND] != TRAPEZOID:
+        for k in range(count):
+            out[k] = np.int64(np.floor((t0 + time_at(s[k], p)) * rate + 0.5))
+        return
+    a, vc, v0, d1 = p[P_A], p[P_VC], p[P_V0], p[P_D1]
+    cruise_end = p[P_LEN] - p[P_D2]
+    k1 = 0
+    while k1 < count and s[k1] <= d1:
+        k1 += 1
+    k2 = k1
+    while k2 < count and s[k2] <= cruise_end:
+        k2 += 1
+    for k in range(k1):
+        out[k] = np.int64(np.floor((t0 + (math.sqrt(v0 * v0 + 2.0 * a * s[k]) - v0) / a) * rate + 0.5))
+    t1 = p[P_T1]
+    for k in range(k1, k2):
+        out[k] = np.int64(np.floor((t0 + (t1 + (s[k] - d1) / vc)) * rate + 0.5))
+    t12 = p[P_T1] + p[P_TC]
+    for k in range(k2, count):
+        under = max(vc * vc - 2.0 * a * (s[k] - cruise_end), 0.0)
+        out[k] = np.int64(np.floor((t0 + (t12 + (vc - math.sqrt(under)) / a)) * rate + 0.5))
+
+
+@kernel
 def _trapezoid_time(s, p):
     a, vc = p[P_A], p[P_VC]
     if s <= p[P_D1]:
