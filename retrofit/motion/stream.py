@@ -61,59 +61,6 @@ def _shape_from(state, wanted, dirs, period, setup, hold, rises, turn_ticks, tur
 
 
 @kernel
-def _merge_until(limit, rises, rise_start, i_rise, i_fall, turns, turn_dirs, turn_start, i_turn,
-                 high, step_mask, dir_mask, invert, bits_last, out_ticks, out_values):
-    """``fast._frames`` for the events before ``limit``, from the per-axis positions given.
-
-    ``bits_last`` = [logical bits, last byte written (-1: none)]; positions and bits are updated.
-    """
-    n_axes = high.shape[0]
-    bits, last = bits_last[0], bits_last[1]
-    count = 0
-    upcoming = np.full(n_axes, -1, np.int64)               # -1: work out this axis's next event
-    while True:
-        tick = _BIG
-        for a in range(n_axes):
-            if upcoming[a] < 0:
-                nxt = _BIG
-                if i_fall[a] < rise_start[a + 1]:
-                    nxt = rises[i_fall[a]] + high[a]
-                if i_rise[a] < rise_start[a + 1] and rises[i_rise[a]] < nxt:
-                    nxt = rises[i_rise[a]]
-                if i_turn[a] < turn_start[a + 1] and turns[i_turn[a]] < nxt:
-                    nxt = turns[i_turn[a]]
-                upcoming[a] = nxt
-            if upcoming[a] < tick:
-                tick = upcoming[a]
-        if tick >= limit:
-            break
-        for a in range(n_axes):
-            if upcoming[a] != tick:
-                continue
-            if i_fall[a] < rise_start[a + 1] and rises[i_fall[a]] + high[a] == tick:
-                bits &= ~step_mask[a]
-                i_fall[a] += 1
-            if i_turn[a] < turn_start[a + 1] and turns[i_turn[a]] == tick:
-                if turn_dirs[i_turn[a]] > 0:
-                    bits |= dir_mask[a]
-                else:
-                    bits &= ~dir_mask[a]
-                i_turn[a] += 1
-            if i_rise[a] < rise_start[a + 1] and rises[i_rise[a]] == tick:
-                bits |= step_mask[a]
-                i_rise[a] += 1
-            upcoming[a] = -1
-        value = bits ^ invert
-        if value != last:
-            out_ticks[count] = tick
-            out_values[count] = value
-            last = value
-            count += 1
-    bits_last[0], bits_last[1] = bits, last
-    return count
-
-
-@kernel
 def _lag_of(wanted, rises, due_before, risen_before):
     """Most steps due (wanted by a rise's tick) but not yet risen, over ``rises`` (a merge walk)."""
     lag = 0
@@ -340,38 +287,126 @@ def _limit(shape_state, next_tick, next_dir, period, machine) -> int:
 
 
 def _merge(pending: _Axes, limit: int, high, step_mask, dir_mask, invert: int, bits_last, first: bool) -> PortFrames:
-    """Port frames of the pending events before ``limit``; what is merged leaves ``pending``."""
-    n_axes = len(pending.rises)
-    rise_start = np.zeros(n_axes + 1, np.int64)
-    turn_start = np.zeros(n_axes + 1, np.int64)
-    for a in range(n_axes):
-        rise_start[a + 1] = rise_start[a] + len(pending.rises[a])
-        turn_start[a + 1] = turn_start[a] + len(pending.turns[a])
-    rises = np.concatenate(pending.rises) if n_axes else np.zeros(0, np.int64)
-    turns = np.concatenate(pending.turns) if n_axes else np.zeros(0, np.int64)
-    turn_dirs = np.concatenate(pending.turn_dirs) if n_axes else np.zeros(0, np.int8)
-    i_fall = rise_start[:-1].copy()
-    i_rise = i_fall + pending.i_rise
-    i_turn = turn_start[:-1].copy()
-    capacity = 2 * len(rises) + len(turns) + 1
-    out_ticks = np.empty(capacity, np.int64)
-    out_values = np.empty(capacity, np.uint8)
-    start = 0
+    """Port frames of the pending events before ``limit``; what is merged leaves ``pending``.
+
+    Each axis's bit changes (rise, fall, turn: each flips its bit) are listed in tick order, the
+    axes' lists merged two at a time (changes at one tick joined), then the byte follows them.
+    """
+    streams = []
+    for a in range(len(pending.rises)):
+        rises, turns = pending.rises[a], pending.turns[a]
+        if not len(rises) and not len(turns):
+            continue
+        ev_t = np.empty(2 * len(rises) + len(turns), np.int64)
+        ev_m = np.empty(len(ev_t), np.int64)
+        c, fallen, risen, turned = _axis_events(rises, int(pending.i_rise[a]), turns, high[a], step_mask[a],
+                                                dir_mask[a], np.int64(limit), ev_t, ev_m)
+        pending.rises[a] = rises[fallen:]
+        pending.i_rise[a] = risen - fallen
+        pending.turns[a], pending.turn_dirs[a] = turns[turned:], pending.turn_dirs[a][turned:]
+        streams.append((ev_t[:c], ev_m[:c]))
+    while len(streams) > 1:
+        (at, am), (bt, bm) = streams.pop(), streams.pop()
+        out_t, out_m = np.empty(len(at) + len(bt), np.int64), np.empty(len(at) + len(bt), np.int64)
+        c = _merge_two(at, am, bt, bm, out_t, out_m)
+        streams.append((out_t[:c], out_m[:c]))
+    ev_t, ev_m = streams[0] if streams else (np.zeros(0, np.int64), np.zeros(0, np.int64))
+    start = 1 if first else 0
+    out_ticks = np.empty(len(ev_t) + start, np.int64)
+    out_values = np.empty(len(ev_t) + start, np.uint8)
     if first:
         out_ticks[0], out_values[0] = 0, invert
         bits_last[0], bits_last[1] = 0, invert
-        start = 1
-    count = _merge_until(np.int64(limit), rises, rise_start, i_rise, i_fall, turns, turn_dirs, turn_start,
-                         i_turn, high, step_mask, dir_mask, np.int64(invert), bits_last,
-                         out_ticks[start:], out_values[start:])
-    for a in range(n_axes):
-        fallen = int(i_fall[a] - rise_start[a])
-        pending.rises[a] = pending.rises[a][fallen:]
-        pending.i_rise[a] = int(i_rise[a] - i_fall[a])
-        pending.turns[a] = pending.turns[a][int(i_turn[a] - turn_start[a]):]
-        pending.turn_dirs[a] = pending.turn_dirs[a][int(i_turn[a] - turn_start[a]):]
-    n = start + count
-    return PortFrames(out_ticks[:n].copy(), out_values[:n].copy(), min(int(limit), int(_BIG)))
+    n = start + _follow(ev_t, ev_m, np.int64(invert), bits_last, out_ticks[start:], out_values[start:])
+    return PortFrames(out_ticks[:n], out_values[:n], min(int(limit), int(_BIG)))
+
+
+@kernel
+def _axis_events(rises, i_rise, turns, high, step_mask, dir_mask, limit, ev_t, ev_m):
+    """One axis's bit changes before ``limit`` in tick order: (count, falls, rises, turns taken).
+
+    ``rises[:i_rise]`` have risen but not fallen yet (one at most); a change's mask holds the bits
+    it flips. Steps alternate rise, fall; the rare turns are slotted in between.
+    """
+    n_r = rises.shape[0]
+    n_rise = np.searchsorted(rises[i_rise:], limit) if i_rise < n_r else 0
+    n_fall = np.searchsorted(rises[:i_rise + n_rise] + high, limit)
+    n_turn = np.searchsorted(turns, limit)
+    c = min(n_fall, i_rise)
+    for k in range(c):                                    # the fall of a step risen before
+        ev_t[k] = rises[k] + high
+    for k in range(n_rise):                               # rise, then fall (dropped past the limit)
+        r = rises[i_rise + k]
+        ev_t[c + 2 * k] = r
+        ev_t[c + 2 * k + 1] = r + high
+    steps = n_rise + n_fall
+    ev_m[:steps] = step_mask
+    if n_turn == 0:
+        return steps, n_fall, i_rise + n_rise, 0
+    return _slot_turns(ev_t, ev_m, steps, turns[:n_turn], dir_mask), n_fall, i_rise + n_rise, n_turn
+
+
+@kernel
+def _slot_turns(ev_t, ev_m, steps, turns, dir_mask):
+    """Slot direction turns into a list of ``steps`` step changes (in place, tick order; a turn at
+    the tick of a step change joins it). Returns the new length."""
+    n = steps + turns.shape[0]
+    src = steps - 1
+    dst = n - 1
+    for k in range(turns.shape[0] - 1, -1, -1):         # from the end, so nothing is overwritten
+        while src >= 0 and ev_t[src] > turns[k]:
+            ev_t[dst], ev_m[dst] = ev_t[src], ev_m[src]
+            src -= 1
+            dst -= 1
+        if src >= 0 and ev_t[src] == turns[k]:
+            ev_t[dst], ev_m[dst] = ev_t[src], ev_m[src] ^ dir_mask
+            src -= 1
+        else:
+            ev_t[dst], ev_m[dst] = turns[k], dir_mask
+        dst -= 1
+    gap = dst - src                                      # joined turns leave a gap after ev[:src + 1]
+    if gap > 0:
+        for k in range(dst + 1, n):
+            ev_t[k - gap], ev_m[k - gap] = ev_t[k], ev_m[k]
+    return n - gap
+
+
+@kernel
+def _merge_two(at, am, bt, bm, out_t, out_m):
+    """Two lists of bit changes merged in tick order, the changes of one tick joined."""
+    i, j, c = 0, 0, 0
+    na, nb = at.shape[0], bt.shape[0]
+    while i < na and j < nb:
+        ta, tb = at[i], bt[j]
+        tick = min(ta, tb)
+        out_t[c] = tick
+        out_m[c] = (am[i] if ta == tick else 0) ^ (bm[j] if tb == tick else 0)
+        i += 1 if ta == tick else 0
+        j += 1 if tb == tick else 0
+        c += 1
+    out_t[c:c + na - i] = at[i:]
+    out_m[c:c + na - i] = am[i:]
+    c += na - i
+    out_t[c:c + nb - j] = bt[j:]
+    out_m[c:c + nb - j] = bm[j:]
+    return c + nb - j
+
+
+@kernel
+def _follow(ev_t, ev_m, invert, bits_last, out_ticks, out_values):
+    """The port byte after each change (only when it differs from the last one written)."""
+    bits, last = bits_last[0], bits_last[1]
+    count = 0
+    for k in range(ev_t.shape[0]):
+        bits ^= ev_m[k]
+        value = bits ^ invert
+        if value != last:
+            out_ticks[count] = ev_t[k]
+            out_values[count] = value
+            last = value
+            count += 1
+    bits_last[0], bits_last[1] = bits, last
+    return count
 
 
 def execute_streamed(plan: Plan, window_steps: int = 1 << 20) -> RunLog:
