@@ -40,6 +40,8 @@ def _waypoint_errors(log: RunLog, sim: SimMachine) -> np.ndarray:
     """Per axis, the largest |carriage - target| (mm) at the ticks the waypoints were reached."""
     machine = log.machine
     if isinstance(log.waypoints, WaypointTable):
+        if log.waypoints.worst_mm is not None:           # settled while the run was streamed
+            return log.waypoints.worst_mm
         steps, _, reached = log.waypoints.columns()
         steps, reached = steps[reached >= 0], reached[reached >= 0]
     else:

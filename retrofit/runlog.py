@@ -32,6 +32,7 @@ class WaypointTable(Sequence):
         self._parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         self._n_axes = n_axes
         self._joined = None
+        self.worst_mm: np.ndarray | None = None     # per axis, when settled as the run went
 
     def add(self, steps: np.ndarray, loaded: np.ndarray, reached: np.ndarray) -> None:
         """Waypoints of the next moves, in order."""

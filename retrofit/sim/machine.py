@@ -96,8 +96,21 @@ class SimMachine:
         return watch, np.zeros((len(watch), len(self.machine.axes), 2))
 
     def _keep_watch(self, watch, out) -> None:
+        self._last_watch = (watch, out)
         if len(watch):
             self._watched.append((watch, out))
+
+    def carriages_at(self, ticks: np.ndarray) -> np.ndarray:
+        """Carriage mm [tick, axis] at ticks watched in the last chunk fed (others: :meth:`state_at`)."""
+        watch, out = getattr(self, "_last_watch", (np.zeros(0, np.int64), None))
+        j = np.minimum(np.searchsorted(watch, ticks), max(len(watch) - 1, 0))
+        found = watch[j] == ticks if len(watch) else np.zeros(len(ticks), bool)
+        carriage = np.empty((len(ticks), len(self.machine.axes)))
+        carriage[found] = out[j[found], :, 1]
+        for k in np.flatnonzero(~found).tolist():
+            state = self.state_at(int(ticks[k]))
+            carriage[k] = [state[a.name][1] for a in self.machine.axes]
+        return carriage
 
     def _watched_columns(self) -> tuple[np.ndarray, np.ndarray]:
         """(ticks, states [tick, axis, motor / carriage]) of every watched tick fed, tick order."""
