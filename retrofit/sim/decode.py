@@ -45,6 +45,13 @@ def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray) -> 
     """Decode axis ``i`` of ``sim`` over ``frames``; ``watch_out[:, i]`` gets (motor, carriage mm)
     at the end of each watched tick."""
     axis, driver, screw = sim.machine.axes[i], sim.drivers[i], sim.screws[i]
+    if _idle(axis, driver, frames):                   # no edge of this axis in the chunk: it holds
+        if len(watch):
+            end = frames.end_tick
+            held = watch < end
+            watch_out[held, i, 0] = sim.motor_steps[i]
+            watch_out[held, i, 1] = (sim.motor_steps[i] - screw.gap) / axis.steps_per_mm
+        return
     ds = np.array([driver.step, driver.direction, driver.last_rise, driver.last_fall,
                    driver.last_dir_change], dtype=np.int64)
     ms = np.array([sim.motor_steps[i], sim._last_dir[i], sim.reversals[i], int(sim._out_of_travel[i])],
@@ -82,6 +89,14 @@ def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray) -> 
         s.closed = bool(sw[3][k])
     if len(watch):
         watch_out[:, i, :] = w_out.T
+
+
+def _idle(axis, driver, frames) -> bool:
+    """True when every frame holds the axis's step and direction bits as the driver last saw them."""
+    mask = (1 << axis.step_bit) | (1 << axis.dir_bit)
+    logical = (driver.step << axis.step_bit) | ((1 if driver.direction > 0 else 0) << axis.dir_bit)
+    expected = logical ^ ((axis.invert_step << axis.step_bit) | (axis.invert_dir << axis.dir_bit))
+    return driver.direction != 0 and not np.any((frames.values & mask) != expected)
 
 
 def _events(sim, i: int, switches, travel, buffers, n_tr: int, n_v: int, n_sw: int) -> None:
