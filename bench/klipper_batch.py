@@ -1,17 +1,17 @@
 """Klipper's host in batch mode on one G-code file, with its CPU split out (run by square_circle.py).
 
     KLIPPER_PYTHON klipper_batch.py KLIPPER_DIR printer.cfg file.gcode out.bin klipper.dict
+    KLIPPER_PYTHON klipper_batch.py --count KLIPPER_DIR out.bin klipper.dict
 
 Runs ``klippy.py printer.cfg -i file.gcode -o out.bin -d klipper.dict`` inside this process and
-prints one JSON line: the CPU seconds of the whole process (user + system, Python start-up
-included), the CPU seconds spent inside Klipper's C step generation (``steppersyncmgr_gen_steps``:
-iterative solver, step compression and queueing, all its threads), the peak RSS, and the steps
-the output file commands (``queue_step`` counts summed, decoded after the clocks are read).
+prints one JSON line with the CPU seconds spent inside Klipper's C step generation
+(``steppersyncmgr_gen_steps``: iterative solver, step compression and queueing, all its
+threads); the caller measures the whole process. ``--count`` prints the steps an output file
+commands (``queue_step`` counts summed), once the run that wrote it has ended.
 """
 
 import json
 import os
-import resource
 import sys
 import time
 
@@ -59,6 +59,11 @@ def commanded_steps(dict_path, out_path):
 
 
 def main():
+    if sys.argv[1] == "--count":
+        kdir, out, dictionary = sys.argv[2:5]
+        sys.path.insert(0, os.path.join(kdir, "klippy"))
+        print(commanded_steps(dictionary, out))
+        return
     kdir, cfg, gcode, out, dictionary = sys.argv[1:6]
     sys.path.insert(0, os.path.join(kdir, "klippy"))
     acc = [0.0]
@@ -70,10 +75,7 @@ def main():
     except SystemExit as exc:
         if exc.code:
             raise
-    usage = resource.getrusage(resource.RUSAGE_SELF)
-    figures = {"cpu": usage.ru_utime + usage.ru_stime, "gen_cpu": acc[0], "rss_mb": usage.ru_maxrss / 1024}
-    figures["steps"] = commanded_steps(dictionary, out)
-    print(json.dumps(figures))
+    print(json.dumps({"gen_cpu": acc[0]}))
 
 
 if __name__ == "__main__":

@@ -15,7 +15,7 @@ Klipper's columns need ``KLIPPER_DIR`` (a checkout whose chelper builds), ``KLIP
 (default ``$KLIPPER_DIR/out/klipper.dict``, from ``make`` for any MCU) and a Python with
 greenlet and cffi (``KLIPPER_PYTHON``, default this one); they are left out without them.
 
-    python bench/square_circle.py [--n 20 100 500] [--vcd]
+    python bench/square_circle.py [--n 20 100 500] [--vcd] [--repeat 3]
 """
 
 from __future__ import annotations
@@ -137,45 +137,54 @@ def stream_all(plan) -> int:
     return frames
 
 
-def stages(n: int, m) -> dict:
-    """CPU seconds of each stage on N repetitions (in this process)."""
+def stages(n: int, m, repeat: int = 1) -> dict:
+    """CPU seconds of each stage on N repetitions (in this process; each the least of ``repeat``)."""
     from retrofit.gcode import load_program
     from retrofit.motion.fast import plan_steps
     from retrofit.runprogram import plan_compiled
     with tempfile.NamedTemporaryFile("w", suffix=".ngc", delete=False) as fh:
         fh.write(workload_gcode(n))
     t_compile, program = cpu(load_program, fh.name, m)
-    t_plan, (_, plan) = cpu(plan_compiled, program, m)
-    t_exec, _ = cpu(stream_all, plan)
+    t_plan, (_, plan) = min((cpu(plan_compiled, program, m) for _ in range(repeat)), key=lambda r: r[0])
+    t_exec = min(cpu(stream_all, plan)[0] for _ in range(repeat))
     os.unlink(fh.name)
     return {"steps": plan_steps(plan), "moves": len(plan.moves), "compile": t_compile, "plan": t_plan,
             "execute": t_exec}
 
 
-def child_usage(argv: list[str], env=None) -> tuple[str, float, float]:
+#: runs one command and writes its CPU seconds and peak RSS: a small process between this one and
+#: the measured one, since a child forked from this (large) process would count its RSS as its own
+LAUNCHER = """import json, os, subprocess, sys
+proc = subprocess.Popen(sys.argv[2:])
+_, status, usage = os.wait4(proc.pid, 0)
+with open(sys.argv[1], "w") as fh:
+    json.dump({"code": os.waitstatus_to_exitcode(status), "cpu": usage.ru_utime + usage.ru_stime,
+               "rss_mb": usage.ru_maxrss / 1024}, fh)
+"""
+
+
+def child_usage(argv: list[str]) -> tuple[str, float, float]:
     """(stdout, CPU seconds, peak RSS MB) of one fresh process."""
-    with tempfile.TemporaryFile("w+") as out:
-        proc = subprocess.Popen(argv, stdout=out, stderr=subprocess.PIPE, env=env, text=True)
-        _, status, usage = os.wait4(proc.pid, 0)
-        proc.returncode = os.waitstatus_to_exitcode(status)
-        err = proc.stderr.read()
-        out.seek(0)
-        text = out.read()
-    if proc.returncode:
-        raise RuntimeError(f"{' '.join(argv[:3])} ... exited {proc.returncode}: {err[-2000:]}")
-    return text, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024
+    with tempfile.TemporaryDirectory() as folder:
+        figures = Path(folder) / "usage.json"
+        proc = subprocess.run([sys.executable, "-c", LAUNCHER, str(figures)] + argv, capture_output=True, text=True)
+        usage = json.loads(figures.read_text()) if figures.exists() else {"code": proc.returncode}
+    if usage["code"] or proc.returncode:
+        raise RuntimeError(f"{' '.join(argv[:3])} ... exited {usage['code']}: {proc.stderr[-2000:]}")
+    return proc.stdout, usage["cpu"], usage["rss_mb"]
 
 
-def whole_run(n: int, vcd: bool, folder: Path) -> dict:
+def whole_run(n: int, vcd: bool, folder: Path, repeat: int = 1) -> dict:
     """``retrofit run … --output sim:// [--output vcd://] --report`` in a fresh process:
-    CPU seconds, peak RSS and the steps its report counts."""
+    CPU seconds, peak RSS (each the least of ``repeat`` runs) and the steps its report counts."""
     program = folder / f"w{n}.ngc"
     program.write_text(workload_gcode(n))
     argv = [sys.executable, "-m", "retrofit.cli", "run", str(program), "--machine", str(machine_file(folder)),
             "--output", "sim://", "--report", str(folder / "r.json"), "--progress", "off"]
     if vcd:
         argv += ["--output", f"vcd://{folder / 'w.vcd'}"]
-    _, seconds, rss = child_usage(argv)
+    runs = [child_usage(argv) for _ in range(repeat)]
+    seconds, rss = min(r[1] for r in runs), min(r[2] for r in runs)
     report = json.loads((folder / "r.json").read_text())
     steps = sum(a["steps"] for a in report["axes"].values())
     (folder / "w.vcd").unlink(missing_ok=True)
@@ -183,18 +192,23 @@ def whole_run(n: int, vcd: bool, folder: Path) -> dict:
 
 
 def klipper_run(n: int, folder: Path, arc_mm: float) -> dict | None:
-    """Klipper's batch mode on the same program (None without ``KLIPPER_DIR``)."""
+    """Klipper's batch mode on the same program (None without ``KLIPPER_DIR``): the CPU seconds
+    and peak RSS of the whole process, the CPU seconds of its C step generation, and the steps
+    its output commands (counted once the process has ended and its output is complete)."""
     kdir = os.environ.get("KLIPPER_DIR")
     if not kdir:
         return None
     dictionary = os.environ.get("KLIPPER_DICT", os.path.join(kdir, "out", "klipper.dict"))
-    cfg, gcode = folder / "printer.cfg", folder / f"k{n}.gcode"
+    cfg, gcode, out = folder / "printer.cfg", folder / f"k{n}.gcode", folder / "k.bin"
     cfg.write_text(KLIPPER_CFG.format(arc_mm=f"{arc_mm:.4f}"))
     gcode.write_text(klipper_gcode(n))
     python = os.environ.get("KLIPPER_PYTHON", sys.executable)
-    text, _, _ = child_usage([python, str(HERE / "klipper_batch.py"), kdir, str(cfg), str(gcode),
-                              str(folder / "k.bin"), dictionary])
-    return json.loads(text.strip().splitlines()[-1])
+    script = str(HERE / "klipper_batch.py")
+    text, seconds, rss = child_usage([python, script, kdir, str(cfg), str(gcode), str(out), dictionary])
+    figures = json.loads(text.strip().splitlines()[-1])
+    counted = subprocess.run([python, script, "--count", kdir, str(out), dictionary], capture_output=True,
+                             text=True, check=True)
+    return {"cpu": seconds, "rss_mb": rss, "gen_cpu": figures["gen_cpu"], "steps": int(counted.stdout)}
 
 
 def chord_mm(m) -> float:
@@ -221,19 +235,22 @@ def main() -> None:
     parser.add_argument("--n", type=int, nargs="+", default=[20, 100, 500])
     parser.add_argument("--vcd", action="store_true",
                         help="also run sim:// + vcd:// + --report for the peak RSS of every output at once")
+    parser.add_argument("--repeat", type=int, default=3,
+                        help="runs of each measure, the least CPU kept (the machine's other load only adds)")
     args = parser.parse_args()
     folder = Path(tempfile.mkdtemp())
     m = machine()
     from retrofit.motion._jit import compiled
     compiled()                                   # stages: kernels loaded first, as a long run does
     stages(1, m)
+    whole_run(1, True, folder)                   # the compiled kernels in Numba's cache on disk
     print(f"{'':24s}| M steps per CPU-second            | M steps per CPU-s  | whole run: CPU s, peak RSS MB")
     print(f"{'N':>5} {'steps':>10} {'moves':>7} | {'plan':>6} {'exec':>6} {'plan+exec':>9} {'Klipper':>8} | "
           f"{'whole run':>9} {'Klipper':>8} | {'CPU s':>6} {'RSS':>6} {'+vcd':>7} {'Klipper':>6}")
     print(f"{'':24s}| {'':14s} {'':9s} {'C gen':>8} | {'sim://':>9} {'process':>8} |")
     for n in args.n:
-        s = stages(n, m)
-        w = whole_run(n, False, folder)
+        s = stages(n, m, args.repeat)
+        w = whole_run(n, False, folder, args.repeat)
         v = whole_run(n, True, folder) if args.vcd else None
         k = klipper_run(n, folder, chord_mm(m))
         if k and k["steps"] != s["steps"]:
