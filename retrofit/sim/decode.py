@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..frames import PortFrames
 from .drivers import Violation
 from .kernels import KINDS, V_TRAVEL, decode_axis
 from .switches import SwitchEvent
@@ -45,7 +46,8 @@ def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray) -> 
     """Decode axis ``i`` of ``sim`` over ``frames``; ``watch_out[:, i]`` gets (motor, carriage mm)
     at the end of each watched tick."""
     axis, driver, screw = sim.machine.axes[i], sim.drivers[i], sim.screws[i]
-    if _idle(axis, driver, frames):                   # no edge of this axis in the chunk: it holds
+    frames = _own_frames(axis, driver, frames)
+    if not len(frames):                                # no edge of this axis in the chunk: it holds
         if len(watch):
             end = frames.end_tick
             held = watch < end
@@ -91,12 +93,22 @@ def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray) -> 
         watch_out[:, i, :] = w_out.T
 
 
-def _idle(axis, driver, frames) -> bool:
-    """True when every frame holds the axis's step and direction bits as the driver last saw them."""
+def _own_frames(axis, driver, frames):
+    """The frames that change this axis's step or direction bits (the others change nothing for
+    its driver), as the driver last saw them; the chunk's end tick kept."""
     mask = (1 << axis.step_bit) | (1 << axis.dir_bit)
     logical = (driver.step << axis.step_bit) | ((1 if driver.direction > 0 else 0) << axis.dir_bit)
-    expected = logical ^ ((axis.invert_step << axis.step_bit) | (axis.invert_dir << axis.dir_bit))
-    return driver.direction != 0 and not np.any((frames.values & mask) != expected)
+    seen = logical ^ ((axis.invert_step << axis.step_bit) | (axis.invert_dir << axis.dir_bit))
+    if driver.direction == 0 or not len(frames):
+        return frames
+    bits = frames.values & mask
+    changed = np.empty(len(bits), bool)
+    changed[0] = bits[0] != seen
+    np.not_equal(bits[1:], bits[:-1], out=changed[1:])
+    own = np.flatnonzero(changed)
+    if len(own) == len(bits):
+        return frames
+    return PortFrames(frames.ticks[own], frames.values[own], frames.end_tick)
 
 
 def _events(sim, i: int, switches, travel, buffers, n_tr: int, n_v: int, n_sw: int) -> None:
