@@ -334,19 +334,20 @@ def _merge(pending: _Axes, limit: int, high, step_mask, dir_mask, invert: int, b
         pending.i_rise[a] = risen - fallen
         pending.turns[a], pending.turn_dirs[a] = turns[turned:], pending.turn_dirs[a][turned:]
         streams.append((ev_t[:c], ev_m[:c]))
-    while len(streams) > 1:
+    while len(streams) > 2:
         (at, am), (bt, bm) = streams.pop(), streams.pop()
         out_t, out_m = np.empty(len(at) + len(bt), np.int64), np.empty(len(at) + len(bt), np.int64)
         c = _merge_two(at, am, bt, bm, out_t, out_m)
         streams.append((out_t[:c], out_m[:c]))
-    ev_t, ev_m = streams[0] if streams else (np.zeros(0, np.int64), np.zeros(0, np.int64))
+    empty = (np.zeros(0, np.int64), np.zeros(0, np.int64))
+    (at, am), (bt, bm) = (streams + [empty, empty])[:2]
     start = 1 if first else 0
-    out_ticks = np.empty(len(ev_t) + start, np.int64)
-    out_values = np.empty(len(ev_t) + start, np.uint8)
+    out_ticks = np.empty(len(at) + len(bt) + start, np.int64)
+    out_values = np.empty(len(out_ticks), np.uint8)
     if first:
         out_ticks[0], out_values[0] = 0, invert
         bits_last[0], bits_last[1] = 0, invert
-    n = start + _follow(ev_t, ev_m, np.int64(invert), bits_last, out_ticks[start:], out_values[start:])
+    n = start + _follow_two(at, am, bt, bm, np.int64(invert), bits_last, out_ticks[start:], out_values[start:])
     return PortFrames(out_ticks[:n], out_values[:n], min(int(limit), int(_BIG)))
 
 
@@ -422,18 +423,24 @@ def _merge_two(at, am, bt, bm, out_t, out_m):
 
 
 @kernel
-def _follow(ev_t, ev_m, invert, bits_last, out_ticks, out_values):
-    """The port byte after each change (only when it differs from the last one written)."""
+def _follow_two(at, am, bt, bm, invert, bits_last, out_ticks, out_values):
+    """The port byte after each change of two lists merged in tick order (the changes of one
+    tick joined; a byte written only when it differs from the last one)."""
     bits, last = bits_last[0], bits_last[1]
-    count = 0
-    for k in range(ev_t.shape[0]):
-        bits ^= ev_m[k]
+    i, j, count = 0, 0, 0
+    na, nb = at.shape[0], bt.shape[0]
+    while i < na or j < nb:
+        ta = at[i] if i < na else _BIG
+        tb = bt[j] if j < nb else _BIG
+        tick = min(ta, tb)
+        bits ^= (am[i] if ta == tick else 0) ^ (bm[j] if tb == tick else 0)
+        i += 1 if ta == tick else 0
+        j += 1 if tb == tick else 0
         value = bits ^ invert
-        if value != last:
-            out_ticks[count] = ev_t[k]
-            out_values[count] = value
-            last = value
-            count += 1
+        out_ticks[count] = tick
+        out_values[count] = value
+        count += 1 if value != last else 0
+        last = value
     bits_last[0], bits_last[1] = bits, last
     return count
 
