@@ -248,6 +248,7 @@ def main() -> None:
     print(f"{'N':>5} {'steps':>10} {'moves':>7} | {'plan':>6} {'exec':>6} {'plan+exec':>9} {'Klipper':>8} | "
           f"{'whole run':>9} {'Klipper':>8} | {'CPU s':>6} {'RSS':>6} {'+vcd':>7} {'Klipper':>6}")
     print(f"{'':24s}| {'':14s} {'':9s} {'C gen':>8} | {'sim://':>9} {'process':>8} |")
+    whole = []
     for n in args.n:
         s = stages(n, m, args.repeat)
         w = whole_run(n, False, folder, args.repeat)
@@ -256,6 +257,11 @@ def main() -> None:
         if k and k["steps"] != s["steps"]:
             print(f"  (Klipper commanded {k['steps']} steps, retrofit {s['steps']})")
         print(row(n, s, w, v, k), flush=True)
+        whole.append((w["steps"], w["cpu"]))
+    if len(whole) > 1:
+        (s0, c0), (s1, c1) = whole[0], whole[-1]
+        print(f"whole run CPU per step, slope from N={args.n[0]} to N={args.n[-1]}: "
+              f"{(c1 - c0) / (s1 - s0) * 1e9:.0f} ns (fixed part {c0 - s0 * (c1 - c0) / (s1 - s0):.2f} s)")
     print(f"(plan+exec excludes G-code compile; the whole run is the command from start to exit: Python "
           f"start-up, compile, plan, execute, sim://, report; +vcd: RSS with vcd:// too; Klipper "
           f"{'columns left out: set KLIPPER_DIR' if not os.environ.get('KLIPPER_DIR') else 'from its batch mode'})")

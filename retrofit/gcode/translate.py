@@ -22,7 +22,7 @@ from . import coords, cycles
 from .arcwords import arc_center, plane_axes
 from .blocks import Block
 from .errors import RuleError
-from .state import ModalState, clean_mm
+from .state import DECIMALS, ModalState, clean_mm
 from .threading import g33, g76, leave
 from .validate import check_arc, check_feed, check_soft_limits, check_word_use
 
@@ -266,8 +266,12 @@ class Translator:
         length = check_arc(self.machine, mode, *extent)
         chords = arc_points(*args, tolerance, int(turns) - 1)
         self._send_feed(length, mode)
+        # an axis off the plane that does not move stays at its start on every chord
+        held = [clean_mm(start[n]) if i not in plane and start[n] == end[n] else None
+                for i, n in enumerate(names)]
         for p in chords:
-            self._emit(PMov(tuple((n, clean_mm(v)) for n, v in zip(names, p))))
+            self._emit(PMov(tuple([(n, round(v, DECIMALS) + 0.0 if h is None else h)     # clean_mm
+                                   for n, v, h in zip(names, p, held)])))
         s.position = end
 
     # -- output ----------------------------------------------------------------------------
