@@ -327,7 +327,7 @@ def _merge(pending: _Axes, limit: int, high, step_mask, dir_mask, invert: int, b
         if not len(rises) and not len(turns):
             continue
         ev_t = np.empty(2 * len(rises) + len(turns), np.int64)
-        ev_m = np.empty(len(ev_t), np.int64)
+        ev_m = np.empty(len(ev_t), np.uint8)
         c, fallen, risen, turned = _axis_events(rises, int(pending.i_rise[a]), turns, high[a], step_mask[a],
                                                 dir_mask[a], np.int64(limit), ev_t, ev_m)
         pending.rises[a] = rises[fallen:]
@@ -336,10 +336,10 @@ def _merge(pending: _Axes, limit: int, high, step_mask, dir_mask, invert: int, b
         streams.append((ev_t[:c], ev_m[:c]))
     while len(streams) > 2:
         (at, am), (bt, bm) = streams.pop(), streams.pop()
-        out_t, out_m = np.empty(len(at) + len(bt), np.int64), np.empty(len(at) + len(bt), np.int64)
+        out_t, out_m = np.empty(len(at) + len(bt), np.int64), np.empty(len(at) + len(bt), np.uint8)
         c = _merge_two(at, am, bt, bm, out_t, out_m)
         streams.append((out_t[:c], out_m[:c]))
-    empty = (np.zeros(0, np.int64), np.zeros(0, np.int64))
+    empty = (np.zeros(0, np.int64), np.zeros(0, np.uint8))
     (at, am), (bt, bm) = (streams + [empty, empty])[:2]
     start = 1 if first else 0
     out_ticks = np.empty(len(at) + len(bt) + start, np.int64)
@@ -360,7 +360,7 @@ def _axis_events(rises, i_rise, turns, high, step_mask, dir_mask, limit, ev_t, e
     """
     n_r = rises.shape[0]
     n_rise = np.searchsorted(rises[i_rise:], limit) if i_rise < n_r else 0
-    n_fall = np.searchsorted(rises[:i_rise + n_rise] + high, limit)
+    n_fall = np.searchsorted(rises[:i_rise + n_rise], limit - high)      # rise + high < limit
     n_turn = np.searchsorted(turns, limit)
     c = min(n_fall, i_rise)
     for k in range(c):                                    # the fall of a step risen before
