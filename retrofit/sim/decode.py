@@ -12,7 +12,7 @@ import numpy as np
 
 from ..frames import PortFrames
 from .drivers import Violation
-from .kernels import KINDS, V_TRAVEL, decode_axis
+from .kernels import KINDS, V_TRAVEL, decode_axis, own_changes
 from .switches import SwitchEvent
 
 
@@ -96,19 +96,14 @@ def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray) -> 
 def _own_frames(axis, driver, frames):
     """The frames that change this axis's step or direction bits (the others change nothing for
     its driver), as the driver last saw them; the chunk's end tick kept."""
+    if driver.direction == 0 or not len(frames):
+        return frames
     mask = (1 << axis.step_bit) | (1 << axis.dir_bit)
     logical = (driver.step << axis.step_bit) | ((1 if driver.direction > 0 else 0) << axis.dir_bit)
     seen = logical ^ ((axis.invert_step << axis.step_bit) | (axis.invert_dir << axis.dir_bit))
-    if driver.direction == 0 or not len(frames):
-        return frames
-    bits = frames.values & mask
-    changed = np.empty(len(bits), bool)
-    changed[0] = bits[0] != seen
-    np.not_equal(bits[1:], bits[:-1], out=changed[1:])
-    own = np.flatnonzero(changed)
-    if len(own) == len(bits):
-        return frames
-    return PortFrames(frames.ticks[own], frames.values[own], frames.end_tick)
+    ticks, values = np.empty(len(frames), np.int64), np.empty(len(frames), np.uint8)
+    n = own_changes(frames.ticks, frames.values, np.int64(mask), np.int64(seen), ticks, values)
+    return PortFrames(ticks[:n], values[:n], frames.end_tick)
 
 
 def _events(sim, i: int, switches, travel, buffers, n_tr: int, n_v: int, n_sw: int) -> None:
