@@ -7,7 +7,8 @@ Runs ``klippy.py printer.cfg -i file.gcode -o out.bin -d klipper.dict`` inside t
 prints one JSON line with the CPU seconds spent inside Klipper's C step generation
 (``steppersyncmgr_gen_steps``: iterative solver, step compression and queueing, all its
 threads); the caller measures the whole process. ``--count`` prints the steps an output file
-commands (``queue_step`` counts summed), once the run that wrote it has ended.
+commands (``queue_step`` counts summed). Batch mode may stop its serial queue's thread at exit
+before the last messages are written, so the file can hold fewer steps than were generated.
 """
 
 import json
