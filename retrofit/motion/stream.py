@@ -22,6 +22,7 @@ import numpy as np
 from ..frames import PinMap, PortFrames
 from ..runlog import RunLog, WaypointTable
 from ._jit import compiled, kernel
+from .bitmerge import axis_events, follow_two, merge_two
 from .execute import tick_of
 from .fast import _bresenham_requests, _dda_requests, plan_steps
 from .planner import Plan
@@ -178,6 +179,43 @@ def _window_requests(plan: Plan, cols: _Columns, lo: int, hi: int, rate: float):
     return [ticks[k, :int(totals[k])] for k in range(n_axes)], [dirs[k, :int(totals[k])] for k in range(n_axes)], counts
 
 
+class _StepGen:
+    """The step generator of every axis, carried from window to window: its counters' state, the
+    events not yet merged into port frames, and the last byte written."""
+
+    def __init__(self, machine):
+        pins = PinMap(machine)
+        self.axes, self.invert = machine.axes, pins.invert
+        self.period = np.array([a.pulse_high_ticks + a.pulse_low_ticks for a in machine.axes], np.int64)
+        self.high = np.array([a.pulse_high_ticks for a in machine.axes], np.int64)
+        self.step_mask = np.array(pins.step_masks, np.int64)
+        self.dir_mask = np.array(pins.dir_masks, np.int64)
+        self.state = np.array([[-1, _NEVER, _NEVER, 0] for _ in machine.axes], np.int64)
+        self.pending = _Axes(len(machine.axes))
+        self.bits_last = np.array([0, -1], np.int64)
+
+    def shape(self, wanted, dirs) -> tuple[list[np.ndarray], int]:
+        """Rise ticks per axis of a window's step requests (kept pending for the frames) and the
+        last tick any of their pulses holds (-1 for none)."""
+        window_rises, last = [], -1
+        for a, axis in enumerate(self.axes):
+            size = len(wanted[a]) if wanted else 0
+            rises, turn_ticks = np.empty(size, np.int64), np.empty(size, np.int64)
+            turn_dirs = np.empty(size, np.int8)
+            if size:
+                k = _shape_from(self.state[a], wanted[a], dirs[a], self.period[a], axis.dir_setup_ticks,
+                                axis.dir_hold_ticks, rises, turn_ticks, turn_dirs)
+                _append(self.pending, a, rises, turn_ticks[:k], turn_dirs[:k], wanted[a])
+                last = max(last, int(rises[-1]) + int(self.period[a]) - 1)
+            window_rises.append(rises)
+        return window_rises, last
+
+    def frames(self, limit: int, first: bool) -> PortFrames:
+        """Port frames of the pending events before ``limit``."""
+        return _merge(self.pending, limit, self.high, self.step_mask, self.dir_mask, self.invert,
+                      self.bits_last, first)
+
+
 def stream_frames(plan: Plan, window_steps: int = 1 << 20,
                   on_waypoints: Callable[[np.ndarray, np.ndarray, np.ndarray], None] | None = None,
                   progress: Callable[[float], None] | None = None) -> Iterator[PortFrames]:
@@ -189,54 +227,32 @@ def stream_frames(plan: Plan, window_steps: int = 1 << 20,
     (``StopIteration.value``) is a :class:`StreamStats`.
     """
     machine = plan.machine
-    pins = PinMap(machine)
-    n_axes, n_moves = len(machine.axes), len(plan.arrays())
+    n_moves = len(plan.arrays())
     keep_freed_memory()
     rate = 1e6 / machine.tick_us
     if not compiled(plan_steps(plan)):           # a small run: one chunk by NumPy, no compiler to load
         return (yield from _whole_run(plan, on_waypoints, progress))
-    cols = _Columns(plan, rate)
-    period = np.array([a.pulse_high_ticks + a.pulse_low_ticks for a in machine.axes], np.int64)
-    high = np.array([a.pulse_high_ticks for a in machine.axes], np.int64)
-    step_mask = np.array(pins.step_masks, np.int64)
-    dir_mask = np.array(pins.dir_masks, np.int64)
-    shape_state = np.array([[-1, _NEVER, _NEVER, 0] for _ in machine.axes], np.int64)
-    pending = _Axes(n_axes)
-    bits_last = np.array([0, -1], np.int64)
-    stats = StreamStats(np.zeros(n_axes, np.int64))
+    cols, gen = _Columns(plan, rate), _StepGen(machine)
+    stats = StreamStats(np.zeros(len(machine.axes), np.int64))
     end = tick_of(plan.end_s, rate)
-    first = True
-    chunk_end = 0
-    lo = 0
-    while lo < n_moves or first:
+    lo, chunk_end = 0, 0
+    while True:
         hi = cols.window_end(lo, window_steps) if n_moves else 0
         wanted, dirs, counts = _window_requests(plan, cols, lo, hi, rate) if n_moves else ([], [], None)
-        window_rises = []
-        for a, axis in enumerate(machine.axes):
-            size = len(wanted[a]) if n_moves else 0
-            rises = np.empty(size, np.int64)
-            turn_ticks = np.empty(size, np.int64)
-            turn_dirs = np.empty(size, np.int8)
-            if size:
-                k = _shape_from(shape_state[a], wanted[a], dirs[a], period[a], axis.dir_setup_ticks,
-                                axis.dir_hold_ticks, rises, turn_ticks, turn_dirs)
-                _append(pending, a, rises, turn_ticks[:k], turn_dirs[:k], wanted[a])
-                end = max(end, int(rises[-1]) + int(period[a]) - 1)
-            window_rises.append(rises)
-            stats.steps[a] += size
+        window_rises, last = gen.shape(wanted, dirs)
+        end = max(end, last)
+        stats.steps += [len(r) for r in window_rises]
         if on_waypoints is not None and hi > lo:
             on_waypoints(cols.arrays.targets[lo:hi], cols.loaded[lo:hi],
                          _reached(counts, window_rises, cols.ends[lo:hi]))
-        stats.lag = max(stats.lag, _settle_lag(pending, final=hi >= n_moves))
+        stats.lag = max(stats.lag, _settle_lag(gen.pending, final=hi >= n_moves))
         limit = _BIG
         if hi < n_moves:      # no later event, and no later waypoint, comes before the limit
-            limit = min(_limit(shape_state, cols.next_tick[hi], cols.next_dir[hi], period, machine),
+            limit = min(_limit(gen.state, cols.next_tick[hi], cols.next_dir[hi], gen.period, machine),
                         int(cols.loaded[hi]))
-        chunk = _merge(pending, limit, high, step_mask, dir_mask, pins.invert, bits_last, first)
-        first = False
+        chunk = gen.frames(limit, first=lo == 0)
         chunk_end = max(chunk_end, limit) if hi < n_moves else max(end, 0) + 1
-        chunk = PortFrames(chunk.ticks, chunk.values, chunk_end)
-        yield chunk
+        yield PortFrames(chunk.ticks, chunk.values, chunk_end)
         if progress is not None:
             progress(hi / n_moves if n_moves else 1.0)
         lo = hi
@@ -328,7 +344,7 @@ def _merge(pending: _Axes, limit: int, high, step_mask, dir_mask, invert: int, b
             continue
         ev_t = np.empty(2 * len(rises) + len(turns), np.int64)
         ev_m = np.empty(len(ev_t), np.uint8)
-        c, fallen, risen, turned = _axis_events(rises, int(pending.i_rise[a]), turns, high[a], step_mask[a],
+        c, fallen, risen, turned = axis_events(rises, int(pending.i_rise[a]), turns, high[a], step_mask[a],
                                                 dir_mask[a], np.int64(limit), ev_t, ev_m)
         pending.rises[a] = rises[fallen:]
         pending.i_rise[a] = risen - fallen
@@ -337,7 +353,7 @@ def _merge(pending: _Axes, limit: int, high, step_mask, dir_mask, invert: int, b
     while len(streams) > 2:
         (at, am), (bt, bm) = streams.pop(), streams.pop()
         out_t, out_m = np.empty(len(at) + len(bt), np.int64), np.empty(len(at) + len(bt), np.uint8)
-        c = _merge_two(at, am, bt, bm, out_t, out_m)
+        c = merge_two(at, am, bt, bm, out_t, out_m)
         streams.append((out_t[:c], out_m[:c]))
     empty = (np.zeros(0, np.int64), np.zeros(0, np.uint8))
     (at, am), (bt, bm) = (streams + [empty, empty])[:2]
@@ -347,102 +363,8 @@ def _merge(pending: _Axes, limit: int, high, step_mask, dir_mask, invert: int, b
     if first:
         out_ticks[0], out_values[0] = 0, invert
         bits_last[0], bits_last[1] = 0, invert
-    n = start + _follow_two(at, am, bt, bm, np.int64(invert), bits_last, out_ticks[start:], out_values[start:])
+    n = start + follow_two(at, am, bt, bm, np.int64(invert), bits_last, out_ticks[start:], out_values[start:])
     return PortFrames(out_ticks[:n], out_values[:n], min(int(limit), int(_BIG)))
-
-
-@kernel
-def _axis_events(rises, i_rise, turns, high, step_mask, dir_mask, limit, ev_t, ev_m):
-    """One axis's bit changes before ``limit`` in tick order: (count, falls, rises, turns taken).
-
-    ``rises[:i_rise]`` have risen but not fallen yet (one at most); a change's mask holds the bits
-    it flips. Steps alternate rise, fall; the rare turns are slotted in between.
-    """
-    n_r = rises.shape[0]
-    n_rise = np.searchsorted(rises[i_rise:], limit) if i_rise < n_r else 0
-    n_fall = np.searchsorted(rises[:i_rise + n_rise], limit - high)      # rise + high < limit
-    n_turn = np.searchsorted(turns, limit)
-    c = min(n_fall, i_rise)
-    for k in range(c):                                    # the fall of a step risen before
-        ev_t[k] = rises[k] + high
-    for k in range(n_rise):                               # rise, then fall (dropped past the limit)
-        r = rises[i_rise + k]
-        ev_t[c + 2 * k] = r
-        ev_t[c + 2 * k + 1] = r + high
-    steps = n_rise + n_fall
-    ev_m[:steps] = step_mask
-    if n_turn == 0:
-        return steps, n_fall, i_rise + n_rise, 0
-    return _slot_turns(ev_t, ev_m, steps, turns[:n_turn], dir_mask), n_fall, i_rise + n_rise, n_turn
-
-
-@kernel
-def _slot_turns(ev_t, ev_m, steps, turns, dir_mask):
-    """Slot direction turns into a list of ``steps`` step changes (in place, tick order; a turn at
-    the tick of a step change joins it). Returns the new length."""
-    n = steps + turns.shape[0]
-    src = steps - 1
-    dst = n - 1
-    for k in range(turns.shape[0] - 1, -1, -1):         # from the end, so nothing is overwritten
-        while src >= 0 and ev_t[src] > turns[k]:
-            ev_t[dst], ev_m[dst] = ev_t[src], ev_m[src]
-            src -= 1
-            dst -= 1
-        if src >= 0 and ev_t[src] == turns[k]:
-            ev_t[dst], ev_m[dst] = ev_t[src], ev_m[src] ^ dir_mask
-            src -= 1
-        else:
-            ev_t[dst], ev_m[dst] = turns[k], dir_mask
-        dst -= 1
-    gap = dst - src                                      # joined turns leave a gap after ev[:src + 1]
-    if gap > 0:
-        for k in range(dst + 1, n):
-            ev_t[k - gap], ev_m[k - gap] = ev_t[k], ev_m[k]
-    return n - gap
-
-
-@kernel
-def _merge_two(at, am, bt, bm, out_t, out_m):
-    """Two lists of bit changes merged in tick order, the changes of one tick joined."""
-    i, j, c = 0, 0, 0
-    na, nb = at.shape[0], bt.shape[0]
-    while i < na and j < nb:
-        ta, tb = at[i], bt[j]
-        tick = min(ta, tb)
-        out_t[c] = tick
-        out_m[c] = (am[i] if ta == tick else 0) ^ (bm[j] if tb == tick else 0)
-        i += 1 if ta == tick else 0
-        j += 1 if tb == tick else 0
-        c += 1
-    out_t[c:c + na - i] = at[i:]
-    out_m[c:c + na - i] = am[i:]
-    c += na - i
-    out_t[c:c + nb - j] = bt[j:]
-    out_m[c:c + nb - j] = bm[j:]
-    return c + nb - j
-
-
-@kernel
-def _follow_two(at, am, bt, bm, invert, bits_last, out_ticks, out_values):
-    """The port byte after each change of two lists merged in tick order (the changes of one
-    tick joined; a byte written only when it differs from the last one)."""
-    bits, last = bits_last[0], bits_last[1]
-    i, j, count = 0, 0, 0
-    na, nb = at.shape[0], bt.shape[0]
-    while i < na or j < nb:
-        ta = at[i] if i < na else _BIG
-        tb = bt[j] if j < nb else _BIG
-        tick = min(ta, tb)
-        bits ^= (am[i] if ta == tick else 0) ^ (bm[j] if tb == tick else 0)
-        i += 1 if ta == tick else 0
-        j += 1 if tb == tick else 0
-        value = bits ^ invert
-        out_ticks[count] = tick
-        out_values[count] = value
-        count += 1 if value != last else 0
-        last = value
-    bits_last[0], bits_last[1] = bits, last
-    return count
 
 
 def execute_streamed(plan: Plan, window_steps: int = 1 << 20) -> RunLog:
