@@ -267,11 +267,12 @@ class Translator:
         chords = arc_points(*args, tolerance, int(turns) - 1)
         self._send_feed(length, mode)
         # an axis off the plane that does not move stays at its start on every chord
-        held = [clean_mm(start[n]) if i not in plane and start[n] == end[n] else None
-                for i, n in enumerate(names)]
+        words = [(n, clean_mm(start[n])) for n in names]
+        moving = [(i, n) for i, n in enumerate(names) if i in plane or start[n] != end[n]]
         for p in chords:
-            self._emit(PMov(tuple([(n, round(v, DECIMALS) + 0.0 if h is None else h)     # clean_mm
-                                   for n, v, h in zip(names, p, held)])))
+            for i, n in moving:
+                words[i] = (n, round(p[i], DECIMALS) + 0.0)                  # clean_mm, inlined
+            self._emit(PMov(tuple(words)))
         s.position = end
 
     # -- output ----------------------------------------------------------------------------
