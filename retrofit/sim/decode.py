@@ -67,7 +67,7 @@ def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray) -> 
     n = min(len(frames.ticks), SUB_CHUNK)
     buffers = (np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.float64),
                np.empty(4 * n + 1, np.int64), np.empty(4 * n + 1, np.int64), np.empty(4 * n + 1, np.int64),
-               np.zeros(4 * n + 1, np.float64), np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.int64))
+               np.empty(4 * n + 1, np.float64), np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.int64))
     w_out = np.zeros((2, len(watch)), np.float64)
     lo, hi = sim._travel[i]
     params = axis_params(axis)
