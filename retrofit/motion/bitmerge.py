@@ -30,10 +30,9 @@ def axis_events(rises, i_rise, turns, high, step_mask, dir_mask, limit, ev_t, ev
     c = min(n_fall, i_rise)
     for k in range(c):                                    # the fall of a step risen before
         ev_t[k] = rises[k] + high
-    for k in range(n_rise):                               # rise, then fall (dropped past the limit)
-        r = rises[i_rise + k]
-        ev_t[c + 2 * k] = r
-        ev_t[c + 2 * k + 1] = r + high
+    taken = rises[i_rise:i_rise + n_rise]                 # rise, then fall (dropped past the limit)
+    ev_t[c:c + 2 * n_rise:2] = taken
+    ev_t[c + 1:c + 2 * n_rise:2] = taken + high
     steps = n_rise + n_fall
     ev_m[:steps] = step_mask
     if n_turn == 0:
