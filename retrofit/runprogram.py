@@ -98,7 +98,7 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
         run.plan = plan_expanded(run.expanded, machine, opts.backlash_comp, progress)
         streamed = can_stream(run, opts)
         if streamed and not getattr(opts, "keep_commands", True):
-            run.program.commands = run.expanded.commands = []     # planned: a long program's go
+            run.program.commands = run.expanded.commands = []     # planned: let the objects go
         run.log = None if streamed else execute(run.plan, opts.reference)
         run.how = "reference path" if opts.reference else "fast path"
     progress.done("execute")

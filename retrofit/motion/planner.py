@@ -8,7 +8,7 @@ steps, its velocity profile and its start time), so executing it is pure arithme
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Iterable, Sequence
 
 import numpy as np
