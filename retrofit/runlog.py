@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+
+import numpy as np
 
 from .config import Machine
 from .frames import PortFrames
@@ -19,6 +22,41 @@ class Waypoint:
     steps: tuple[int, ...]
     loaded_tick: int
     reached_tick: int | None = None
+
+
+class WaypointTable(Sequence):
+    """Waypoints held as columns (a streamed run's): ``steps`` [n, axes], ``loaded`` and
+    ``reached`` [n] ticks (-1: not reached). Reads as a list of :class:`Waypoint`."""
+
+    def __init__(self, n_axes: int):
+        self._parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self._n_axes = n_axes
+        self._joined = None
+        self.worst_mm: np.ndarray | None = None     # per axis, when settled as the run went
+
+    def add(self, steps: np.ndarray, loaded: np.ndarray, reached: np.ndarray) -> None:
+        """Waypoints of the next moves, in order."""
+        self._parts.append((steps, loaded, reached))
+        self._joined = None
+
+    def columns(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(steps, loaded, reached) of every waypoint."""
+        if self._joined is None:
+            if not self._parts:
+                self._parts = [(np.zeros((0, self._n_axes), np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64))]
+            self._parts = [tuple(np.concatenate(c) for c in zip(*self._parts))]
+            self._joined = self._parts[0]
+        return self._joined
+
+    def __len__(self) -> int:
+        return sum(len(p[1]) for p in self._parts)
+
+    def __getitem__(self, k):
+        steps, loaded, reached = self.columns()
+        if isinstance(k, slice):
+            return [self[i] for i in range(*k.indices(len(loaded)))]
+        r = int(reached[k])
+        return Waypoint(tuple(steps[k].tolist()), int(loaded[k]), r if r >= 0 else None)
 
 
 @dataclass

@@ -35,6 +35,7 @@ class Run:
     sim: object = None
     report: dict = field(default_factory=dict)
     how: str = ""
+    command_count: int = 0
 
 
 def read_program(name: str, stdin=None) -> tuple[str, str]:
@@ -88,6 +89,7 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
     if prober is not None and prober.moves:
         refuse_real_probing(opts.urls, name)
     run.expanded = expand_host_commands(run.program, machine, spindle_tool)
+    run.command_count = len(run.program.commands)
     progress.done("compile")
     # 2. plan and 3. execute: by the planner and the fast path, or through the 002 controller
     reason = "--controller" if opts.controller else controller_reason(run.expanded.commands, machine)
@@ -99,6 +101,8 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
     else:
         run.plan = plan_expanded(run.expanded, machine, opts.backlash_comp, progress)
         streamed = can_stream(run, opts)
+        if streamed and not getattr(opts, "keep_commands", True):
+            run.program.commands = run.expanded.commands = []     # planned: let the objects go
         run.log = None if streamed else execute(run.plan, opts.reference)
         run.how = "reference path" if opts.reference else "fast path"
     progress.done("execute")

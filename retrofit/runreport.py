@@ -7,8 +7,9 @@ machine time and the program line whose move was under way.
 
 from __future__ import annotations
 
-import bisect
 import textwrap
+
+import numpy as np
 
 #: what a violation's kind means, in words
 KIND_WORDS = {
@@ -59,14 +60,14 @@ def magazine_violations(run) -> list:
 def _line_finder(run):
     """tick -> the program line of the move under way then (None when not known)."""
     plan, lines = run.plan, run.expanded.lines
-    if plan is None or not plan.moves:
+    if plan is None or not len(plan.arrays()):
         return lambda tick: None
-    starts = [m.t0_s for m in plan.moves]
+    starts, indices = plan.arrays().t0s, plan.arrays().index
     tick_s = run.machine.tick_s
 
     def line(tick: int):
-        k = max(bisect.bisect_right(starts, tick * tick_s + 1e-12) - 1, 0)
-        index = plan.moves[k].index
+        k = max(int(np.searchsorted(starts, tick * tick_s + 1e-12, side="right")) - 1, 0)
+        index = int(indices[k])
         return lines[index] if 0 <= index < len(lines) else None
     return line
 

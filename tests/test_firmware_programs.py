@@ -25,7 +25,7 @@ pytestmark = pytest.mark.skipif(bool(missing_tools()), reason="the firmware need
                                 "and libsimavr: apt-get install gcc-avr avr-libc libsimavr-dev")
 fs = pytest.importorskip("retrofit.firmware_sim")
 
-TOOL_CYCLE = "G21 G90\nT3 M6\nM3 S1000\nG0 X10 Y10\nG1 Z5 F200\nT5 M6\nG0 X5 Y5\nT0 M6\nM2\n"
+TOOL_CYCLE = "G21 G90\nT3 M6\nM3 S1000\nG0 X10 Y10\nG1 Z-5 F200\nT5 M6\nG0 X5 Y5\nT0 M6\nM2\n"
 THREAD = ("G18 G21 G90\nG0 X12 Z3\nS300 M3\n"
           "G76 P1.5 Z-6 I-0.5 J0.3 K0.92 R2 Q0 H1\nG0 X20\nM5\nM2\n")
 THREAD_RPM = 300

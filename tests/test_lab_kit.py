@@ -243,6 +243,7 @@ def test_teacher_notes_have_objectives_time_key_and_rubric(lab):
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(600)          # 30 students in their own processes: about 2 min on an idle machine
 def test_grade_a_class_of_thirty_on_lab_10(tmp_path):
     """30 submissions of a real lab: the reference, its 14 known-wrong files, endless loops and
     files that do not parse; every row of the CSV says what that submission deserves."""

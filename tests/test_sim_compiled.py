@@ -144,7 +144,7 @@ def test_chunks_longer_than_the_kernels_buffers(monkeypatch):
     ref.feed_reference(frames)
     probe = frames.ticks[::37].tolist()
     assert observed(fast, probe) == observed(ref, probe)
-    assert fast.watched
+    assert fast.watched_ticks.tolist() == sorted(set(probe))
 
 
 def test_decimated_trace_is_bounded_and_watched_ticks_stay_exact():
@@ -162,3 +162,28 @@ def test_decimated_trace_is_bounded_and_watched_ticks_stay_exact():
         assert {t for t in every.ticks if 1000 <= t < 1200} <= set(kept.ticks)
     assert [small.state_at(t) for t in probe] == [full.state_at(t) for t in probe]
     assert small.violations == full.violations and small.motor_steps == full.motor_steps
+
+
+def test_an_axis_idle_for_whole_chunks_holds_exactly_as_step_by_step():
+    machine = replace(CHIVU, axes=tuple(replace(a, invert_dir=True) for a in CHIVU.axes))
+    pins = PinMap(machine)
+    frames = random_frames(machine, 5, 3000)
+    half = len(frames) // 2
+    values = frames.values.copy()
+    for axis, part in ((machine.axes[1], slice(0, half)), (machine.axes[0], slice(half, None))):
+        mask = (1 << axis.step_bit) | (1 << axis.dir_bit)
+        held = int(values[part.start or 0]) & mask & ~(1 << axis.step_bit)     # step low, direction as found
+        values[part] = (values[part] & (~mask & 0xFF)) | held
+    keep = np.concatenate(([True], values[1:] != values[:-1]))
+    frames = PortFrames(frames.ticks[keep], values[keep], frames.end_tick)
+    start = (int(10.0 * machine.axes[0].steps_per_mm), int(-5.0 * machine.axes[1].steps_per_mm))
+    fast, ref = SimMachine(machine, start), SimMachine(machine, start)
+    probe = frames.ticks[::5]
+    fast.watch(probe)
+    ref.watch(probe)
+    for chunk in split(frames, list(range(0, len(frames), 97))):
+        fast.feed(chunk)
+        ref.feed_reference(chunk)
+    assert observed(fast, probe.tolist()) == observed(ref, probe.tolist())
+    assert np.array_equal(fast.states_at(probe), ref.states_at(probe))
+    assert fast.motor_steps[1] != start[1] and fast.motor_steps[0] != start[0]     # both axes moved

@@ -63,6 +63,9 @@ def expand_host_commands(program, machine: Machine, spindle_tool: int = 0) -> Ex
         from .settings import atc_of
         atc = atc_of(machine)
     out = Expanded([], [], [], spindle_tool, spindle_tool, program.file)
+    if not any(isinstance(cmd, (Tool, Paus)) for cmd in program.commands):    # nothing to replace
+        out.commands, out.lines = list(program.commands), list(program.lines)
+        return out
     spinning = False
     frame = _Frame()
     for cmd, line in zip(program.commands, program.lines):

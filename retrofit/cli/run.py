@@ -112,6 +112,7 @@ def cmd_run(args) -> int:
     opts = SimpleNamespace(backlash_comp=not args.no_backlash_comp, reference=args.reference,
                            controller=args.controller, urls=args.output or ["sim://"],
                            keep_frames=bool(getattr(args, "html", None)),
+                           keep_commands=bool(getattr(args, "plot", None)),
                            before_outputs=mark)
     progress = Progress(STAGE_WEIGHTS, None if args.progress == "auto" else args.progress == "on")
     try:
@@ -121,7 +122,7 @@ def cmd_run(args) -> int:
     exp = run.expanded
     if exp.events:
         store.save(exp.end_tool)
-    title = f"{machine.name}: {name}, {len(run.program.commands)} commands, {run.how}"
+    title = f"{machine.name}: {name}, {run.command_count} commands, {run.how}"
     lines = summary_lines(run.report, title)
     lines += [f"  tool table: {table_path}; spindle record: {spindle_path} "
               f"(T{exp.end_tool} in the spindle)"] if exp.events or "atc" in machine.parts else []

@@ -22,7 +22,7 @@ from . import coords, cycles, pathcontrol, probing, radiuscomp, spindle, splines
 from .arcwords import arc_center, plane_axes
 from .blocks import Block
 from .errors import RuleError
-from .state import ModalState, clean_mm
+from .state import DECIMALS, ModalState, clean_mm
 from .threading import g33, g76, leave
 from .validate import check_arc, check_feed, check_soft_limits, check_word_use
 
@@ -333,12 +333,17 @@ class Translator:
             emit = self._emit
         s = self.state
         x = names.index("X") if s.css is not None else None
+        # an axis off the plane that does not move stays at its start on every chord
+        words = [(n, clean_mm(start[n])) for n in names]
+        moving = [(i, n) for i, n in enumerate(names) if i in plane or start[n] != end[n]]
         for p in chords:
             if x is not None:
                 spindle.follow(self, p[x])
                 if s.per_rev:
                     self._send_feed(length, mode)
-            emit(PMov(tuple((n, clean_mm(v)) for n, v in zip(names, p))))
+            for i, n in moving:
+                words[i] = (n, round(p[i], DECIMALS) + 0.0)                  # clean_mm, inlined
+            emit(PMov(tuple(words)))
 
     # -- output ----------------------------------------------------------------------------
     def _send_feed(self, length_mm: float = 0.0, mode=1) -> None:

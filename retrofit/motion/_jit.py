@@ -35,6 +35,26 @@ def kernel(func):
     return func
 
 
+def _start_numba() -> None:
+    """Load Numba's CPU target now, telling its BLAS check there is none.
+
+    When it first loads a kernel, Numba imports SciPy's linear algebra to see whether ``np.dot``
+    could be compiled (0.2 s and 30 MB); no kernel here uses linear algebra, so while the target
+    loads SciPy reads as absent (unless something imported it already). SciPy imports normally
+    afterwards.
+    """
+    blocked = "scipy" not in sys.modules
+    if blocked:
+        sys.modules["scipy"] = None
+    try:
+        from numba.core.registry import cpu_target
+        cpu_target.target_context.refresh()
+        cpu_target.typing_context.refresh()
+    finally:
+        if blocked:
+            del sys.modules["scipy"]
+
+
 def _njit(func):
     from numba import njit
     return njit(cache=True, nogil=True)(func)
@@ -47,6 +67,7 @@ def compiled(work: int | None = None) -> bool:
         return _active
     if work is not None and work < COMPILE_ABOVE:
         return False
+    _start_numba()
     table = {key: _njit(func) for key, func in _kernels.items()}
     for name, module in list(sys.modules.items()):
         if not (name == "retrofit" or name.startswith("retrofit.")) or module is None:
@@ -59,4 +80,5 @@ def compiled(work: int | None = None) -> bool:
 
 
 if HAVE_NUMBA and os.environ.get("RETROFIT_NUMBA") == "always":     # pragma: no cover
+    _start_numba()
     _active = True

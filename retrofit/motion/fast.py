@@ -20,7 +20,7 @@ from ..frames import PinMap, PortFrames
 from ._jit import compiled, kernel
 from .execute import StepRequests, run_log, tick_of
 from .planner import Plan
-from .profile import P_LEN, time_at
+from .profile import P_LEN, ticks_at, time_at
 
 _NEVER = -(1 << 40)
 
@@ -107,42 +107,62 @@ def move_requests(dda, n, c0, c_stop, delta, state, length, t0, starts, offsets,
 
 
 @kernel
-def _plan_requests(dda, starts, ends, profiles, t0s, has_profile, rate, out_ticks, out_dirs, counts):
-    """Per-axis requested ticks and directions of every move, move by move (:func:`move_requests`)."""
+def _bresenham_requests(starts, ends, profiles, t0s, has_profile, rate, out_ticks, out_dirs, counts):
+    """Per-axis requested ticks and directions of every move, cycle by cycle (002's execute)."""
     n_moves, n_axes = starts.shape
     fill = np.zeros(n_axes, dtype=np.int64)
-    before = np.zeros(n_axes, dtype=np.int64)
-    state = np.zeros((2, n_axes), dtype=np.int64)
-    origin = np.zeros(1)
-    no_cycle = np.zeros((n_axes, 0), dtype=np.int64)
-    no_due = np.zeros(0, dtype=np.int64)
+    error = np.zeros(n_axes, dtype=np.int64)
+    s = np.empty(1024)
+    ticks = np.empty(1024, np.int64)
     for m in range(n_moves):
         if has_profile[m]:
             n = _base_steps(starts[m], ends[m])
-            delta = ends[m] - starts[m]
+            p = profiles[m]
+            length = p[P_LEN]
+            if n > s.shape[0]:
+                s, ticks = np.empty(2 * n), np.empty(2 * n, np.int64)
+            for k in range(n):                                  # cycle k + 1 of n
+                s[k] = float(k + 1) * length / n
+            ticks_at(s[:n], p, t0s[m], rate, ticks[:n])
             for a in range(n_axes):
-                before[a] = fill[a]
-                state[0, a] = 0
-                state[1, a] = n                       # 004: SHORT starts at COUNT = n / d
-            move_requests(dda, n, 0, n, delta, state, profiles[m, P_LEN], t0s[m], origin, origin,
-                          profiles[m:m + 1], rate, out_ticks, no_cycle, fill, no_due)
-            for a in range(n_axes):
-                for j in range(before[a], fill[a]):
-                    out_dirs[a, j] = 1 if delta[a] > 0 else -1
+                error[a] = 0
+            for k in range(1, n + 1):
+                for a in range(n_axes):
+                    delta = ends[m, a] - starts[m, a]
+                    if delta == 0:
+                        continue
+                    error[a] += 2 * abs(delta)
+                    if error[a] > n or (error[a] == n and _tie(k, n, delta)):
+                        error[a] -= 2 * n
+                        out_ticks[a, fill[a]] = ticks[k - 1]
+                        out_dirs[a, fill[a]] = 1 if delta > 0 else -1
+                        fill[a] += 1
         for a in range(n_axes):
             counts[m, a] = fill[a]
 
 
 @kernel
-def _bresenham_requests(starts, ends, profiles, t0s, has_profile, rate, out_ticks, out_dirs, counts):
-    """Per-axis requested ticks and directions of every move, cycle by cycle (002's execute)."""
-    _plan_requests(False, starts, ends, profiles, t0s, has_profile, rate, out_ticks, out_dirs, counts)
-
-
-@kernel
 def _dda_requests(starts, ends, profiles, t0s, has_profile, rate, out_ticks, out_dirs, counts):
     """The same for 004's digital integration: pulse k of d sits at k·n/d base intervals."""
-    _plan_requests(True, starts, ends, profiles, t0s, has_profile, rate, out_ticks, out_dirs, counts)
+    n_moves, n_axes = starts.shape
+    s = np.empty(1024)
+    for a in range(n_axes):
+        fill = 0
+        for m in range(n_moves):
+            if has_profile[m]:
+                n = _base_steps(starts[m], ends[m])
+                length = profiles[m, P_LEN]
+                delta = ends[m, a] - starts[m, a]
+                d = abs(delta)
+                if d > s.shape[0]:
+                    s = np.empty(2 * d)
+                for k in range(d):                              # pulse k + 1 of d
+                    position = float((k + 1) * n) / d
+                    s[k] = position * length / n
+                ticks_at(s[:d], profiles[m], t0s[m], rate, out_ticks[a, fill:fill + d])
+                out_dirs[a, fill:fill + d] = 1 if delta > 0 else -1
+                fill += d
+            counts[m, a] = fill
 
 
 @kernel
@@ -311,7 +331,8 @@ def shape_fast(plan: Plan, requests: StepRequests):
 
 def plan_steps(plan: Plan) -> int:
     """Steps of all axes over the whole plan (the work a run has to do)."""
-    return sum(sum(abs(e - s) for s, e in zip(m.start, m.end)) for m in plan.moves if m.profile is not None)
+    a = plan.arrays()
+    return int((np.abs(a.ends - a.starts).sum(axis=1) * a.has_profile).sum())
 
 
 def execute_fast(plan: Plan):

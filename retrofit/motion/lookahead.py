@@ -217,10 +217,19 @@ def plan_speeds(moves: list[Kinematics], depth: int, deviation_mm: float, accel_
     compiled(n * 100)                     # a thousand moves pay for loading the compiler
     n_axes = len(moves[0].unit)
     units, lengths, v_max, a_max, stop_before = _arrays(moves, n_axes)
-    use_axes, accel, step = _axis_limits(n_axes, axis_accel, axis_step)
-    entries, exits = np.zeros(n), np.zeros(n)
-    _speeds(units, lengths, v_max, a_max, stop_before, int(depth), float(deviation_mm), float(accel_scale),
-            use_axes, accel, step, entries, exits)
+    entries, exits = speeds_of(units, lengths, v_max, a_max, stop_before, depth, deviation_mm, accel_scale,
+                               axis_accel, axis_step)
     for move, a in zip(moves, a_max.tolist()):
         move.a_max_mm_s2 = a
     return list(zip(entries.tolist(), exits.tolist()))
+
+
+def speeds_of(units, lengths, v_max, a_max, stop_before, depth: int, deviation_mm: float, accel_scale: float = 1.0,
+              axis_accel: np.ndarray | None = None, axis_step: np.ndarray | None = None):
+    """:func:`plan_speeds` on columns (``units`` [moves, axes], the rest [moves]): the (entries,
+    exits) arrays; ``a_max`` is cut in place for turning moves."""
+    use_axes, accel, step = _axis_limits(units.shape[1], axis_accel, axis_step)
+    entries, exits = np.zeros(len(lengths)), np.zeros(len(lengths))
+    _speeds(units, lengths, v_max, a_max, stop_before, int(depth), float(deviation_mm), float(accel_scale),
+            use_axes, accel, step, entries, exits)
+    return entries, exits

@@ -8,7 +8,7 @@ steps, its velocity profile and its start time), so executing it is pure arithme
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Iterable, Sequence
 
 import numpy as np
@@ -43,12 +43,32 @@ class PlannedMove:
         return self.dwell_s if self.profile is None else prof.duration(self.profile)
 
 
-@dataclass
 class Plan:
-    machine: Machine
-    start_steps: tuple[int, ...]
-    moves: list[PlannedMove] = field(default_factory=list)
-    end_s: float = 0.0
+    """The prepared moves of a program: ``moves`` (objects, made on first use) and the same
+    moves as columns (:meth:`arrays`, what the compiled paths read)."""
+
+    def __init__(self, machine: Machine, start_steps: tuple[int, ...], moves: list[PlannedMove] | None = None,
+                 end_s: float = 0.0, arrays=None):
+        self.machine, self.start_steps, self.end_s = machine, start_steps, end_s
+        self._moves = moves if moves is not None or arrays is not None else []
+        self._arrays = arrays
+
+    @property
+    def moves(self) -> list[PlannedMove]:
+        if self._moves is None:
+            a = self._arrays
+            self._moves = [PlannedMove(tuple(s), tuple(e), tuple(t), t0, p if has else None, d, i)
+                           for s, e, t, t0, p, has, d, i in zip(
+                               a.starts.tolist(), a.ends.tolist(), a.targets.tolist(), a.t0s.tolist(),
+                               a.profiles, a.has_profile.tolist(), a.dwells.tolist(), a.index.tolist())]
+        return self._moves
+
+    def arrays(self):
+        """The moves as :class:`~retrofit.motion.planarrays.PlanArrays` (columns)."""
+        if self._arrays is None:
+            from .planarrays import PlanArrays
+            self._arrays = PlanArrays.of_moves(self.moves, len(self.machine.axes))
+        return self._arrays
 
 
 @dataclass
@@ -63,9 +83,20 @@ class _Segment:
 
 def plan_program(commands: Iterable[Command], machine: Machine, backlash_comp: bool = True,
                  start_steps: Sequence[int] | None = None) -> Plan:
-    """Prepare every motion command of a program (see module doc)."""
+    """Prepare every motion command of a program (see module doc); by compiled passes over
+    arrays (``motion.planarrays``, the same plan) unless the program needs this walker's words."""
+    from .planarrays import plan_arrays
     start = tuple(start_steps or (0,) * len(machine.axes))
-    segments = list(_segments(list(commands), machine, backlash_comp, start))   # may raise MotionError
+    commands = list(commands)
+    fast = plan_arrays(commands, machine, backlash_comp, start)
+    if fast is not None:
+        return Plan(machine, start, end_s=fast[1], arrays=fast[0])
+    return plan_walked(commands, machine, backlash_comp, start)
+
+
+def plan_walked(commands: list[Command], machine: Machine, backlash_comp: bool, start: tuple[int, ...]) -> Plan:
+    """:func:`plan_program` by the readable walker, one object per move (the reference)."""
+    segments = list(_segments(commands, machine, backlash_comp, start))   # may raise MotionError
     settings = machine.motion
     exponential = settings.profile == "exponential"
     speeds = plan_speeds([s.kin for s in segments], settings.lookahead, settings.junction_deviation_mm,

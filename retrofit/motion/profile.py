@@ -40,6 +40,35 @@ def time_at(s: float, p) -> float:
 
 
 @kernel
+def ticks_at(s, p, t0, rate, out) -> None:
+    """``out[k]``: the tick nearest ``t0 + time_at(s[k], p)`` (``s`` non-decreasing), at ``rate``
+    ticks per second. The same floats as :func:`time_at` step by step; a trapezoid's three
+    parts are taken as three branch-free loops, which the compiler runs several steps at a time."""
+    count = s.shape[0]
+    if p[P_KIND] != TRAPEZOID:
+        for k in range(count):
+            out[k] = np.int64(np.floor((t0 + time_at(s[k], p)) * rate + 0.5))
+        return
+    a, vc, v0, d1 = p[P_A], p[P_VC], p[P_V0], p[P_D1]
+    cruise_end = p[P_LEN] - p[P_D2]
+    k1 = 0
+    while k1 < count and s[k1] <= d1:
+        k1 += 1
+    k2 = k1
+    while k2 < count and s[k2] <= cruise_end:
+        k2 += 1
+    for k in range(k1):
+        out[k] = np.int64(np.floor((t0 + (math.sqrt(v0 * v0 + 2.0 * a * s[k]) - v0) / a) * rate + 0.5))
+    t1 = p[P_T1]
+    for k in range(k1, k2):
+        out[k] = np.int64(np.floor((t0 + (t1 + (s[k] - d1) / vc)) * rate + 0.5))
+    t12 = p[P_T1] + p[P_TC]
+    for k in range(k2, count):
+        under = max(vc * vc - 2.0 * a * (s[k] - cruise_end), 0.0)
+        out[k] = np.int64(np.floor((t0 + (t12 + (vc - math.sqrt(under)) / a)) * rate + 0.5))
+
+
+@kernel
 def _trapezoid_time(s, p):
     a, vc = p[P_A], p[P_VC]
     if s <= p[P_D1]:
@@ -78,20 +107,27 @@ def _exponential_time(s, p):
 
 def trapezoid(length: float, v0: float, vc: float, v1: float, a: float) -> np.ndarray:
     """Profile row of a trapezoid over ``length`` mm (speeds mm/s, ``a`` mm/s²)."""
+    row = np.zeros(P_WIDTH)
+    trapezoid_into(row, length, v0, vc, v1, a)
+    return row
+
+
+@kernel
+def trapezoid_into(row, length, v0, vc, v1, a):
+    """Write the trapezoid's profile row into ``row`` (zeros beyond its columns)."""
     vc = max(vc, v0, v1)
     d1 = (vc * vc - v0 * v0) / (2.0 * a)
     d2 = (vc * vc - v1 * v1) / (2.0 * a)
     if d1 + d2 > length:                                # a triangle: the peak the length allows
-        vc = math.sqrt(max((2.0 * a * length + v0 * v0 + v1 * v1) / 2.0, max(v0, v1) ** 2))
+        faster = max(v0, v1)
+        vc = math.sqrt(max((2.0 * a * length + v0 * v0 + v1 * v1) / 2.0, faster * faster))
         d1 = min(max((vc * vc - v0 * v0) / (2.0 * a), 0.0), length)
         d2 = length - d1
-    t1 = (vc - v0) / a
-    tc = (length - d1 - d2) / vc if vc > 0 else 0.0
-    t2 = (vc - v1) / a
-    row = np.zeros(P_WIDTH)
-    row[[P_KIND, P_V0, P_VC, P_V1, P_A, P_LEN, P_D1, P_D2, P_T1, P_TC, P_T2]] = (
-        TRAPEZOID, v0, vc, v1, a, length, d1, d2, t1, tc, t2)
-    return row
+    row[P_KIND], row[P_V0], row[P_VC], row[P_V1], row[P_A] = TRAPEZOID, v0, vc, v1, a
+    row[P_LEN], row[P_D1], row[P_D2] = length, d1, d2
+    row[P_T1] = (vc - v0) / a
+    row[P_TC] = (length - d1 - d2) / vc if vc > 0 else 0.0
+    row[P_T2] = (vc - v1) / a
 
 
 def _ramp(v_start: float, v_end: float, a: float) -> tuple[float, float, float, float]:

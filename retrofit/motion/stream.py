@@ -20,11 +20,13 @@ from typing import Callable, Iterator
 import numpy as np
 
 from ..frames import PinMap, PortFrames
-from ..runlog import RunLog, Waypoint
+from ..runlog import RunLog, WaypointTable
 from ._jit import compiled, kernel
+from .bitmerge import axis_events, follow_two, merge_two
 from .execute import tick_of
-from .fast import _bresenham_requests, _dda_requests
+from .fast import _bresenham_requests, _dda_requests, plan_steps
 from .planner import Plan
+from .profile import P_T1, P_T2, P_TC
 
 _NEVER = -(1 << 40)
 _BIG = np.int64(1) << 62
@@ -57,59 +59,6 @@ def _shape_from(state, wanted, dirs, period, setup, hold, rises, turn_ticks, tur
         last_rise = rise
     state[0], state[1], state[2], state[3] = direction, last_rise, last_turn, done + wanted.shape[0]
     return turns
-
-
-@kernel
-def _merge_until(limit, rises, rise_start, i_rise, i_fall, turns, turn_dirs, turn_start, i_turn,
-                 high, step_mask, dir_mask, invert, bits_last, out_ticks, out_values):
-    """``fast._frames`` for the events before ``limit``, from the per-axis positions given.
-
-    ``bits_last`` = [logical bits, last byte written (-1: none)]; positions and bits are updated.
-    """
-    n_axes = high.shape[0]
-    bits, last = bits_last[0], bits_last[1]
-    count = 0
-    upcoming = np.full(n_axes, -1, np.int64)               # -1: work out this axis's next event
-    while True:
-        tick = _BIG
-        for a in range(n_axes):
-            if upcoming[a] < 0:
-                nxt = _BIG
-                if i_fall[a] < rise_start[a + 1]:
-                    nxt = rises[i_fall[a]] + high[a]
-                if i_rise[a] < rise_start[a + 1] and rises[i_rise[a]] < nxt:
-                    nxt = rises[i_rise[a]]
-                if i_turn[a] < turn_start[a + 1] and turns[i_turn[a]] < nxt:
-                    nxt = turns[i_turn[a]]
-                upcoming[a] = nxt
-            if upcoming[a] < tick:
-                tick = upcoming[a]
-        if tick >= limit:
-            break
-        for a in range(n_axes):
-            if upcoming[a] != tick:
-                continue
-            if i_fall[a] < rise_start[a + 1] and rises[i_fall[a]] + high[a] == tick:
-                bits &= ~step_mask[a]
-                i_fall[a] += 1
-            if i_turn[a] < turn_start[a + 1] and turns[i_turn[a]] == tick:
-                if turn_dirs[i_turn[a]] > 0:
-                    bits |= dir_mask[a]
-                else:
-                    bits &= ~dir_mask[a]
-                i_turn[a] += 1
-            if i_rise[a] < rise_start[a + 1] and rises[i_rise[a]] == tick:
-                bits |= step_mask[a]
-                i_rise[a] += 1
-            upcoming[a] = -1
-        value = bits ^ invert
-        if value != last:
-            out_ticks[count] = tick
-            out_values[count] = value
-            last = value
-            count += 1
-    bits_last[0], bits_last[1] = bits, last
-    return count
 
 
 @kernel
@@ -149,107 +98,161 @@ class _Axes:
         self.risen_before = np.zeros(n_axes, np.int64)   # rises dropped from ``open_rises``
 
 
-def _window_requests(plan: Plan, lo: int, hi: int, rate: float):
-    """Step requests (wanted ticks, dirs) per axis of moves lo..hi-1 and each move's counts."""
-    machine = plan.machine
-    moves = plan.moves[lo:hi]
-    n_axes, n_moves = len(machine.axes), len(moves)
-    starts = np.array([m.start for m in moves], dtype=np.int64).reshape(n_moves, n_axes)
-    ends = np.array([m.end for m in moves], dtype=np.int64).reshape(n_moves, n_axes)
-    has_profile = np.array([m.profile is not None for m in moves], dtype=np.bool_)
-    profiles = np.zeros((n_moves, 15))
-    for i, move in enumerate(moves):
-        if move.profile is not None:
-            profiles[i] = move.profile
-    t0s = np.array([m.t0_s for m in moves], dtype=np.float64)
-    totals = np.abs(ends - starts)[has_profile].sum(axis=0) if n_moves else np.zeros(n_axes, np.int64)
-    width = int(totals.max()) if n_moves else 0
-    ticks = np.zeros((n_axes, width), dtype=np.int64)
-    dirs = np.zeros((n_axes, width), dtype=np.int8)
-    counts = np.zeros((n_moves, n_axes), dtype=np.int64)
-    requests = _dda_requests if machine.motion.interpolator == "dda" else _bresenham_requests
-    if n_moves:
-        requests(starts, ends, profiles, t0s, has_profile, rate, ticks, dirs, counts)
-    return [ticks[a, :int(totals[a])] for a in range(n_axes)], [dirs[a, :int(totals[a])] for a in range(n_axes)], counts
+#: glibc's mallopt parameters: the size from which an array gets pages of its own, and the free
+#: memory kept at the top of the heap
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
+_KEEP_BYTES = 1 << 25
+_kept = False
 
 
-def _next_moves(plan: Plan) -> np.ndarray:
-    """For each move boundary b (0..n) and axis: (start tick, direction) of the first move at or after
-    b that steps the axis, as arrays [n+1, axes] (tick _BIG and direction 0 when there is none)."""
-    n, n_axes = len(plan.moves), len(plan.machine.axes)
-    rate = 1e6 / plan.machine.tick_us
-    ticks = np.full((n + 1, n_axes), _BIG, np.int64)
-    dirs = np.zeros((n + 1, n_axes), np.int8)
+def keep_freed_memory() -> None:
+    """Let the window-sized arrays a stream makes and drops reuse freed memory.
+
+    By default glibc gives each array over 128 kB pages of its own and returns them when it is
+    freed, so every window would fault its pages in again (nearly half the CPU of a short
+    streamed run); arrays below 32 MB come from the heap instead, which keeps 32 MB free.
+    Nothing changes where the C library is not glibc.
+    """
+    global _kept
+    if _kept:
+        return
+    _kept = True
+    try:
+        import ctypes
+        libc = ctypes.CDLL("libc.so.6")
+        libc.mallopt(_M_MMAP_THRESHOLD, _KEEP_BYTES)
+        libc.mallopt(_M_TRIM_THRESHOLD, _KEEP_BYTES)
+    except (OSError, AttributeError):           # pragma: no cover - not glibc
+        pass
+
+
+class _Columns:
+    """What the stream reads of every move, as arrays: the plan's columns, steps per move, the
+    tick each move is loaded and ends, and the next move stepping each axis."""
+
+    def __init__(self, plan: Plan, rate: float):
+        a = self.arrays = plan.arrays()
+        self.sizes = np.abs(a.ends - a.starts).sum(axis=1) * a.has_profile
+        self.cumulative = np.cumsum(self.sizes)
+        self.loaded = np.floor(a.t0s * rate + 0.5).astype(np.int64)           # execute.tick_of
+        p = a.profiles
+        durations = np.where(a.has_profile, p[:, P_T1] + p[:, P_TC] + p[:, P_T2], a.dwells)
+        self.ends = np.floor((a.t0s + durations) * rate + 0.5).astype(np.int64)
+        n, n_axes = a.starts.shape
+        self.next_tick = np.empty((n + 1, n_axes), np.int64)
+        self.next_dir = np.empty((n + 1, n_axes), np.int8)
+        _next_moves(a.starts, a.ends, a.has_profile, self.loaded, self.next_tick, self.next_dir)
+
+    def window_end(self, lo: int, window_steps: int) -> int:
+        """End of the window of moves from ``lo``: as many as fit ``window_steps``, at least one."""
+        base = int(self.cumulative[lo - 1]) if lo else 0
+        return max(int(np.searchsorted(self.cumulative, base + window_steps, side="right")), lo + 1)
+
+
+@kernel
+def _next_moves(starts, ends, has_profile, loaded, ticks, dirs):
+    """For each move boundary b (0..n) and axis: (start tick, direction) of the first move at or
+    after b that steps the axis (tick _BIG and direction 0 when there is none)."""
+    n, n_axes = starts.shape
+    for a in range(n_axes):
+        ticks[n, a], dirs[n, a] = _BIG, 0
     for m in range(n - 1, -1, -1):
-        ticks[m], dirs[m] = ticks[m + 1], dirs[m + 1]
-        move = plan.moves[m]
-        if move.profile is None:
-            continue
-        t = tick_of(move.t0_s, rate)
-        for a, (s, e) in enumerate(zip(move.start, move.end)):
-            if e != s:
-                ticks[m, a], dirs[m, a] = t, 1 if e > s else -1
-    return ticks, dirs
+        for a in range(n_axes):
+            ticks[m, a], dirs[m, a] = ticks[m + 1, a], dirs[m + 1, a]
+            if has_profile[m] and ends[m, a] != starts[m, a]:
+                ticks[m, a] = loaded[m]
+                dirs[m, a] = 1 if ends[m, a] > starts[m, a] else -1
+
+
+def _window_requests(plan: Plan, cols: _Columns, lo: int, hi: int, rate: float):
+    """Step requests (wanted ticks, dirs) per axis of moves lo..hi-1 and each move's counts."""
+    a = cols.arrays
+    n_axes, n_moves = a.starts.shape[1], hi - lo
+    starts, ends, has_profile = a.starts[lo:hi], a.ends[lo:hi], a.has_profile[lo:hi]
+    totals = (np.abs(ends - starts) * has_profile[:, None]).sum(axis=0)
+    width = int(totals.max())
+    ticks = np.empty((n_axes, width), dtype=np.int64)
+    dirs = np.empty((n_axes, width), dtype=np.int8)
+    counts = np.empty((n_moves, n_axes), dtype=np.int64)
+    requests = _dda_requests if plan.machine.motion.interpolator == "dda" else _bresenham_requests
+    requests(starts, ends, a.profiles[lo:hi], a.t0s[lo:hi], has_profile, rate, ticks, dirs, counts)
+    return [ticks[k, :int(totals[k])] for k in range(n_axes)], [dirs[k, :int(totals[k])] for k in range(n_axes)], counts
+
+
+class _StepGen:
+    """The step generator of every axis, carried from window to window: its counters' state, the
+    events not yet merged into port frames, and the last byte written."""
+
+    def __init__(self, machine):
+        pins = PinMap(machine)
+        self.axes, self.invert = machine.axes, pins.invert
+        self.period = np.array([a.pulse_high_ticks + a.pulse_low_ticks for a in machine.axes], np.int64)
+        self.high = np.array([a.pulse_high_ticks for a in machine.axes], np.int64)
+        self.step_mask = np.array(pins.step_masks, np.int64)
+        self.dir_mask = np.array(pins.dir_masks, np.int64)
+        self.state = np.array([[-1, _NEVER, _NEVER, 0] for _ in machine.axes], np.int64)
+        self.pending = _Axes(len(machine.axes))
+        self.bits_last = np.array([0, -1], np.int64)
+
+    def shape(self, wanted, dirs) -> tuple[list[np.ndarray], int]:
+        """Rise ticks per axis of a window's step requests (kept pending for the frames) and the
+        last tick any of their pulses holds (-1 for none)."""
+        window_rises, last = [], -1
+        for a, axis in enumerate(self.axes):
+            size = len(wanted[a]) if wanted else 0
+            rises, turn_ticks = np.empty(size, np.int64), np.empty(size, np.int64)
+            turn_dirs = np.empty(size, np.int8)
+            if size:
+                k = _shape_from(self.state[a], wanted[a], dirs[a], self.period[a], axis.dir_setup_ticks,
+                                axis.dir_hold_ticks, rises, turn_ticks, turn_dirs)
+                _append(self.pending, a, rises, turn_ticks[:k], turn_dirs[:k], wanted[a])
+                last = max(last, int(rises[-1]) + int(self.period[a]) - 1)
+            window_rises.append(rises)
+        return window_rises, last
+
+    def frames(self, limit: int, first: bool) -> PortFrames:
+        """Port frames of the pending events before ``limit``."""
+        return _merge(self.pending, limit, self.high, self.step_mask, self.dir_mask, self.invert,
+                      self.bits_last, first)
 
 
 def stream_frames(plan: Plan, window_steps: int = 1 << 20,
-                  on_waypoint: Callable[[Waypoint], None] | None = None,
+                  on_waypoints: Callable[[np.ndarray, np.ndarray, np.ndarray], None] | None = None,
                   progress: Callable[[float], None] | None = None) -> Iterator[PortFrames]:
     """The plan's port frames in consecutive chunks (equal, joined, to ``execute_fast``'s).
 
-    Moves are taken in windows of about ``window_steps`` steps. ``on_waypoint`` gets each move's
-    waypoint as soon as its last step is known; ``progress`` the fraction of moves done. The
-    generator's return value (``StopIteration.value``) is a :class:`StreamStats`.
+    Moves are taken in windows of about ``window_steps`` steps. ``on_waypoints(steps, loaded,
+    reached)`` gets the waypoints of each window's moves (arrays) as soon as their last steps are
+    known; ``progress`` the fraction of moves done. The generator's return value
+    (``StopIteration.value``) is a :class:`StreamStats`.
     """
     machine = plan.machine
-    pins = PinMap(machine)
-    n_axes, n_moves = len(machine.axes), len(plan.moves)
+    n_moves = len(plan.arrays())
+    keep_freed_memory()
     rate = 1e6 / machine.tick_us
-    next_tick, next_dir = _next_moves(plan)
-    period = np.array([a.pulse_high_ticks + a.pulse_low_ticks for a in machine.axes], np.int64)
-    high = np.array([a.pulse_high_ticks for a in machine.axes], np.int64)
-    step_mask = np.array(pins.step_masks, np.int64)
-    dir_mask = np.array(pins.dir_masks, np.int64)
-    shape_state = np.array([[-1, _NEVER, _NEVER, 0] for _ in machine.axes], np.int64)
-    pending = _Axes(n_axes)
-    bits_last = np.array([0, -1], np.int64)
-    stats = StreamStats(np.zeros(n_axes, np.int64))
+    if not compiled(plan_steps(plan)):           # a small run: one chunk by NumPy, no compiler to load
+        return (yield from _whole_run(plan, on_waypoints, progress))
+    cols, gen = _Columns(plan, rate), _StepGen(machine)
+    stats = StreamStats(np.zeros(len(machine.axes), np.int64))
     end = tick_of(plan.end_s, rate)
-    first = True
-    chunk_end = 0
-    sizes = [sum(abs(e - s) for s, e in zip(m.start, m.end)) if m.profile is not None else 0 for m in plan.moves]
-    if not compiled(sum(sizes)):           # a small run: one chunk by NumPy, no compiler to load
-        return (yield from _whole_run(plan, on_waypoint, progress))
-    lo = 0
-    while lo < n_moves or first:
-        hi, total = lo, 0
-        while hi < n_moves and (hi == lo or total + sizes[hi] <= window_steps):
-            total += sizes[hi]
-            hi += 1
-        wanted, dirs, counts = _window_requests(plan, lo, hi, rate)
-        window_rises = []
-        for a, axis in enumerate(machine.axes):
-            rises = np.empty(len(wanted[a]), np.int64)
-            turn_ticks = np.empty(len(wanted[a]), np.int64)
-            turn_dirs = np.empty(len(wanted[a]), np.int8)
-            k = _shape_from(shape_state[a], wanted[a], dirs[a], period[a], axis.dir_setup_ticks,
-                            axis.dir_hold_ticks, rises, turn_ticks, turn_dirs)
-            _append(pending, a, rises, turn_ticks[:k], turn_dirs[:k], wanted[a])
-            window_rises.append(rises)
-            if len(rises):
-                end = max(end, int(rises[-1]) + int(period[a]) - 1)
-            stats.steps[a] += len(rises)
-        _waypoints(plan, lo, hi, rate, counts, window_rises, on_waypoint)
-        stats.lag = max(stats.lag, _settle_lag(pending, final=hi >= n_moves))
+    lo, chunk_end = 0, 0
+    while True:
+        hi = cols.window_end(lo, window_steps) if n_moves else 0
+        wanted, dirs, counts = _window_requests(plan, cols, lo, hi, rate) if n_moves else ([], [], None)
+        window_rises, last = gen.shape(wanted, dirs)
+        end = max(end, last)
+        stats.steps += [len(r) for r in window_rises]
+        if on_waypoints is not None and hi > lo:
+            on_waypoints(cols.arrays.targets[lo:hi], cols.loaded[lo:hi],
+                         _reached(counts, window_rises, cols.ends[lo:hi]))
+        stats.lag = max(stats.lag, _settle_lag(gen.pending, final=hi >= n_moves))
         limit = _BIG
         if hi < n_moves:      # no later event, and no later waypoint, comes before the limit
-            limit = min(_limit(shape_state, next_tick[hi], next_dir[hi], period, machine),
-                        tick_of(plan.moves[hi].t0_s, rate))
-        chunk = _merge(pending, limit, high, step_mask, dir_mask, pins.invert, bits_last, first)
-        first = False
+            limit = min(_limit(gen.state, cols.next_tick[hi], cols.next_dir[hi], gen.period, machine),
+                        int(cols.loaded[hi]))
+        chunk = gen.frames(limit, first=lo == 0)
         chunk_end = max(chunk_end, limit) if hi < n_moves else max(end, 0) + 1
-        chunk = PortFrames(chunk.ticks, chunk.values, chunk_end)
-        yield chunk
+        yield PortFrames(chunk.ticks, chunk.values, chunk_end)
         if progress is not None:
             progress(hi / n_moves if n_moves else 1.0)
         lo = hi
@@ -259,13 +262,25 @@ def stream_frames(plan: Plan, window_steps: int = 1 << 20,
     return stats
 
 
-def _whole_run(plan: Plan, on_waypoint, progress):
+def _reached(counts, window_rises, move_ends) -> np.ndarray:
+    """Each move's reached tick: its last rising edge (``execute.run_log``'s rule), else its end."""
+    reached = np.full(len(counts), -1, np.int64)
+    for a, rises in enumerate(window_rises):
+        c = counts[:, a]
+        stepped = c > np.concatenate(([0], c[:-1]))
+        if stepped.any():
+            reached[stepped] = np.maximum(reached[stepped], rises[c[stepped] - 1])
+    return np.where(reached >= 0, reached, move_ends)
+
+
+def _whole_run(plan: Plan, on_waypoints, progress):
     """The whole run as one chunk (``execute_numpy``, the same frames), for small programs."""
     from .vectorised import execute_numpy
     log = execute_numpy(plan)
-    for waypoint in log.waypoints:
-        if on_waypoint is not None:
-            on_waypoint(waypoint)
+    if on_waypoints is not None and log.waypoints:
+        on_waypoints(np.array([w.steps for w in log.waypoints], np.int64),
+                     np.array([w.loaded_tick for w in log.waypoints], np.int64),
+                     np.array([w.reached_tick for w in log.waypoints], np.int64))
     yield log.frames
     if progress is not None:
         progress(1.0)
@@ -279,20 +294,6 @@ def _append(pending: _Axes, a: int, rises, turn_ticks, turn_dirs, wanted) -> Non
     pending.turn_dirs[a] = np.concatenate((pending.turn_dirs[a], turn_dirs))
     pending.wanted[a] = np.concatenate((pending.wanted[a], wanted))
     pending.open_rises[a] = np.concatenate((pending.open_rises[a], rises))
-
-
-def _waypoints(plan: Plan, lo: int, hi: int, rate: float, counts, window_rises, on_waypoint) -> None:
-    """Each move's waypoint: reached at its last rising edge (``execute.run_log``'s rule)."""
-    if on_waypoint is None:
-        return
-    n_axes = counts.shape[1] if len(counts) else 0
-    for m in range(lo, hi):
-        row = counts[m - lo]
-        last = [int(window_rises[a][row[a] - 1]) for a in range(n_axes)
-                if row[a] > 0 and (m == lo or row[a] > counts[m - lo - 1][a])]
-        move = plan.moves[m]
-        reached = max(last) if last else tick_of(move.t0_s + move.duration_s, rate)
-        on_waypoint(Waypoint(move.target, loaded_tick=tick_of(move.t0_s, rate), reached_tick=reached))
 
 
 def _settle_lag(pending: _Axes, final: bool) -> int:
@@ -331,46 +332,47 @@ def _limit(shape_state, next_tick, next_dir, period, machine) -> int:
 
 
 def _merge(pending: _Axes, limit: int, high, step_mask, dir_mask, invert: int, bits_last, first: bool) -> PortFrames:
-    """Port frames of the pending events before ``limit``; what is merged leaves ``pending``."""
-    n_axes = len(pending.rises)
-    rise_start = np.zeros(n_axes + 1, np.int64)
-    turn_start = np.zeros(n_axes + 1, np.int64)
-    for a in range(n_axes):
-        rise_start[a + 1] = rise_start[a] + len(pending.rises[a])
-        turn_start[a + 1] = turn_start[a] + len(pending.turns[a])
-    rises = np.concatenate(pending.rises) if n_axes else np.zeros(0, np.int64)
-    turns = np.concatenate(pending.turns) if n_axes else np.zeros(0, np.int64)
-    turn_dirs = np.concatenate(pending.turn_dirs) if n_axes else np.zeros(0, np.int8)
-    i_fall = rise_start[:-1].copy()
-    i_rise = i_fall + pending.i_rise
-    i_turn = turn_start[:-1].copy()
-    capacity = 2 * len(rises) + len(turns) + 1
-    out_ticks = np.empty(capacity, np.int64)
-    out_values = np.empty(capacity, np.uint8)
-    start = 0
+    """Port frames of the pending events before ``limit``; what is merged leaves ``pending``.
+
+    Each axis's bit changes (rise, fall, turn: each flips its bit) are listed in tick order, the
+    axes' lists merged two at a time (changes at one tick joined), then the byte follows them.
+    """
+    streams = []
+    for a in range(len(pending.rises)):
+        rises, turns = pending.rises[a], pending.turns[a]
+        if not len(rises) and not len(turns):
+            continue
+        ev_t = np.empty(2 * len(rises) + len(turns), np.int64)
+        ev_m = np.empty(len(ev_t), np.uint8)
+        c, fallen, risen, turned = axis_events(rises, int(pending.i_rise[a]), turns, high[a], step_mask[a],
+                                                dir_mask[a], np.int64(limit), ev_t, ev_m)
+        pending.rises[a] = rises[fallen:]
+        pending.i_rise[a] = risen - fallen
+        pending.turns[a], pending.turn_dirs[a] = turns[turned:], pending.turn_dirs[a][turned:]
+        streams.append((ev_t[:c], ev_m[:c]))
+    while len(streams) > 2:
+        (at, am), (bt, bm) = streams.pop(), streams.pop()
+        out_t, out_m = np.empty(len(at) + len(bt), np.int64), np.empty(len(at) + len(bt), np.uint8)
+        c = merge_two(at, am, bt, bm, out_t, out_m)
+        streams.append((out_t[:c], out_m[:c]))
+    empty = (np.zeros(0, np.int64), np.zeros(0, np.uint8))
+    (at, am), (bt, bm) = (streams + [empty, empty])[:2]
+    start = 1 if first else 0
+    out_ticks = np.empty(len(at) + len(bt) + start, np.int64)
+    out_values = np.empty(len(out_ticks), np.uint8)
     if first:
         out_ticks[0], out_values[0] = 0, invert
         bits_last[0], bits_last[1] = 0, invert
-        start = 1
-    count = _merge_until(np.int64(limit), rises, rise_start, i_rise, i_fall, turns, turn_dirs, turn_start,
-                         i_turn, high, step_mask, dir_mask, np.int64(invert), bits_last,
-                         out_ticks[start:], out_values[start:])
-    for a in range(n_axes):
-        fallen = int(i_fall[a] - rise_start[a])
-        pending.rises[a] = pending.rises[a][fallen:]
-        pending.i_rise[a] = int(i_rise[a] - i_fall[a])
-        pending.turns[a] = pending.turns[a][int(i_turn[a] - turn_start[a]):]
-        pending.turn_dirs[a] = pending.turn_dirs[a][int(i_turn[a] - turn_start[a]):]
-    n = start + count
-    return PortFrames(out_ticks[:n].copy(), out_values[:n].copy(), min(int(limit), int(_BIG)))
+    n = start + follow_two(at, am, bt, bm, np.int64(invert), bits_last, out_ticks[start:], out_values[start:])
+    return PortFrames(out_ticks[:n], out_values[:n], min(int(limit), int(_BIG)))
 
 
 def execute_streamed(plan: Plan, window_steps: int = 1 << 20) -> RunLog:
     """The whole run through :func:`stream_frames`, joined into one ``RunLog`` (for tests and
     small programs; a long run should consume the chunks as they come)."""
-    waypoints: list[Waypoint] = []
+    table = WaypointTable(len(plan.machine.axes))
     chunks = []
-    gen = stream_frames(plan, window_steps, on_waypoint=waypoints.append)
+    gen = stream_frames(plan, window_steps, on_waypoints=table.add)
     while True:
         try:
             chunks.append(next(gen))
@@ -379,7 +381,7 @@ def execute_streamed(plan: Plan, window_steps: int = 1 << 20) -> RunLog:
             break
     frames = PortFrames(np.concatenate([c.ticks for c in chunks]), np.concatenate([c.values for c in chunks]),
                         stats.end_tick)
-    log = RunLog(plan.machine, frames, waypoints=waypoints, start_steps=plan.start_steps)
+    log = RunLog(plan.machine, frames, waypoints=list(table), start_steps=plan.start_steps)
     log.steps_emitted = {a.name: int(n) for a, n in zip(plan.machine.axes, stats.steps)}
     log.max_following_error_steps = int(stats.lag)
     return log

@@ -11,8 +11,10 @@ from __future__ import annotations
 
 from typing import Callable
 
+import numpy as np
+
 from ..frames import PortFrames
-from ..runlog import RunLog
+from ..runlog import RunLog, WaypointTable
 from . import open_output
 from .sim import SimOutput
 
@@ -42,21 +44,28 @@ def deliver_plan(plan, urls: list[str], progress: Callable[[float], None] | None
             out.open()
         sim = sims[0].sim if sims else SimMachine(machine, plan.start_steps, **trace)
         feeds = [out.write for out in outputs] + ([] if sims else [sim.feed])
-        waypoints = log.waypoints
-        gen = stream_frames(plan, window_steps, on_waypoint=waypoints.append, progress=progress)
-        seen = 0
+        table = log.waypoints = WaypointTable(len(machine.axes))
+        watched, errors = [], _WorstError(machine)
+
+        def waypoints(steps, loaded, reached) -> None:
+            table.add(steps, loaded, reached)
+            watched.append(reached)
+            errors.add(steps, reached)
+        gen = stream_frames(plan, window_steps, on_waypoints=waypoints, progress=progress)
         while True:
             try:
                 chunk = next(gen)
             except StopIteration as stop:
                 stats = stop.value
                 break
-            watched = [w.reached_tick for w in waypoints[seen:] if w.reached_tick is not None]
-            seen = len(waypoints)
             for s in {id(x.sim): x.sim for x in sims}.values() if sims else (sim,):
-                s.watch(watched)
+                s.watch(np.concatenate(watched) if watched else ())
+            watched.clear()
             for feed in feeds:
                 feed(chunk)
+            errors.settle(sim, chunk.end_tick)
+        errors.settle(sim, None)
+        table.worst_mm = errors.worst
     finally:
         for out in outputs:
             out.close()
@@ -64,3 +73,29 @@ def deliver_plan(plan, urls: list[str], progress: Callable[[float], None] | None
     log.steps_emitted = {a.name: int(n) for a, n in zip(machine.axes, stats.steps)}
     log.max_following_error_steps = int(stats.lag)
     return log, sim
+
+
+class _WorstError:
+    """The worst |carriage - target| per axis (mm) at the waypoints' reached ticks, settled after
+    each chunk from the states the simulated machine watched in it (nothing kept per waypoint)."""
+
+    def __init__(self, machine):
+        self.spm = np.array([a.steps_per_mm for a in machine.axes])
+        self.worst = np.zeros(len(machine.axes))
+        self.pending: list[tuple[np.ndarray, np.ndarray]] = []
+
+    def add(self, steps: np.ndarray, reached: np.ndarray) -> None:
+        self.pending.append((steps, reached))
+
+    def settle(self, sim, end_tick: int | None) -> None:
+        """Take in the waypoints reached before ``end_tick`` (None: all)."""
+        if not self.pending:
+            return
+        steps = np.concatenate([p[0] for p in self.pending])
+        reached = np.concatenate([p[1] for p in self.pending])
+        now = reached >= 0 if end_tick is None else (reached >= 0) & (reached < end_tick)
+        later = (reached >= end_tick) if end_tick is not None else np.zeros(len(reached), bool)
+        self.pending = [(steps[later], reached[later])] if later.any() else []
+        if now.any():
+            carriage = sim.carriages_at(reached[now])
+            self.worst = np.maximum(self.worst, np.abs(carriage - steps[now] / self.spm).max(axis=0))

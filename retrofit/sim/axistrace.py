@@ -22,6 +22,7 @@ class AxisTrace:
         self.windows = tuple(windows)
         self.stride = 1             # every stride-th step is kept (decimated traces)
         self.seen = 0               # steps seen so far
+        self._kept = 0              # points in the evenly spaced chunks
         self._chunks: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         self._pending: list[tuple[int, int, float]] = []
         self._detail: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
@@ -72,14 +73,16 @@ class AxisTrace:
             if extra.any():
                 self._detail.append((ticks[extra], motor[extra], carriage[extra]))
         self._chunks.append((ticks[every].copy(), motor[every].copy(), carriage[every].copy()))
+        self._kept += len(self._chunks[-1][0])
         self.seen += n
-        while sum(len(c[0]) for c in self._chunks) > self.limit:
+        while self._kept > self.limit:
             self._halve()
 
     def _halve(self) -> None:
         """Keep every other point of the evenly spaced ones; the stride doubles."""
         t, m, c = (np.concatenate(part) for part in zip(*self._chunks))
         self._chunks = [(t[::2].copy(), m[::2].copy(), c[::2].copy())]
+        self._kept = len(self._chunks[0][0])
         self.stride *= 2
 
     def _arrays(self):

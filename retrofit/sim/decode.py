@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..frames import PortFrames
 from .drivers import Violation
-from .kernels import KINDS, V_TRAVEL, decode_axis
+from .kernels import KINDS, V_TRAVEL, decode_axis, own_changes
 from .switches import SwitchEvent
 
 
@@ -45,6 +46,14 @@ def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray) -> 
     """Decode axis ``i`` of ``sim`` over ``frames``; ``watch_out[:, i]`` gets (motor, carriage mm)
     at the end of each watched tick."""
     axis, driver, screw = sim.machine.axes[i], sim.drivers[i], sim.screws[i]
+    frames = _own_frames(axis, driver, frames)
+    if not len(frames):                                # no edge of this axis in the chunk: it holds
+        if len(watch):
+            end = frames.end_tick
+            held = watch < end
+            watch_out[held, i, 0] = sim.motor_steps[i]
+            watch_out[held, i, 1] = (sim.motor_steps[i] - screw.gap) / axis.steps_per_mm
+        return
     ds = np.array([driver.step, driver.direction, driver.last_rise, driver.last_fall,
                    driver.last_dir_change], dtype=np.int64)
     ms = np.array([sim.motor_steps[i], sim._last_dir[i], sim.reversals[i], int(sim._out_of_travel[i])],
@@ -58,7 +67,7 @@ def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray) -> 
     n = min(len(frames.ticks), SUB_CHUNK)
     buffers = (np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.float64),
                np.empty(4 * n + 1, np.int64), np.empty(4 * n + 1, np.int64), np.empty(4 * n + 1, np.int64),
-               np.zeros(4 * n + 1, np.float64), np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.int64))
+               np.empty(4 * n + 1, np.float64), np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.int64))
     w_out = np.zeros((2, len(watch)), np.float64)
     lo, hi = sim._travel[i]
     params = axis_params(axis)
@@ -82,6 +91,19 @@ def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray) -> 
         s.closed = bool(sw[3][k])
     if len(watch):
         watch_out[:, i, :] = w_out.T
+
+
+def _own_frames(axis, driver, frames):
+    """The frames that change this axis's step or direction bits (the others change nothing for
+    its driver), as the driver last saw them; the chunk's end tick kept."""
+    if driver.direction == 0 or not len(frames):
+        return frames
+    mask = (1 << axis.step_bit) | (1 << axis.dir_bit)
+    logical = (driver.step << axis.step_bit) | ((1 if driver.direction > 0 else 0) << axis.dir_bit)
+    seen = logical ^ ((axis.invert_step << axis.step_bit) | (axis.invert_dir << axis.dir_bit))
+    ticks, values = np.empty(len(frames), np.int64), np.empty(len(frames), np.uint8)
+    n = own_changes(frames.ticks, frames.values, np.int64(mask), np.int64(seen), ticks, values)
+    return PortFrames(ticks[:n], values[:n], frames.end_tick)
 
 
 def _events(sim, i: int, switches, travel, buffers, n_tr: int, n_v: int, n_sw: int) -> None:

@@ -33,7 +33,7 @@ class SimMachine:
         self.machine = machine
         self.trace_around = trace_around
         self._watch = np.zeros(0, np.int64)
-        self.watched: dict[int, dict[str, tuple[int, float]]] = {}
+        self._watched: list[tuple[np.ndarray, np.ndarray]] = []     # (ticks, [tick, axis, motor/carriage])
         start = start_steps or (0,) * len(machine.axes)
         self.drivers = [DriverInput(a) for a in machine.axes]
         self.motor_steps = list(start)
@@ -87,7 +87,7 @@ class SimMachine:
     def watch(self, ticks) -> None:
         """Ask for the motor and carriage of every axis at the end of each of ``ticks`` (ticks
         not yet fed); :meth:`state_at` answers them exactly even from a decimated trace."""
-        ticks = np.asarray(list(ticks), dtype=np.int64)
+        ticks = np.asarray(ticks if isinstance(ticks, np.ndarray) else list(ticks), dtype=np.int64)
         self._watch = np.unique(np.concatenate((self._watch, ticks[ticks >= self.end_tick])))
 
     def _take_watch(self, end_tick: int):
@@ -96,9 +96,47 @@ class SimMachine:
         return watch, np.zeros((len(watch), len(self.machine.axes), 2))
 
     def _keep_watch(self, watch, out) -> None:
-        names = self.machine.axis_names
-        for j, tick in enumerate(watch.tolist()):
-            self.watched[tick] = {n: (int(out[j, i, 0]), float(out[j, i, 1])) for i, n in enumerate(names)}
+        self._last_watch = (watch, out)
+        if len(watch):
+            self._watched.append((watch, out))
+
+    def carriages_at(self, ticks: np.ndarray) -> np.ndarray:
+        """Carriage mm [tick, axis] at ticks watched in the last chunk fed (others: :meth:`state_at`)."""
+        watch, out = getattr(self, "_last_watch", (np.zeros(0, np.int64), None))
+        j = np.minimum(np.searchsorted(watch, ticks), max(len(watch) - 1, 0))
+        found = watch[j] == ticks if len(watch) else np.zeros(len(ticks), bool)
+        carriage = np.empty((len(ticks), len(self.machine.axes)))
+        carriage[found] = out[j[found], :, 1]
+        for k in np.flatnonzero(~found).tolist():
+            state = self.state_at(int(ticks[k]))
+            carriage[k] = [state[a.name][1] for a in self.machine.axes]
+        return carriage
+
+    def _watched_columns(self) -> tuple[np.ndarray, np.ndarray]:
+        """(ticks, states [tick, axis, motor / carriage]) of every watched tick fed, tick order."""
+        if len(self._watched) != 1:
+            n_axes = len(self.machine.axes)
+            parts = self._watched or [(np.zeros(0, np.int64), np.zeros((0, n_axes, 2)))]
+            self._watched = [(np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]))]
+        return self._watched[0]
+
+    @property
+    def watched_ticks(self) -> np.ndarray:
+        """The watched ticks fed so far (their state is exact, whatever the trace kept)."""
+        return self._watched_columns()[0]
+
+    def states_at(self, ticks: np.ndarray) -> np.ndarray:
+        """:meth:`state_at` of many ticks at once: [tick, axis, (motor steps, carriage mm)]."""
+        ticks = np.asarray(ticks, np.int64)
+        watched, states = self._watched_columns()
+        j = np.minimum(np.searchsorted(watched, ticks), max(len(watched) - 1, 0))
+        found = (watched[j] == ticks) if len(watched) else np.zeros(len(ticks), bool)
+        out = np.empty((len(ticks), len(self.machine.axes), 2))
+        out[found] = states[j[found]]
+        for k in np.flatnonzero(~found).tolist():
+            state = self.state_at(int(ticks[k]))
+            out[k] = [state[a.name] for a in self.machine.axes]
+        return out
 
     def feed_frame(self, tick: int, value: int) -> None:
         """Run the machine through one port byte, holding from ``tick`` on (a controller's hook:
@@ -166,7 +204,10 @@ class SimMachine:
     def state_at(self, tick: int) -> dict[str, tuple[int, float]]:
         """(motor steps, carriage mm) of every axis at the end of frame ``tick`` (exact for a
         watched tick or a full trace; from the points kept of a decimated one)."""
-        if tick in self.watched:
-            return dict(self.watched[tick])
+        watched, states = self._watched_columns()
+        j = int(np.searchsorted(watched, tick))
+        if j < len(watched) and watched[j] == tick:
+            return {a.name: (int(states[j, i, 0]), float(states[j, i, 1]))
+                    for i, a in enumerate(self.machine.axes)}
         return {axis.name: self.traces[axis.name].at(tick, *self._initial[i])
                 for i, axis in enumerate(self.machine.axes)}
