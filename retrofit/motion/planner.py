@@ -13,7 +13,7 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from ..commands import Command, Dely, FFdr, FMov, MFdr, PFdr, PMov, Pstn, ZMov
+from ..commands import Command, Dely, FFdr, FMov, MFdr, PFdr, PMov, Pstn, Wait, ZMov
 from ..config import Machine
 from ..errors import MotionError
 from . import profile as prof
@@ -57,6 +57,7 @@ class _Segment:
     kin: Kinematics
     dwell_s: float
     index: int
+    wait: Wait | None = None        # M66: a dwell as long as the input makes it
 
 
 def plan_program(commands: Iterable[Command], machine: Machine, backlash_comp: bool = True,
@@ -79,11 +80,22 @@ def plan_program(commands: Iterable[Command], machine: Machine, backlash_comp: b
             row = (prof.exponential(k.length_mm, entry, k.v_max_mm_s, exit_, k.a_max_mm_s2,
                                     min(EXP_START_MM_S, k.v_max_mm_s)) if exponential
                    else prof.trapezoid(k.length_mm, entry, k.v_max_mm_s, exit_, k.a_max_mm_s2))
-        move = PlannedMove(seg.start, seg.end, seg.target, t, row, seg.dwell_s, seg.index)
+        dwell = seg.dwell_s if seg.wait is None else wait_seconds(machine, seg.wait, t)
+        move = PlannedMove(seg.start, seg.end, seg.target, t, row, dwell, seg.index)
         plan.moves.append(move)
         t = t + move.duration_s
     plan.end_s = t
     return plan
+
+
+def wait_seconds(machine: Machine, wait: Wait, start_s: float) -> float:
+    """How long a WAIT started ``start_s`` into the run lasts on the machine's simulated input."""
+    from ..iopins import wait_outcome
+    io = machine.parts.get("io")
+    if io is None or wait.input >= len(io.inputs):
+        raise MotionError(f"{wait}: machine {machine.name} has no digital input {wait.input} "
+                          f"([io] in{wait.input} in its machine file)")
+    return wait_outcome(io, wait.input, wait.mode, wait.timeout, start_s).seconds
 
 
 def kinematics(machine: Machine, start: Sequence[int], end: Sequence[int], feed_mm_s: float) -> Kinematics:
@@ -144,6 +156,10 @@ class _Walker:
         elif isinstance(cmd, Dely):
             kin = Kinematics(0.0, np.zeros(len(machine.axes)), 1.0, 1.0, stop_before=True)
             yield _Segment(tuple(self.motor), tuple(self.motor), tuple(self.position), kin, cmd.seconds, index)
+        elif isinstance(cmd, Wait):
+            kin = Kinematics(0.0, np.zeros(len(machine.axes)), 1.0, 1.0, stop_before=True)
+            yield _Segment(tuple(self.motor), tuple(self.motor), tuple(self.position), kin, 0.0,
+                           index, cmd)
         elif isinstance(cmd, (FMov, PMov, ZMov)):
             yield self._move(cmd, index)
 
