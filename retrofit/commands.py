@@ -40,6 +40,7 @@ class Command:
     immediate: ClassVar[bool] = False      # STOP, RDPS, RDST: run at once, ahead of the queue
     motion: ClassVar[bool] = False         # goes through prepare/execute
     host: ClassVar[bool] = False           # TOOL, PAUS: handled by the run on the host, never sent to a device
+    linked: ClassVar[bool] = True          # the serial link carries it (DOUT, WAIT: not yet)
 
     def __str__(self) -> str:
         return self.mnemonic
@@ -230,6 +231,7 @@ class Dout(Command):
     """Digital output ``output`` (``[io]`` out<n>) on or off: ``code`` 62/63 as the next move
     starts, 64/65 at once (LinuxCNC's M62-M65). Not one of 002's 14; the link does not carry it."""
     mnemonic: ClassVar[str] = "DOUT"
+    linked: ClassVar[bool] = False
     code: int = 64
     output: int = 0
 
@@ -260,6 +262,7 @@ class Wait(Command):
     it at once, 1/2 wait for a rising/falling edge, 3/4 for high/low, at most ``timeout`` s.
     The moves before it end first. Not one of 002's 14; the link does not carry it."""
     mnemonic: ClassVar[str] = "WAIT"
+    linked: ClassVar[bool] = False
     motion: ClassVar[bool] = True
     input: int = 0
     mode: int = 0
@@ -285,8 +288,10 @@ class Wait(Command):
 COMMANDS: dict[str, type[Command]] = {c.mnemonic: c for c in (
     Init, FMov, ZMov, PMov, Stop, FFdr, MFdr, PFdr, Dely, CStp, IStp, Pstn, Rdps, Rdst, Spin, Cool,
     Tool, Paus, Dout, Wait)}
-#: the commands a device executes (what the serial link carries): all but the host's own
-DEVICE_COMMANDS: dict[str, type[Command]] = {m: c for m, c in COMMANDS.items() if not c.host}
+#: the commands a device executes (what the serial link carries): all but the host's own and
+#: those the link does not carry yet
+DEVICE_COMMANDS: dict[str, type[Command]] = {m: c for m, c in COMMANDS.items()
+                                             if not c.host and c.linked}
 
 _WORD = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)$")
 

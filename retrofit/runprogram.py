@@ -131,8 +131,7 @@ def refuse_io_on_controller(expanded, reason: str) -> None:
 
 def refuse_io_on_link(url: str, device) -> None:
     """The link and the firmware do not carry DOUT and WAIT: refused before anything is sent."""
-    from .commands import Dout, Wait
-    found = next((c for c in device if isinstance(c, (Dout, Wait))), None)
+    found = next((c for c in device if not c.linked), None)
     if found is not None:
         raise OutputError(f"{url}: {found}: the serial link does not carry digital outputs and "
                           f"input waits (M62-M66); run the program on sim:// (or a port-frame "
