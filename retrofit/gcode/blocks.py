@@ -31,6 +31,7 @@ M_GROUPS: dict[float, str] = {
     **dict.fromkeys((0, 1, 2, 30, 60), "stopping"), 6: "tool change",
     **dict.fromkeys((3, 4, 5), "spindle"), **dict.fromkeys((7, 8, 9), "coolant"),
     **dict.fromkeys((48, 49, 50, 51, 52, 53), "override"),
+    **dict.fromkeys((62, 63, 64, 65, 66), "io"),
 }
 #: codes LinuxCNC knows that retrofit refuses, and why
 REFUSED: dict[str, str] = {
@@ -38,9 +39,10 @@ REFUSED: dict[str, str] = {
              "tap with G84/G74 and a floating holder",
     "G87": "back boring needs an oriented spindle stop (M19), which retrofit does not have",
     "G43.2": "G43.2 is not supported (use G43 H or G43.1)", "G52": "G52 is not supported (use G92)",
-    **dict.fromkeys(("M62", "M63", "M64", "M65"), "digital outputs: the machine file names no "
-                    "output pins"),
-    "M66": "waiting on inputs: the machine file names no input pins",
+    **dict.fromkeys(("G70", "G71", "G71.1", "G71.2", "G72", "G72.1", "G72.2"),
+                    "the lathe finishing and roughing cycles G70-G72 are not supported; write "
+                    "the passes out (or with an O-word loop)"),
+    **dict.fromkeys(("M67", "M68"), "analog outputs are not supported (the boards have none)"),
     "M19": "spindle orientation is not supported",
     "M61": "setting the tool number without a change is not supported (use T<n> M6)",
     **dict.fromkeys(("M70", "M71", "M72", "M73"), "saving modal state is not supported"),
