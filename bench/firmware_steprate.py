@@ -47,7 +47,8 @@ def frames(machine, texts: list[tuple[int, str]]) -> list[tuple[int, bytes]]:
     out, n = [], {QUEUED: 0, IMMEDIATE: 0}
     for cycle, text in [(1_000_000, "SYNC Q"), (1_000_000, "SYNC I")] + texts:
         if text.startswith("SYNC"):
-            ch, payload = (QUEUED if text.endswith("Q") else IMMEDIATE), bytes((0x7F,))
+            ch = QUEUED if text.endswith("Q") else IMMEDIATE
+            payload = bytes((0x7F,)) + (0x5EED0001).to_bytes(4, "big")    # SYNC with a session
         else:
             cmd = parse_command(text)
             ch, payload = (IMMEDIATE if cmd.immediate else QUEUED), encode_command(cmd, machine)

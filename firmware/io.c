@@ -9,7 +9,8 @@
 
 static volatile uint16_t millis;
 
-ISR(TIMER3_COMPA_vect)
+/* Interrupts stay on in here: the step interrupt's timing does not wait for the clock. */
+ISR(TIMER3_COMPA_vect, ISR_NOBLOCK)
 {
     millis++;
 }

@@ -26,6 +26,7 @@ void uart_init(void)
 ISR(USART0_RX_vect)
 {
     uint8_t byte = UDR0;
+    sei();                           /* read: the step interrupt need not wait for the rest */
     uint8_t next = (rx_head + 1) & (RX_SIZE - 1);
     if (next != rx_tail) {           /* a full buffer drops the byte: the CRC will catch it */
         rx_buf[rx_head] = byte;
