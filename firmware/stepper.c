@@ -40,7 +40,7 @@
 /* The pulse's end is set this many counts early: the end's interrupt lowers the pins about as
  * much later after its match as the entry raised them after the slot. */
 #ifndef FALL_LEAD_COUNTS
-#define FALL_LEAD_COUNTS 0
+#define FALL_LEAD_COUNTS (-1)
 #endif
 
 line_t stepper_lines[LINES];
@@ -61,7 +61,7 @@ static int32_t counter[N_AXES];                  /* Bresenham's error term minus
 static uint32_t inc[N_AXES], base, enc_left;
 /* The event of the next tick, and when its pins rise and fall (read by the interrupt's entry). */
 static volatile uint8_t ev_bits;
-static uint8_t ev_neg, ev_count, ev_last, slot_lo;
+static uint8_t ev_neg, ev_count, ev_last;
 static uint16_t fall_at;
 static uint8_t pin_dirs;                          /* bit i set: axis i's pin says negative */
 static volatile uint8_t dir_pending, dir_next;
@@ -146,13 +146,14 @@ static void set_directions(uint8_t dirs)
 
 /* ---- the interrupt's side ------------------------------------------------------------- */
 
-/* The next match at count t, and when its pins rise (slot_lo) and fall (fall_at). Interrupts
- * off. schedule() puts it one period after this one, never at a count the counter has passed. */
+/* The next match at count t, and when its pins rise (compare C) and fall (fall_at).
+ * schedule() puts it one period after this one, never at a count the counter has passed. */
 static inline __attribute__((always_inline)) void set_next(uint16_t t)
 {
     OCR1A = t;
     tick_next = t;
-    slot_lo = (uint8_t)(t + SLOT_COUNTS);
+    OCR1C = t + SLOT_COUNTS;                   /* its flag marks when the pins rise */
+    TIFR1 = _BV(OCF1C);
     fall_at = t + (uint16_t)(SLOT_COUNTS + PULSE_COUNTS - FALL_LEAD_COUNTS);
 }
 
@@ -162,6 +163,18 @@ static inline __attribute__((always_inline)) void schedule(void)
     if ((int16_t)(t - TCNT1) < 3)
         t = TCNT1 + 3;
     set_next(t);
+}
+
+/* The end of a tick's rest: a match that came meanwhile is taken at once. */
+static inline __attribute__((always_inline)) void finish_tick(void)
+{
+    cli();
+    busy = 0;
+    uint8_t late = missed;
+    missed = 0;
+    sei();
+    if (late)
+        set_next(TCNT1 + 3);
 }
 
 static void halt(uint8_t why)
@@ -281,24 +294,21 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "tst r24\n\t"
         "brne 7f\n\t"
         "rjmp 3f\n\t"
-        "7: lds r25, %[slot]\n\t"
-        "lds r24, %[tcnt]\n\t"
-        "sub r24, r25\n\t"
-        "set\n\t"                             /* T: the slot has passed (a late entry) */
-        "brpl 2f\n\t"
+        "7: set\n\t"                          /* T: the slot has passed (a late entry) */
+        "sbic %[tifr], %[ocfc]\n\t"
+        "rjmp 2f\n\t"
         "clt\n\t"
         "lds r24, %[fall]+1\n\t"             /* on time: the pulse ends at fall_at */
         "sts %[ocrh], r24\n\t"
         "lds r24, %[fall]\n\t"
         "sts %[ocrl], r24\n\t"
-        "1: lds r24, %[tcnt]\n\t"
-        "sub r24, r25\n\t"
-        "brmi 1b\n\t"
+        "1: sbis %[tifr], %[ocfc]\n\t"        /* compare C marks the slot */
+        "rjmp 1b\n\t"
         "2: lds r24, %[bits]\n\t"
         "sts %[high], r24\n\t"
-        ::[bits] "i"(&ev_bits), [fall] "i"(&fall_at), [slot] "i"(&slot_lo), [high] "i"(&pulse_high),
+        ::[bits] "i"(&ev_bits), [fall] "i"(&fall_at), [high] "i"(&pulse_high),
           [busy] "i"(&busy), [ocrh] "n"(_SFR_MEM_ADDR(OCR1BH)), [ocrl] "n"(_SFR_MEM_ADDR(OCR1BL)),
-          [tcnt] "n"(_SFR_MEM_ADDR(TCNT1L)));
+          [tifr] "I"(_SFR_IO_ADDR(TIFR1)), [ocfc] "I"(OCF1C));
     FOR_EACH_AXIS(RISE_ASM)
     __asm__ __volatile__(
         "brtc 3f\n\t"                         /* late: the pulse ends PULSE_COUNTS from now */
@@ -353,14 +363,11 @@ void tick_body(void)
     prepare();
     fast = plain && ticks_left && !ev_last;
     cli();
-    schedule();                                /* the next segment's period is known now */
-    busy = 0;
-    if (missed) {                              /* the next match came while this ran: now */
-        missed = 0;
-        set_next(TCNT1 + 3);
-    }
     if (state != TICKING)
         TIMSK1 = _BV(OCIE1B);
+    sei();
+    schedule();                                /* the next segment's period is known now */
+    finish_tick();
 }
 
 /* The common tick: the same as tick_body within a segment of a line without switches to watch,
@@ -392,14 +399,9 @@ void tick_fast(void)
             ring_tail = (uint8_t)(t + 1 == SEGMENTS ? 0 : t + 1);
         }
     }
-    cli();
-    schedule();
-    period = next_period;
-    busy = 0;
-    if (missed) {
-        missed = 0;
-        set_next(TCNT1 + 3);
-    }
+    schedule();                                /* 16-bit writes: no other interrupt uses */
+    period = next_period;                      /* the timer's TEMP register meanwhile */
+    finish_tick();
 }
 #pragma GCC diagnostic pop
 
@@ -566,11 +568,14 @@ uint8_t stepper_take_events(void)
  * the interrupts stay off only for one axis's sum). */
 void stepper_fold(void)
 {
-    for (uint8_t i = 0; i < N_AXES; i++)
+    for (uint8_t i = 0; i < N_AXES; i++) {
+        int16_t m;
         ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-            position[i] += moved[i];
+            m = moved[i];
             moved[i] = 0;
         }
+        position[i] += m;
+    }
 }
 
 void stepper_position(int32_t *steps)
