@@ -5,7 +5,7 @@
 #include <stdint.h>
 
 /* Segments last about this long; SEGMENTS of them are prepared ahead of the interrupt. */
-#define SEGMENT_MS 2.5f
+#define SEGMENT_MS 5.0f
 
 /* In the main loop: prepare the next segment if there is room and a move to cut. */
 void segment_prepare(void);

@@ -169,12 +169,12 @@ static inline __attribute__((always_inline)) void schedule(void)
 static inline __attribute__((always_inline)) void finish_tick(void)
 {
     cli();
-    busy = 0;
-    uint8_t late = missed;
-    missed = 0;
-    sei();
-    if (late)
+    if (missed) {
+        missed = 0;
         set_next(TCNT1 + 3);
+    }
+    busy = 0;
+    sei();
 }
 
 static void halt(uint8_t why)
