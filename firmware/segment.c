@@ -19,6 +19,7 @@
 #define AMASS_HZ 8000.0f
 #define TICK_MIN_COUNTS ((float)TIMER_HZ / MAX_RATE)
 #define START_SEGMENTS 4
+#define SEGMENT_EVENTS 8.0f
 
 static uint8_t active, held, stopped = 1, first, line_slot;
 static float v;                  /* mm/s at the end of the last segment */
@@ -177,8 +178,13 @@ void segment_prepare(void)
     uint32_t n = 0;
     uint8_t done = 0;
     float t_seg = 0.0f, travelled = 0.0f;      /* seconds, events (with fractions) */
+    /* Below SEGMENT_EVENTS events a segment, a segment is cut every event, so that braking
+     * to the stop rate comes out event by event, not as a staircase of whole segments. */
+    float rate = v * per_mm, dt = SEGMENT_MS / 1000.0f;
+    if (rate * dt < SEGMENT_EVENTS)
+        dt = 1.0f / rate;
     for (uint16_t tries = 0; !n && !done && tries < 2000; tries++) {
-        float t = SEGMENT_MS / 1000.0f;
+        float t = dt;
         float d = advance(((float)left - frac) / per_mm, ve, m->v_nominal, m->accel, &t, &done);
         t_seg += t;
         travelled += d * per_mm;
@@ -194,7 +200,7 @@ void segment_prepare(void)
         return;                                /* cannot happen: v >= MIN_RATE events/s */
     /* The events come at the segment's mean speed; the fraction of an event travelled beyond
      * the last whole one is carried into the next segment, and so is its time. */
-    float rate = travelled / t_seg;
+    rate = travelled / t_seg;
     uint8_t level = amass_level(rate, n);
     uint16_t ticks = (uint16_t)(n << level);
     float counts = (float)n * (float)TIMER_HZ / rate + carry;

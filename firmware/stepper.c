@@ -33,7 +33,7 @@
  * (about 60 cycles) plus the longest time another interrupt or an interrupts-off stretch may
  * hold it off. */
 #ifndef SLOT_COUNTS
-#define SLOT_COUNTS 8
+#define SLOT_COUNTS 9
 #endif
 /* From a wake-up (the first segment, or the end of an ISTP line) to the first tick. */
 #define WAKE_COUNTS (PULSE_COUNTS + SLOT_COUNTS + 40)

@@ -42,6 +42,7 @@ ISR(USART0_UDRE_vect)
     }
     UDR0 = tx_buf[tx_tail];
     tx_tail = (tx_tail + 1) & (TX_SIZE - 1);
+    sei();                           /* sent: the step interrupt need not wait for the rest */
 }
 
 int16_t uart_getc(void)

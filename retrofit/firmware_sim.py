@@ -148,6 +148,43 @@ def build(machine_name: str) -> Path:
     return FIRMWARE / "build" / machine_name / "firmware.elf"
 
 
+def build_copy(machine: Machine, workdir: Path) -> Path:
+    """The firmware for ``machine`` (any machine file, shipped or not), built in a copy of
+    ``firmware/`` under ``workdir``, so the tree's machine headers stay as they are; the ELF."""
+    import shutil
+    import sys
+    _make("harness")
+    copy = Path(workdir) / "firmware"
+    if not copy.exists():
+        shutil.copytree(FIRMWARE, copy, ignore=shutil.ignore_patterns("build", "*.elf", "*.hex"))
+    sys.path.insert(0, str(FIRMWARE / "tools"))
+    from machine_header import header
+    name = machine.name
+    (copy / "machines" / f"{name}.h").write_text(header(machine))
+    run = subprocess.run(["make", "-C", str(copy), f"MACHINE={name}", f"build/{name}/firmware.elf"],
+                         capture_output=True, text=True, timeout=300)
+    if run.returncode != 0:
+        tail = (run.stdout + run.stderr).strip().splitlines()[-5:]
+        raise HarnessError(f"{copy}/Makefile: MACHINE={name} failed: " + " | ".join(tail))
+    return copy / "build" / name / "firmware.elf"
+
+
+def windowed_accel(rises: np.ndarray, window_s: float, step_s: float = 0.001) -> float:
+    """The largest acceleration (steps/s^2) of one axis from its step times (cycles): the second
+    difference of the step count over windows of ``window_s``, sampled every ``step_s``. Counting
+    whole steps, each count is off by less than one step, so the figure may exceed the real
+    acceleration by up to 4 steps / window_s^2 (the quantisation)."""
+    if len(rises) < 3:
+        return 0.0
+    w, h = int(window_s * F_CPU), int(step_s * F_CPU)
+    t = np.arange(int(rises[0]) + w, int(rises[-1]) - w, h)
+    if not len(t):
+        return 0.0
+    x = lambda at: np.searchsorted(rises, at, side="right").astype(np.float64)   # noqa: E731
+    second = x(t + w) - 2 * x(t) + x(t - w)
+    return float(np.abs(second).max() / window_s ** 2)
+
+
 @dataclass
 class HarnessLog:
     """What the harness saw: output-port values, bytes the firmware sent, inputs it drove."""
