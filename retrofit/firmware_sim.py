@@ -148,15 +148,16 @@ def build(machine_name: str) -> Path:
     return FIRMWARE / "build" / machine_name / "firmware.elf"
 
 
-def build_copy(machine: Machine, workdir: Path) -> Path:
+def build_copy(machine: Machine, workdir: Path, source: Path = FIRMWARE) -> Path:
     """The firmware for ``machine`` (any machine file, shipped or not), built in a copy of
-    ``firmware/`` under ``workdir``, so the tree's machine headers stay as they are; the ELF."""
+    ``source`` (this tree's ``firmware/``, or an older one) under ``workdir``, so the tree's
+    machine headers stay as they are; the ELF."""
     import shutil
     import sys
     _make("harness")
     copy = Path(workdir) / "firmware"
     if not copy.exists():
-        shutil.copytree(FIRMWARE, copy, ignore=shutil.ignore_patterns("build", "*.elf", "*.hex"))
+        shutil.copytree(source, copy, ignore=shutil.ignore_patterns("build", "*.elf", "*.hex"))
     sys.path.insert(0, str(FIRMWARE / "tools"))
     from machine_header import header
     name = machine.name
@@ -173,7 +174,7 @@ def windowed_accel(rises: np.ndarray, window_s: float, step_s: float = 0.001) ->
     """The largest acceleration (steps/s^2) of one axis from its step times (cycles): the second
     difference of the step count over windows of ``window_s``, sampled every ``step_s``. Counting
     whole steps, each count is off by less than one step, so the figure may exceed the real
-    acceleration by up to 4 steps / window_s^2 (the quantisation)."""
+    acceleration by less than 2 steps / window_s^2 (the quantisation)."""
     if len(rises) < 3:
         return 0.0
     w, h = int(window_s * F_CPU), int(step_s * F_CPU)
