@@ -18,6 +18,7 @@
  * INT1) on, so a thread pass always starts at the same spindle angle. */
 #include <avr/interrupt.h>
 #include <avr/io.h>
+#include <stddef.h>
 #include <util/atomic.h>
 
 #include "board.h"
@@ -51,7 +52,8 @@ enum { IDLE, TICKING, ENCODER };
 static volatile uint8_t state, halted, events, index_seen, index_wait, pulse_high;
 static volatile uint8_t stepped_negative = 0xFF;  /* bit i: axis i last stepped towards - */
 static int32_t position[N_AXES];                 /* 002's actual position, steps, ... */
-static volatile int16_t moved[N_AXES];           /* ... plus the steps counted since its update */
+static volatile int16_t moved[N_AXES];           /* ... plus the steps counted since its update, */
+static volatile uint16_t fired;                   /* and events of the axes that step every one */
 
 /* The running segment and its line. */
 static const line_t *ln;
@@ -81,6 +83,40 @@ static uint8_t plain, fast;       /* a line without switches to watch; the next 
                              "sts %1, r25\n2:\n\t" ::"n"(i),                                \
                              "n"(_SFR_MEM_ADDR(PIN_OF(slot, _STEP_PORT))),                  \
                              "n"(_BV(PIN_OF(slot, _STEP_BIT))));
+/* The common tick in assembly: count the event raised (moved[i] += or -= 1, r24 the bits,
+ * r23 the negative directions), one Bresenham event of axis i (r22 the axes that need it, r25
+ * the bits of the next event), and the next match at r19:r18 with its slot and pulse end. */
+#define COUNT_ASM(i, slot)                                                                  \
+    __asm__ __volatile__("sbrs r24, %[b]\n\trjmp 12f\n\tlds r20, %[m]\n\tlds r21, %[m]+1\n\t"  \
+                         "sbrc r23, %[b]\n\trjmp 10f\n\tsubi r20, 0xFF\n\tsbci r21, 0xFF\n\t"     \
+                         "rjmp 11f\n\t10: subi r20, 1\n\tsbci r21, 0\n\t"                         \
+                         "11: sts %[m]+1, r21\n\tsts %[m], r20\n\t12:\n\t"                        \
+                         ::[b] "n"(i), [m] "i"(&moved[i]));
+#define BRES_ASM(i, slot)                                                                   \
+    __asm__ __volatile__("sbrs r22, %[b]\n\trjmp 14f\n\t"                                    \
+                         "lds r18, %[c]\n\tlds r19, %[c]+1\n\tlds r20, %[c]+2\n\tlds r21, %[c]+3\n\t" \
+                         "lds r30, %[n]\n\tadd r18, r30\n\tlds r30, %[n]+1\n\tadc r19, r30\n\t"    \
+                         "lds r30, %[n]+2\n\tadc r20, r30\n\tlds r30, %[n]+3\n\tadc r21, r30\n\t"  \
+                         "brmi 13f\n\t"                                                       \
+                         "lds r30, %[k]\n\tsub r18, r30\n\tlds r30, %[k]+1\n\tsbc r19, r30\n\t"    \
+                         "lds r30, %[k]+2\n\tsbc r20, r30\n\tlds r30, %[k]+3\n\tsbc r21, r30\n\t"  \
+                         "ori r25, %[mask]\n\t"                                               \
+                         "13: sts %[c], r18\n\tsts %[c]+1, r19\n\tsts %[c]+2, r20\n\t"        \
+                         "sts %[c]+3, r21\n\t14:\n\t"                                        \
+                         ::[b] "n"(i), [c] "i"(&counter[i]), [n] "i"(&inc[i]), [k] "i"(&base), \
+                           [mask] "n"(1 << (i)));
+#define SET_NEXT_ASM                                                                        \
+    "sts %[ocrah], r19\n\tsts %[ocral], r18\n\tsts %[nx]+1, r19\n\tsts %[nx], r18\n\t"         \
+    "movw r20, r18\n\tsubi r20, lo8(-(%[slot]))\n\tsbci r21, hi8(-(%[slot]))\n\t"              \
+    "sts %[ocrch], r21\n\tsts %[ocrcl], r20\n\tldi r22, %[ocfc]\n\tout %[tifr], r22\n\t"       \
+    "subi r20, lo8(-(%[fallofs]))\n\tsbci r21, hi8(-(%[fallofs]))\n\t"                       \
+    "sts %[fall]+1, r21\n\tsts %[fall], r20\n\t"
+#define SET_NEXT_OPERANDS                                                                   \
+    [ocrah] "n"(_SFR_MEM_ADDR(OCR1AH)), [ocral] "n"(_SFR_MEM_ADDR(OCR1AL)), [nx] "i"(&tick_next), \
+    [slot] "n"(SLOT_COUNTS), [ocrch] "n"(_SFR_MEM_ADDR(OCR1CH)),                            \
+    [ocrcl] "n"(_SFR_MEM_ADDR(OCR1CL)), [ocfc] "M"(_BV(OCF1C)), [tifr] "I"(_SFR_IO_ADDR(TIFR1)), \
+    [fall] "i"(&fall_at), [fallofs] "n"(PULSE_COUNTS - FALL_LEAD_COUNTS)
+
 /* Lower the step pin of axis i (the pulse's end, in assembly). */
 #define FALL_ASM(i, slot)                                                                   \
     if (_SFR_IO_REG_P(PIN_OF(slot, _STEP_PORT)))                                            \
@@ -185,10 +221,22 @@ static void halt(uint8_t why)
     ev_bits = 0;
 }
 
+/* The events counted once for the axes that step at every one, into each axis's count (before
+ * that set of axes or their directions change). */
+static void fold_fired(void)
+{
+    uint16_t n = fired;
+    fired = 0;
+    for (uint8_t i = 0; i < N_AXES; i++)
+        if (always_axes & (1 << i))
+            moved[i] += (ev_neg >> i) & 1 ? -(int16_t)n : (int16_t)n;
+}
+
 /* The Bresenham increments at AMASS level `level`; at level 0 an axis that steps at every
  * event needs no arithmetic. */
 static void set_level(uint8_t level)
 {
+    fold_fired();
     seg_level = level;
     bres_axes = always_axes = 0;
     for (uint8_t i = 0; i < N_AXES; i++) {
@@ -206,6 +254,7 @@ static void set_level(uint8_t level)
 /* A new line: Bresenham's terms at the mid-point, its directions. */
 static void begin_line(uint8_t index)
 {
+    fold_fired();
     ln = &stepper_lines[index];
     base = ln->base;
     uint8_t moving = 0;
@@ -324,25 +373,106 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "3: ldi r24, 1\n\t"
         "sts %[busy], r24\n\t"
         "sei\n\t"                             /* the pulse's end may come now */
-        "lds r25, %[fast]\n\t"
-        "tst r25\n\t"
-        "pop r25\n\t"
-        "pop r24\n\t"
+        "lds r24, %[fast]\n\t"
+        "tst r24\n\t"
         "brne 4f\n\t"
+        "pop r25\n\t"                         /* a new segment, line or level: in C */
+        "pop r24\n\t"
         "out __SREG__, r24\n\t"
         "pop r24\n\t"
         "sei\n\t"
         "jmp tick_body\n\t"
-        "4: out __SREG__, r24\n\t"
-        "pop r24\n\t"
-        "sei\n\t"
-        "jmp tick_fast\n\t"
         "9: sts %[missed], r24\n\t"
         "pop r24\n\t"
         "out __SREG__, r24\n\t"
         "pop r24\n\t"
         "reti\n\t"
-        ::[busy] "i"(&busy), [missed] "i"(&missed), [fast] "i"(&fast));
+        "4: push r18\n\t"                     /* the common tick, from here on */
+        "push r19\n\t"
+        "push r20\n\t"
+        "push r21\n\t"
+        "push r22\n\t"
+        "push r23\n\t"
+        "push r30\n\t"
+        "lds r20, %[fired]\n\t"              /* the event just raised: count it, once for */
+        "lds r21, %[fired]+1\n\t"            /* the axes that step at every event */
+        "subi r20, 0xFF\n\t"
+        "sbci r21, 0xFF\n\t"
+        "sts %[fired]+1, r21\n\t"
+        "sts %[fired], r20\n\t"
+        "lds r24, %[always]\n\t"
+        "com r24\n\t"
+        "lds r20, %[bits]\n\t"
+        "and r24, r20\n\t"
+        "lds r23, %[neg]\n\t"
+        ::[busy] "i"(&busy), [missed] "i"(&missed), [fast] "i"(&fast), [bits] "i"(&ev_bits),
+          [neg] "i"(&ev_neg), [fired] "i"(&fired), [always] "i"(&always_axes));
+    FOR_EACH_AXIS(COUNT_ASM)
+    __asm__ __volatile__(
+        "lds r18, %[next]\n\t"               /* this match; the next one period later */
+        "lds r19, %[next]+1\n\t"
+        "sts %[at]+1, r19\n\t"
+        "sts %[at], r18\n\t"
+        "lds r20, %[period]\n\t"
+        "lds r21, %[period]+1\n\t"
+        "add r18, r20\n\t"
+        "adc r19, r21\n\t"
+        "lds r20, %[tcnt]\n\t"
+        "lds r21, %[tcnt]+1\n\t"
+        "movw r22, r18\n\t"
+        "sub r22, r20\n\t"
+        "sbc r23, r21\n\t"
+        "subi r22, 3\n\t"
+        "sbci r23, 0\n\t"
+        "brge 15f\n\t"
+        "movw r18, r20\n\t"                   /* passed already: at once */
+        "subi r18, lo8(-3)\n\t"
+        "sbci r19, hi8(-3)\n\t"
+        "15:\n\t"
+        SET_NEXT_ASM
+        "lds r22, %[bres]\n\t"               /* the next event: Bresenham */
+        "lds r25, %[always]\n\t"
+        ::[next] "i"(&tick_next), [at] "i"(&tick_at), [period] "i"(&period),
+          [tcnt] "n"(_SFR_MEM_ADDR(TCNT1L)), [bres] "i"(&bres_axes), [always] "i"(&always_axes),
+          SET_NEXT_OPERANDS);
+    FOR_EACH_AXIS(BRES_ASM)
+    __asm__ __volatile__(
+        "sts %[bits], r25\n\t"
+        "lds r20, %[left]\n\t"
+        "lds r21, %[left]+1\n\t"
+        "subi r20, 1\n\t"
+        "sbci r21, 0\n\t"
+        "sts %[left]+1, r21\n\t"
+        "sts %[left], r20\n\t"
+        "brne 16f\n\t"
+        "call seg_boundary_asm\n\t"         /* the segment is used up: what comes next */
+        "16: cli\n\t"
+        "lds r24, %[missed]\n\t"             /* a match came meanwhile: take it at once */
+        "tst r24\n\t"
+        "breq 17f\n\t"
+        "clr r24\n\t"
+        "sts %[missed], r24\n\t"
+        "lds r18, %[tcnt]\n\t"
+        "lds r19, %[tcnt]+1\n\t"
+        "subi r18, lo8(-3)\n\t"
+        "sbci r19, hi8(-3)\n\t"
+        SET_NEXT_ASM
+        "17: clr r24\n\t"
+        "sts %[busy], r24\n\t"
+        "pop r30\n\t"
+        "pop r23\n\t"
+        "pop r22\n\t"
+        "pop r21\n\t"
+        "pop r20\n\t"
+        "pop r19\n\t"
+        "pop r18\n\t"
+        "pop r25\n\t"
+        "pop r24\n\t"
+        "out __SREG__, r24\n\t"
+        "pop r24\n\t"
+        "reti\n\t"
+        ::[bits] "i"(&ev_bits), [left] "i"(&ticks_left), [missed] "i"(&missed), [busy] "i"(&busy),
+          [tcnt] "n"(_SFR_MEM_ADDR(TCNT1L)), [next] "i"(&tick_next), SET_NEXT_OPERANDS);
 }
 
 #pragma GCC diagnostic push
@@ -370,38 +500,70 @@ void tick_body(void)
     finish_tick();
 }
 
-/* The common tick: the same as tick_body within a segment of a line without switches to watch,
- * with nothing else to do, so it saves few registers. */
-void tick_fast(void) __attribute__((signal, used, externally_visible));
-void tick_fast(void)
+/* The common tick's segment is used up (called from its assembly, r20, r21 and r30 free): the
+ * next segment of the same line at the same level is taken at once (its period from the tick
+ * after the one just scheduled); a new line, a new level or the end is left to tick_body. */
+void seg_boundary_asm(void) __attribute__((naked, used));
+void seg_boundary_asm(void)
 {
-    uint8_t bits = ev_bits;
-    tick_at = tick_next;
-    if (bits && ev_count) {
-        uint8_t neg = ev_neg;
-        FOR_EACH_AXIS(COUNT)
-    }
-    uint8_t b = always_axes, bres = bres_axes;
-    FOR_EACH_AXIS(BRESENHAM)
-    ev_bits = b;
-    uint16_t next_period = period;             /* of the event after this one */
-    if (--ticks_left == 0) {                   /* the segment's last event: what comes next */
-        uint8_t t = ring_tail;
-        const segment_t *s = &ring[t];
-        if ((seg_flags & SEG_LAST) || t == ring_head || (s->flags & (SEG_FIRST | SEG_INDEXER)) ||
-            s->level != seg_level) {
-            fast = 0;                          /* a new line, a new level or the end: slowly */
-            ev_last = (seg_flags & SEG_LAST) != 0;
-        } else {                               /* the next segment of the same line */
-            seg_flags = s->flags;
-            ticks_left = s->ticks;
-            next_period = s->period;
-            ring_tail = (uint8_t)(t + 1 == SEGMENTS ? 0 : t + 1);
-        }
-    }
-    schedule();                                /* 16-bit writes: no other interrupt uses */
-    period = next_period;                      /* the timer's TEMP register meanwhile */
-    finish_tick();
+    __asm__ __volatile__(
+        "push r31\n\t"
+        "lds r20, %[flags]\n\t"
+        "sbrc r20, %[lastbit]\n\t"
+        "rjmp 21f\n\t"
+        "lds r30, %[tail]\n\t"
+        "lds r21, %[head]\n\t"
+        "cp r30, r21\n\t"
+        "breq 21f\n\t"
+        "mov r21, r30\n\t"                    /* Z = ring + 7 * tail */
+        "lsl r21\n\t"
+        "lsl r21\n\t"
+        "lsl r21\n\t"
+        "sub r21, r30\n\t"
+        "ldi r30, lo8(%[ring])\n\t"
+        "ldi r31, hi8(%[ring])\n\t"
+        "add r30, r21\n\t"
+        "clr r21\n\t"
+        "adc r31, r21\n\t"
+        "ldd r20, Z+%[o_flags]\n\t"
+        "andi r20, %[newline]\n\t"
+        "brne 21f\n\t"
+        "ldd r20, Z+%[o_level]\n\t"
+        "lds r21, %[level]\n\t"
+        "cp r20, r21\n\t"
+        "brne 21f\n\t"
+        "ldd r20, Z+%[o_flags]\n\t"
+        "sts %[flags], r20\n\t"
+        "ldd r20, Z+%[o_ticks]\n\t"
+        "ldd r21, Z+%[o_ticks]+1\n\t"
+        "sts %[left]+1, r21\n\t"
+        "sts %[left], r20\n\t"
+        "ldd r20, Z+%[o_period]\n\t"
+        "ldd r21, Z+%[o_period]+1\n\t"
+        "sts %[period]+1, r21\n\t"
+        "sts %[period], r20\n\t"
+        "lds r20, %[tail]\n\t"
+        "inc r20\n\t"
+        "cpi r20, %[nseg]\n\t"
+        "brne 20f\n\t"
+        "clr r20\n\t"
+        "20: sts %[tail], r20\n\t"
+        "pop r31\n\t"
+        "ret\n\t"
+        "21: clr r21\n\t"                      /* slowly, from the next tick on */
+        "sts %[fast], r21\n\t"
+        "lds r20, %[flags]\n\t"
+        "sbrc r20, %[lastbit]\n\t"
+        "inc r21\n\t"
+        "sts %[last], r21\n\t"
+        "pop r31\n\t"
+        "ret\n\t"
+        ::[flags] "i"(&seg_flags), [lastbit] "n"(1), [tail] "i"(&ring_tail), [head] "i"(&ring_head),
+          [ring] "i"(ring), [o_flags] "n"(offsetof(segment_t, flags)),
+          [o_level] "n"(offsetof(segment_t, level)), [o_ticks] "n"(offsetof(segment_t, ticks)),
+          [o_period] "n"(offsetof(segment_t, period)), [newline] "M"(SEG_FIRST | SEG_INDEXER),
+          [level] "i"(&seg_level), [left] "i"(&ticks_left), [period] "i"(&period),
+          [nseg] "M"(SEGMENTS), [fast] "i"(&fast), [last] "i"(&ev_last));
 }
 #pragma GCC diagnostic pop
 
@@ -539,6 +701,7 @@ void stepper_stop(void)
 {
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
         TIMSK1 = 0;
+        fold_fired();
         FOR_EACH_AXIS(STEP_LOW)
         if (dir_pending)
             write_directions(dir_next);
@@ -568,6 +731,17 @@ uint8_t stepper_take_events(void)
  * the interrupts stay off only for one axis's sum). */
 void stepper_fold(void)
 {
+    uint16_t n;
+    uint8_t mask, neg;
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+        n = fired;
+        fired = 0;
+        mask = always_axes;
+        neg = ev_neg;
+    }
+    for (uint8_t i = 0; i < N_AXES; i++)
+        if (mask & (1 << i))
+            position[i] += (neg >> i) & 1 ? -(int32_t)n : (int32_t)n;
     for (uint8_t i = 0; i < N_AXES; i++) {
         int16_t m;
         ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
@@ -587,6 +761,7 @@ void stepper_position(int32_t *steps)
 
 void stepper_set_position(uint8_t axis, int32_t steps)
 {
+    stepper_fold();
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
         position[axis] = steps;
         moved[axis] = 0;
