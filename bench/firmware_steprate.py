@@ -118,7 +118,7 @@ def circle() -> None:
     program = compile_program(text, machine, file="circle.ngc")
     _, plan = plan_compiled(program, machine)
     elf = fs.build("tul-mill")
-    harness = fs.Harness(elf, machine, listen="127.0.0.1:0", speed=0).start()
+    harness = fs.Harness(elf, machine, listen="127.0.0.1:0", speed=1).start()
     out = open_output(f"serial+socket://{harness.address}", machine)
     try:
         remote = out.send_program(program.commands)

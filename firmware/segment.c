@@ -19,7 +19,8 @@
 #define AMASS_HZ 8000.0f
 #define TICK_MIN_COUNTS ((float)TIMER_HZ / MAX_RATE)
 #define START_SEGMENTS 4
-#define EVENT_BY_EVENT 1600.0f
+#define EVENT_BY_EVENT 2.5f
+#define SEGMENT_EVENTS 8.0f
 
 static uint8_t active, held, stopped = 1, first, line_slot;
 static float v;                  /* mm/s at the end of the last segment */
@@ -178,10 +179,10 @@ void segment_prepare(void)
     uint32_t n = 0;
     uint8_t done = 0;
     float t_seg = 0.0f, travelled = 0.0f;      /* seconds, events (with fractions) */
-    /* Below EVENT_BY_EVENT events a second a segment is cut every event, so that braking to
-     * the stop rate comes out event by event, not as a staircase of whole segments. */
+    /* Near the stop rate (below EVENT_BY_EVENT times it) a segment is cut every event, so that
+     * starting and braking come out event by event, not as a staircase of whole segments. */
     float rate = v * per_mm, dt = SEGMENT_MS / 1000.0f;
-    if (rate < EVENT_BY_EVENT)
+    if (rate < EVENT_BY_EVENT * move_rest(m) * per_mm && rate * dt < 2.0f * SEGMENT_EVENTS)
         dt = 1.0f / rate;
     for (uint16_t tries = 0; !n && !done && tries < 2000; tries++) {
         float t = dt;
