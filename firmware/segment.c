@@ -165,6 +165,51 @@ static uint8_t amass_level(float rate, uint32_t n)
     return level;
 }
 
+/* Travel the oldest move for about one segment from speed v: the whole events covered (at
+ * least one), their time *t_seg and the events travelled with fractions *travelled. */
+static uint32_t cover(const move_t *m, float ve, float *t_seg, float *travelled, uint8_t *done)
+{
+    uint32_t n = 0;
+    /* Near the stop rate (below EVENT_BY_EVENT times it) a segment is cut every event, so that
+     * starting and braking come out event by event, not as a staircase of whole segments. */
+    float rate = v * per_mm, dt = SEGMENT_MS / 1000.0f;
+    if (rate < EVENT_BY_EVENT * move_rest(m) * per_mm && rate * dt < 2.0f * SEGMENT_EVENTS)
+        dt = 1.0f / rate;
+    *t_seg = *travelled = 0.0f;
+    for (uint16_t tries = 0; !n && !*done && tries < 2000; tries++) {
+        float t = dt;
+        float d = advance(((float)left - frac) / per_mm, ve, m->v_nominal, m->accel, &t, done);
+        *t_seg += t;
+        *travelled += d * per_mm;
+        float x = frac + d * per_mm;
+        uint32_t k = (uint32_t)x;
+        if (*done || k >= left)
+            k = *done ? left : left - 1;
+        frac = *done ? 0.0f : fminf(x - (float)k, 0.9999f);
+        n += k;
+        left -= k;
+    }
+    return n;
+}
+
+/* The segment of n events at `rate` events/s: ticks (AMASS) and the tick period in counts,
+ * the rounding carried into the next segment. */
+static void timing(segment_t *s, uint32_t n, float rate)
+{
+    uint8_t level = amass_level(rate, n);
+    uint16_t ticks = (uint16_t)(n << level);
+    float counts = (float)n * (float)TIMER_HZ / rate + carry;
+    float p = counts / (float)ticks;
+    if (p < TICK_MIN_COUNTS)
+        p = TICK_MIN_COUNTS;
+    if (p > 65535.0f)
+        p = 65535.0f;
+    s->period = (uint16_t)(p + 0.5f);
+    s->ticks = ticks;
+    s->level = level;
+    carry = fmaxf(-30000.0f, fminf(30000.0f, counts - (float)s->period * (float)ticks));
+}
+
 void segment_prepare(void)
 {
     if (held)
@@ -176,46 +221,15 @@ void segment_prepare(void)
     if (!active && !start(m))
         return;
     float ve = fmaxf(planner_exit_speed(), move_rest(m));
-    uint32_t n = 0;
+    float t_seg, travelled;
     uint8_t done = 0;
-    float t_seg = 0.0f, travelled = 0.0f;      /* seconds, events (with fractions) */
-    /* Near the stop rate (below EVENT_BY_EVENT times it) a segment is cut every event, so that
-     * starting and braking come out event by event, not as a staircase of whole segments. */
-    float rate = v * per_mm, dt = SEGMENT_MS / 1000.0f;
-    if (rate < EVENT_BY_EVENT * move_rest(m) * per_mm && rate * dt < 2.0f * SEGMENT_EVENTS)
-        dt = 1.0f / rate;
-    for (uint16_t tries = 0; !n && !done && tries < 2000; tries++) {
-        float t = dt;
-        float d = advance(((float)left - frac) / per_mm, ve, m->v_nominal, m->accel, &t, &done);
-        t_seg += t;
-        travelled += d * per_mm;
-        float x = frac + d * per_mm;
-        uint32_t k = (uint32_t)x;
-        if (done || k >= left)
-            k = done ? left : left - 1;
-        frac = done ? 0.0f : fminf(x - (float)k, 0.9999f);
-        n += k;
-        left -= k;
-    }
+    uint32_t n = cover(m, ve, &t_seg, &travelled, &done);
     if (!n)
         return;                                /* cannot happen: v >= MIN_RATE events/s */
     /* The events come at the segment's mean speed; the fraction of an event travelled beyond
      * the last whole one is carried into the next segment, and so is its time. */
-    rate = travelled / t_seg;
-    uint8_t level = amass_level(rate, n);
-    uint16_t ticks = (uint16_t)(n << level);
-    float counts = (float)n * (float)TIMER_HZ / rate + carry;
-    float p = counts / (float)ticks;
-    if (p < TICK_MIN_COUNTS)
-        p = TICK_MIN_COUNTS;
-    if (p > 65535.0f)
-        p = 65535.0f;
-    uint16_t period = (uint16_t)(p + 0.5f);
-    carry = fmaxf(-30000.0f, fminf(30000.0f, counts - (float)period * (float)ticks));
+    timing(s, n, travelled / t_seg);
     s->line = first ? new_line(m) : line_slot;
-    s->ticks = ticks;
-    s->period = period;
-    s->level = level;
     s->flags = (uint8_t)((first ? SEG_FIRST : 0) | (done ? SEG_LAST : 0));
     first = 0;
     stepper_push();
