@@ -56,75 +56,75 @@ static uint8_t new_line(const move_t *m)
     return line_slot;
 }
 
+/* Where a segment is along the trapezoid: speed s (mm/s), distance d (mm), time left (s). */
+typedef struct {
+    float s, d, time;
+} pos_t;
+
+/* Speed v changing at `acc` (negative: braking) for up to the time left or until `to` is
+ * reached (then 1): the distance and the time go on. */
+static uint8_t ramp(pos_t *p, float acc, float to)
+{
+    float t = (to - p->s) / acc;
+    if (t >= p->time) {
+        p->d += p->s * p->time + 0.5f * acc * p->time * p->time;
+        p->s += acc * p->time;
+        p->time = 0.0f;
+        return 0;
+    }
+    p->d += (to * to - p->s * p->s) / (2.0f * acc);
+    p->s = to;
+    p->time -= t;
+    return 1;
+}
+
+/* Brake over the r mm left to reach ve at the end (at most at a): 1 when the end is reached. */
+static uint8_t brake(pos_t *p, float r, float ve, float a)
+{
+    float ad = fminf(a, (p->s * p->s - ve * ve) / (2.0f * r));
+    float s2 = p->s * p->s - 2.0f * ad * r;
+    float se = s2 > 0.0f ? sqrtf(s2) : 0.0f;
+    float t_end = (p->s - se) / ad;
+    if (t_end > p->time) {
+        ramp(p, -ad, se);
+        return 0;
+    }
+    p->d += r;
+    p->s = se;
+    p->time -= t_end;
+    return 1;
+}
+
 /* Travel up to *t seconds along the trapezoid from speed v with `rem` mm left, towards exit
  * speed ve, feed vn, acceleration a. Returns the distance; *t becomes the time used and *done
  * is set when the move's end is reached. */
 static float advance(float rem, float ve, float vn, float a, float *t, uint8_t *done)
 {
-    float time = *t, d = 0.0f, s = v;
-    for (uint8_t k = 0; k < 5 && time > 0.0f; k++) {
-        float r = rem - d;
-        float brake = (s * s - ve * ve) / (2.0f * a);
-        float top = sqrtf(0.5f * (2.0f * a * r + s * s + ve * ve));   /* accelerate until */
-        if (r <= 1e-7f * rem) {
+    pos_t p = {v, 0.0f, *t};
+    for (uint8_t k = 0; k < 5 && p.time > 0.0f && !*done; k++) {
+        float r = rem - p.d;
+        float braking = (p.s * p.s - ve * ve) / (2.0f * a);
+        float top = sqrtf(0.5f * (2.0f * a * r + p.s * p.s + ve * ve));   /* accelerate until */
+        if (r <= 1e-7f * rem)
             *done = 1;
-            break;
-        }
-        if (brake > 0.0f && (r <= brake || s >= top)) {        /* brake to ve at the end */
-            float ad = fminf(a, (s * s - ve * ve) / (2.0f * r));
-            float s2 = s * s - 2.0f * ad * r;
-            float se = s2 > 0.0f ? sqrtf(s2) : 0.0f;
-            float t_end = (s - se) / ad;
-            if (t_end <= time) {
-                d = rem;
-                s = se;
-                time -= t_end;
-                *done = 1;
-                break;
-            }
-            d += s * time - 0.5f * ad * time * time;
-            s -= ad * time;
-            time = 0.0f;
-        } else if (s < vn && s < top) {                         /* accelerate */
-            float target = fminf(vn, fminf(top, sqrtf(s * s + 2.0f * a * r)));
-            float ta = (target - s) / a;
-            if (ta >= time) {
-                d += s * time + 0.5f * a * time * time;
-                s += a * time;
-                time = 0.0f;
-            } else {
-                d += (target * target - s * s) / (2.0f * a);
-                s = target;
-                time -= ta;
-            }
-        } else if (s > vn * 1.0001f) {                          /* down to a lowered feed */
-            float td = (s - vn) / a;
-            if (td >= time) {
-                d += s * time - 0.5f * a * time * time;
-                s -= a * time;
-                time = 0.0f;
-            } else {
-                d += (s * s - vn * vn) / (2.0f * a);
-                s = vn;
-                time -= td;
-            }
-        } else {                                                /* cruise up to the braking */
-            float rc = r - fmaxf(brake, 0.0f);
-            float tc = rc / s;
-            if (tc >= time) {
-                d += s * time;
-                time = 0.0f;
-            } else {
-                d += rc;
-                time -= tc;
-            }
+        else if (braking > 0.0f && (r <= braking || p.s >= top))
+            *done = brake(&p, r, ve, a);                        /* to ve at the end */
+        else if (p.s < vn && p.s < top)                         /* accelerate */
+            ramp(&p, a, fminf(vn, fminf(top, sqrtf(p.s * p.s + 2.0f * a * r))));
+        else if (p.s > vn * 1.0001f)                            /* down to a lowered feed */
+            ramp(&p, -a, vn);
+        else {                                                  /* cruise up to the braking */
+            float tc = (r - fmaxf(braking, 0.0f)) / p.s;
+            float tt = fminf(tc, p.time);
+            p.d += p.s * tt;
+            p.time -= tt;
         }
     }
-    if (d > rem)
-        d = rem;
-    v = s;
-    *t -= time;
-    return d;
+    if (p.d > rem)
+        p.d = rem;
+    v = p.s;
+    *t -= p.time;
+    return p.d;
 }
 
 /* Start cutting the oldest move; 0 when it was an ISTP line, handed over whole. */
