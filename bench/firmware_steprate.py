@@ -117,20 +117,13 @@ def interrupts(elf: Path, machine, axes: str, rate: float, idle: float) -> str:
 def circle() -> None:
     """The 474-segment circle through the link, its time beside the host plan's."""
     from retrofit.gcode import compile_program
-    from retrofit.outputs import open_output
     from retrofit.runprogram import plan_compiled
     machine = load_machine("tul-mill")
     text = "G21 G90 G17\nG0 X30 Y20\nG1 F1200\n" + "G2 X30 Y20 I-10 J0\n" * 3 + "M2\n"
     program = compile_program(text, machine, file="circle.ngc")
     _, plan = plan_compiled(program, machine)
     elf = fs.build("tul-mill")
-    harness = fs.Harness(elf, machine, listen="127.0.0.1:0", speed=1).start()
-    out = open_output(f"serial+socket://{harness.address}", machine)
-    try:
-        remote = out.send_program(program.commands)
-    finally:
-        out.close()
-    log = harness.stop(5)
+    log, remote = fs.send_through_link(elf, machine, program.commands)
     rx, _, _ = fs.step_times(log, machine, "X")
     ry, _, _ = fs.step_times(log, machine, "Y")
     both = np.sort(np.concatenate([rx, ry]))
@@ -182,8 +175,8 @@ def garbage() -> None:
 def sizes() -> None:
     for name in fs.supported_machines():
         elf = fs.build(name)
-        text, data, bss = (int(v) for v in subprocess.run(
-            ["avr-size", str(elf)], check=True, capture_output=True, text=True).stdout.splitlines()[1].split()[:3])
+        out = subprocess.run(["avr-size", str(elf)], check=True, capture_output=True, text=True).stdout
+        text, data, bss = (int(v) for v in out.splitlines()[1].split()[:3])
         print(f"size {name}: flash {text + data} B ({100 * (text + data) / (248 * 1024):.1f} % of 248 KiB), "
               f"RAM {data + bss} B ({100 * (data + bss) / 8192:.1f} % of 8 KiB) before the stack")
 

@@ -170,6 +170,23 @@ def build_copy(machine: Machine, workdir: Path, source: Path = FIRMWARE) -> Path
     return copy / "build" / name / "firmware.elf"
 
 
+def send_through_link(elf: Path, machine: Machine, commands, speed: float = 1.0):
+    """Run ``commands`` on the firmware in simavr as a host streams them through the link
+    (``serial+socket://``: BUSY waited out, NAKs resent), the AVR's time at most ``speed`` times
+    the wall clock's; (the harness log, the ``remote`` summary of the serial output)."""
+    from .outputs import open_output
+    harness = Harness(elf, machine, listen="127.0.0.1:0", speed=speed).start()
+    try:
+        out = open_output(f"serial+socket://{harness.address}", machine)
+        try:
+            remote = out.send_program(commands)
+        finally:
+            out.close()
+    finally:
+        log = harness.stop(5)
+    return log, remote
+
+
 def windowed_accel(rises: np.ndarray, window_s: float, step_s: float = 0.001) -> float:
     """The largest acceleration (steps/s^2) of one axis from its step times (cycles): the second
     difference of the step count over windows of ``window_s``, sampled every ``step_s``. Counting

@@ -163,20 +163,13 @@ def test_the_474_segment_circle_runs_within_5_percent_of_the_host_plan(mill):
     out), the AVR's time at the wall clock's pace: as long as the host plan (junction deviation
     over 16 moves) to 5 %, each axis's acceleration within its limit plus the quantisation."""
     from retrofit.gcode import compile_program
-    from retrofit.outputs import open_output
     from retrofit.runprogram import plan_compiled
     machine, elf = mill
     text = "G21 G90 G17\nG0 X30 Y20\nG1 F1200\n" + "G2 X30 Y20 I-10 J0\n" * 3 + "M2\n"
     program = compile_program(text, machine, file="circle.ngc")
     assert sum(type(c).__name__ == "PMov" for c in program.commands) == 474
     _, plan = plan_compiled(program, machine)
-    harness = fs.Harness(elf, machine, listen="127.0.0.1:0", speed=1).start()
-    out = open_output(f"serial+socket://{harness.address}", machine)
-    try:
-        remote = out.send_program(program.commands)
-    finally:
-        out.close()
-    log = harness.stop(5)
+    log, remote = fs.send_through_link(elf, machine, program.commands)
     assert remote["position_steps"] == {"X": 3000, "Y": 2000, "Z": 0, "E": 0}
     rx, _, _ = fs.step_times(log, machine, "X")
     ry, _, _ = fs.step_times(log, machine, "Y")
