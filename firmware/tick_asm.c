@@ -79,13 +79,13 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "brne 7f\n\t"
         "rjmp 3f\n\t"
         "7: set\n\t"                          /* T: the slot has passed (a late entry) */
-        "sbic %[tifr], %[ocfc]\n\t"
-        "rjmp 2f\n\t"
-        "clt\n\t"
-        "lds r24, %[fall]+1\n\t"             /* on time: the pulse ends at fall_at */
-        "sts %[ocrh], r24\n\t"
+        "lds r24, %[fall]+1\n\t"             /* on time: the pulse ends at fall_at (a late */
+        "sts %[ocrh], r24\n\t"               /* entry sets it again, from now) */
         "lds r24, %[fall]\n\t"
         "sts %[ocrl], r24\n\t"
+        "sbic %[tifr], %[ocfc]\n\t"          /* checked last, right before the wait: a slot */
+        "rjmp 2f\n\t"                        /* passing in between rises a cycle or two late */
+        "clt\n\t"
         "1: sbis %[tifr], %[ocfc]\n\t"        /* compare C marks the slot */
         "rjmp 1b\n\t"
         "2: lds r24, %[bits]\n\t"
