@@ -49,7 +49,6 @@ RETROFIT_REFUSES = {
     "threading": "G33 on a machine without a spindle encoder",
     "m70m72-demo": "M70-M73", "m73-demo": "M70-M73", "toplevel": "M70-M73",
     "err-unclosed-sub": "an o-sub never closed (rs274 stops at the M2 inside it)",
-    "cycle-g87": "G87 back boring needs an oriented spindle stop",
 }
 #: programs where retrofit makes one rapid more than rs274: G88 retracts Z after its pause with
 #: the spindle stopped (rs274 leaves the retract to the operator's hands)

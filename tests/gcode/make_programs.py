@@ -101,7 +101,18 @@ def cycles() -> dict[str, str]:
                              f"G0 Z12\nM2\n")        # rs274 takes no L with G74
     progs["cycle-g84-no-p"] = PRE + "M3 S300\nG0 X0 Y0 Z10\nG98 G84 X1 Y1 Z-3 R2 F150\nG80\nM2\n"
     progs["cycle-g88"] = PRE + "M3 S300\nG0 X0 Y0 Z10\nF150\nG88 X1 Y1 Z-3 R2 P0.5\nG80\nG0 Z12\nM2\n"
-    progs["cycle-g87"] = PRE + "M3 S300\nG0 X0 Y0 Z10\nF150\nG87 X1 Y1 Z-3 R2 I0.5 J0 K-1\nG80\nM2\n"
+    progs["cycle-g87"] = PRE + "M3 S300\nG0 X0 Y0 Z10\nF150\nG99 G87 X1 Y1 Z-3 R2 I0.5 J0 K-1\nG80\nM2\n"
+    progs["cycle-g87-g98-g99"] = PRE + ("M3 S300\nG0 X0 Y0 Z10\nF150\nG98 G87 X1 Y1 Z-3 R2 I0.5 J-0.25 K-1\n"
+                                        "G99 X4 Y1\nX6 K0 I-0.3\nG90 G80\nG0 Z12\nM2\n")
+    progs["cycle-g87-g91-l2"] = PRE + ("M4 S300\nG0 X0 Y0 Z10\nF150\nG99 G87 X1 Y1 Z-3 R2 I0 J0.4 K-1\n"
+                                       "G91 X2 Y0 Z-2 R-3 K1 L2\nG90 G80\nG0 Z12\nM2\n")
+    progs["cycle-g87-g98-l3"] = PRE + ("M3 S500\nG0 X0 Y0 Z10\nF150\nG98 G91 G87 X3 Y-1 Z-4 R-3 I0.5 J0 "
+                                       "K1.5 L3\nG90 G80\nM2\n")
+    progs["cycle-g87-g20-g55"] = ("G20 G90 G94 G40 G49 G80 G54 G91.1 G17\nG10 L2 P2 X1 Y-0.5 Z-0.2\nM3 S300\n"
+                                  "G0 X0 Y0 Z1\nF6\nG55 G98 G87 X0.1 Y0.1 Z-0.3 R0.2 I0.05 J0 K-0.1\n"
+                                  "G80\nM2\n")
+    progs["err-cycle-g87-no-j"] = PRE + "M3 S300\nG0 Z10\nG87 X1 Y1 Z-3 R2 I0.5 K-1 F100\nM2\n"
+    progs["err-cycle-g87-no-spindle"] = PRE + "G0 Z10\nG87 X1 Y1 Z-3 R2 I0.5 J0 K-1 F100\nM2\n"
     progs["err-cycle-g84-m4"] = PRE + "M4 S300\nG0 Z10\nG84 X1 Y1 Z-2 R1 F100\nM2\n"
     progs["err-cycle-g74-m3"] = PRE + "M3 S300\nG0 Z10\nG74 X1 Y1 Z-2 R1 F100\nM2\n"
     progs["err-cycle-g86-no-spindle"] = PRE + "G0 Z10\nG86 X1 Y1 Z-2 R1 P1 F100\nM2\n"
