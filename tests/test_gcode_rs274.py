@@ -42,8 +42,9 @@ RETROFIT_ALLOWS = {
 RETROFIT_REFUSES = {
     **dict.fromkeys(("gridprobe", "smartprobe", "tool-length-probe", "x-trim"),
                     "G38 probing: the test machine has no probe input"),
-    **dict.fromkeys(("lathe_g70_71_demo", "lathe_g7x_face_boring", "lathe_g7x_quadrants",
-                     ), "G70/G71 lathe cycles"),
+    **dict.fromkeys(("lathe_g70_71_demo", "lathe_g7x_face_boring", "lathe_g7x_quadrants"),
+                    "G71/G72 lathe roughing cycles"),
+    "lathe-g70-offset": "G70 passes offset from the profile (D, E not 0)",
     **dict.fromkeys(("3D_Chips", "b-index", "daisy"), "axes A/B/C: not on the test machine"),
     **dict.fromkeys(("polar", "hole-circle", "spiral"), "polar coordinates @ ^"),
     "threading": "G33 on a machine without a spindle encoder",
