@@ -202,8 +202,10 @@ class Tool(Command):
         return f"{self.mnemonic} T{self.number}"
 
 
-#: why a program pauses: PAUS M0 (program pause), M1 (optional stop), M60 (pallet shuttle), M6 (manual tool change)
+#: why a program pauses: PAUS M0 (program pause), M1 (optional stop), M60 (pallet shuttle), M6 (manual
+#: tool change), M19 (G87: the operator orients the stopped spindle)
 PAUSE_REASONS = {0: "program pause (M0)", 1: "optional stop (M1)", 60: "pallet change pause (M60)",
+                 19: "orient the spindle by hand (G87 back boring)",
                  6: "manual tool change (M6)"}
 
 
