@@ -1,11 +1,19 @@
-"""Step rate of the firmware in simavr, measured on the pins in cycles, side by side with the
-firmware of an earlier commit (default: the one before the step-timing work) built the same way.
+"""Step generation of the firmware in simavr, measured on the pins in cycles, beside the firmware
+of an earlier commit (default: the one before the segment buffer) built the same way.
 
-For 1, 2, 3 and 4 moving axes it sweeps the cruise rate and prints the highest at which every
-step interval of the cruise is within +-1 us of the planned period, every pulse within +-1 us of
-the configured width, and every moving axis steps at the same edge. It also prints, for a move at
-the machine file's 2 us / 12 us limit, the CPU share of the interrupts and the longest
-interrupts-off stretch (in the main loop and in an ISR: the worst latency an interrupt can see).
+1. For 1, 2, 3 and 4 moving axes, the highest cruise rate at which every step interval of the
+   cruise is within +-1 us of the planned period, every pulse within +-1 us of the configured
+   width, every moving axis steps on the same edge, and no compare waited for a timer wrap
+   (no interval longer than twice the period).
+2. At those rates and at 5 kHz on three axes: the CPU share of the interrupts, the longest
+   interrupt and the longest interrupts-off stretch (in the main loop and in an interrupt: the
+   worst latency another interrupt can see).
+3. The 474-segment circle (3 R10 circles at F1200 on tul-mill, through the link): the time from
+   the first step to the last beside the host plan's, and each axis's acceleration over 20 ms
+   windows beside its limit (plus the quantisation of counting whole steps).
+4. 0.6 s of damaged frames during FMOV X30 on tul-mill: NAKs answered, the end position, and how
+   far any step moved from the quiet run's.
+5. Flash and RAM of each shipped machine.
 
     python bench/firmware_steprate.py [--base COMMIT] [--quick]
 """
@@ -14,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import shutil
 import subprocess
 import sys
 import tempfile
@@ -28,19 +35,12 @@ sys.path.insert(0, str(ROOT))
 from retrofit import firmware_sim as fs  # noqa: E402
 from retrofit.commands import parse_command  # noqa: E402
 from retrofit.config import load_machine  # noqa: E402
-from retrofit.link import IMMEDIATE, QUEUED, encode_command, encode_frame, seq_byte  # noqa: E402
+from retrofit.link import (IMMEDIATE, QUEUED, FrameDecoder, decode_reply, encode_command,  # noqa: E402
+                           encode_frame, seq_byte)
 
 MACHINE = ROOT / "bench" / "steprate.toml"
 S = fs.F_CPU
 PULSE_US = 2.0
-
-
-def build(firmware_dir: Path, header: str) -> Path:
-    """Build firmware_dir with the bench machine's header; the ELF."""
-    (firmware_dir / "machines" / "steprate.h").write_text(header)
-    subprocess.run(["make", "-C", str(firmware_dir), "MACHINE=steprate", "build/steprate/firmware.elf"],
-                   check=True, capture_output=True)
-    return firmware_dir / "build" / "steprate" / "firmware.elf"
 
 
 def frames(machine, texts: list[tuple[int, str]]) -> list[tuple[int, bytes]]:
@@ -78,9 +78,11 @@ def clean(log, machine, axes: str, rate: float, steps: int) -> bool:
         if len(r) != steps or np.abs(r - rises).max() > 16:
             return False
     widths = (falls - rises) / 16.0
+    period = 1e6 / rate
     cruise = np.diff(rises)[steps // 4: 3 * steps // 4] / 16.0
-    return (np.abs(widths - PULSE_US).max() <= 1.0
-            and np.abs(cruise - 1e6 / rate).max() <= 1.0)
+    no_wrap = np.diff(rises).max() / 16.0 < 2 * max(period, 1e6 / 14000.0)
+    return (np.abs(widths - PULSE_US).max() <= 1.0 and np.abs(cruise - period).max() <= 1.0
+            and no_wrap)
 
 
 def highest(elf: Path, machine, axes: str, rates: list[float]) -> float:
@@ -93,40 +95,125 @@ def highest(elf: Path, machine, axes: str, rates: list[float]) -> float:
     return best
 
 
+def idle_isr(elf: Path, machine) -> float:
+    """Interrupt cycles per cycle with nothing moving: the 1 ms clock and the link's bytes."""
+    script = frames(machine, [(2_000_000, "FFDR F100")])
+    st = fs.Harness(elf, machine, script=script, cycles=3_000_000, stats=True).run().stats
+    return st["isr_cycles"] / st["cycles"]
+
+
+def interrupts(elf: Path, machine, axes: str, rate: float, idle: float) -> str:
+    log, steps = run_move(elf, machine, axes, rate, stats=True)
+    st = log.stats
+    rises, _, _ = fs.step_times(log, machine, axes[0])
+    span = int(rises[-1] - rises[0])
+    share = (st["isr_cycles"] - idle * (st["cycles"] - span)) / span
+    return (f"interrupts {100 * share:5.1f} % of the CPU while it moves, longest time in an ISR "
+            f"{st['isr_longest'] / 16:6.1f} us (interrupts on after the pins), interrupts off at "
+            f"most {st['off_main_longest'] / 16:4.1f} us in the main loop, "
+            f"{st['off_isr_longest'] / 16:4.1f} us in an ISR")
+
+
+def circle() -> None:
+    """The 474-segment circle through the link, its time beside the host plan's."""
+    from retrofit.gcode import compile_program
+    from retrofit.runprogram import plan_compiled
+    machine = load_machine("tul-mill")
+    text = "G21 G90 G17\nG0 X30 Y20\nG1 F1200\n" + "G2 X30 Y20 I-10 J0\n" * 3 + "M2\n"
+    program = compile_program(text, machine, file="circle.ngc")
+    _, plan = plan_compiled(program, machine)
+    elf = fs.build("tul-mill")
+    log, remote = fs.send_through_link(elf, machine, program.commands)
+    rx, _, _ = fs.step_times(log, machine, "X")
+    ry, _, _ = fs.step_times(log, machine, "Y")
+    both = np.sort(np.concatenate([rx, ry]))
+    took = (both[-1] - both[0]) / S
+    moves = sum(type(c).__name__ == "PMov" for c in program.commands)
+    print(f"circle: {moves} PMOV segments + the rapid to the start, {took:.3f} s on the firmware, "
+          f"{plan.end_s:.3f} s in the host plan ({100 * (took / plan.end_s - 1):+.1f} %); "
+          f"end {remote['position_steps']}; {remote['link']['busy']} BUSY answers waited out")
+    window = 0.02
+    for name, rises in (("X", rx), ("Y", ry)):
+        a = machine.axis(name)
+        limit = a.max_accel_mm_s2 * a.steps_per_mm
+        seen = fs.windowed_accel(rises, window)
+        print(f"  {name}: acceleration over {window * 1000:.0f} ms windows at most {seen:8.0f} "
+              f"steps/s^2; limit {limit:.0f} + quantisation {2 / window ** 2:.0f}")
+    report = fs.report(log, machine)
+    print(f"  driver-timing violations on the pins: {len(report['violations'])}")
+
+
+def garbage() -> None:
+    machine = load_machine("tul-mill")
+    elf = fs.build("tul-mill")
+    end = int(1.0 * S)
+    bad = bytearray(encode_frame(seq_byte(QUEUED, 5), encode_command(parse_command("FMOV X1"), machine)))
+    bad[6] ^= 0x10
+    sent = int(0.6 * S / 35_200)
+
+    def run(noise: bool):
+        texts = [(3_200_000, "FMOV X30"), (end - 200_000, "RDPS")]
+        script = frames(machine, texts)
+        if noise:
+            script += [(3_400_000 + k * 35_200, bytes(bad)) for k in range(sent)]
+        return fs.Harness(elf, machine, script=script, cycles=end).run()
+
+    quiet, noisy = run(False), run(True)
+    answers = [decode_reply(f.payload, machine) for f in FrameDecoder().feed(noisy.answer_bytes())]
+    naks = sum(type(a).__name__ == "Nak" for a in answers)
+    q, _, _ = fs.step_times(quiet, machine, "X")
+    n, _, _ = fs.step_times(noisy, machine, "X")
+    same = len(q) == len(n)
+    worst = np.abs(n - q).max() / 16 if same else float("nan")
+    tail = np.abs(np.diff(n)[-200:] - np.diff(q)[-200:]).max() / 16 if same else float("nan")
+    print(f"garbage: {sent} damaged frames over 0.6 s during FMOV X30: {naks} NAKs, end "
+          f"{dict(answers[-1].steps)['X']} steps (3000 asked), {len(n)} steps (quiet run {len(q)}); "
+          f"every step within {worst:.2f} us of the quiet run, the last 200 intervals within "
+          f"{tail:.2f} us")
+
+
+def sizes() -> None:
+    for name in fs.supported_machines():
+        elf = fs.build(name)
+        out = subprocess.run(["avr-size", str(elf)], check=True, capture_output=True, text=True).stdout
+        text, data, bss = (int(v) for v in out.splitlines()[1].split()[:3])
+        print(f"size {name}: flash {text + data} B ({100 * (text + data) / (248 * 1024):.1f} % of 248 KiB), "
+              f"RAM {data + bss} B ({100 * (data + bss) / 8192:.1f} % of 8 KiB) before the stack")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--base", default="7ab7a00", help="the commit whose firmware runs beside")
+    ap.add_argument("--base", default="6f10b11", help="the commit whose firmware runs beside")
     ap.add_argument("--quick", action="store_true", help="a coarser sweep")
     args = ap.parse_args()
     machine = load_machine(MACHINE)
-    sys.path.insert(0, str(ROOT / "firmware" / "tools"))
-    from machine_header import header as make_header
-    header = make_header(machine)
-    fs.build("mitic-lathe")                                   # the harness itself
     step = 5000 if args.quick else 2500
-    rates = [float(r) for r in range(5000, 80001, step)]
+    rates = [float(r) for r in range(5000, 90001, step)]
     with tempfile.TemporaryDirectory() as tmp:
         subprocess.run(f"git -C {ROOT} archive {args.base} firmware | tar -x -C {tmp}",
                        shell=True, check=True)
-        base_dir = Path(tmp) / "firmware"
-        shutil.rmtree(base_dir / "build", ignore_errors=True)
-        elves = {f"base {args.base}": build(base_dir, header),
-                 "this tree": build(ROOT / "firmware", header)}
-        print("highest clean step rate (steps/s of each axis; +-1 us intervals and pulse width):")
+        elves = {f"base {args.base}": fs.build_copy(machine, Path(tmp) / "base", Path(tmp) / "firmware"),
+                 "this tree": fs.build_copy(machine, Path(tmp) / "tree")}
+        print("highest clean step rate (steps/s of each axis; +-1 us intervals and pulse width, "
+              "no wrap):")
         print(f"  {'axes':<6}" + "".join(f"{name:>18}" for name in elves))
+        best = {}
         for n in range(1, 5):
             axes = "XYZA"[:n]
             row = [highest(elf, machine, axes, rates) for elf in elves.values()]
+            best[axes] = row[-1]
             print(f"  {n:<6}" + "".join(f"{r:>18.0f}" for r in row))
-        print("interrupts during a 3-axis move at 5 kHz (cycles at 16 MHz):")
+        print("interrupts (cycles at 16 MHz, measured by the harness):")
+        idle = {name: idle_isr(elf, machine) for name, elf in elves.items()}
         for name, elf in elves.items():
-            log, _ = run_move(elf, machine, "XYZ", 5000.0, stats=True)
-            st = log.stats
-            print(f"  {name:<16} ISR share {100 * st['isr_cycles'] / st['cycles']:5.2f} %, "
-                  f"longest ISR {st['isr_longest']} ({st['isr_longest'] / 16:.1f} us), "
-                  f"longest interrupts-off in the main loop {st['off_main_longest']} "
-                  f"({st['off_main_longest'] / 16:.1f} us)")
-        (ROOT / "firmware" / "machines" / "steprate.h").unlink(missing_ok=True)
+            print(f"  {name:<16} 3 axes at 5 kHz: {interrupts(elf, machine, 'XYZ', 5000.0, idle[name])}")
+        for axes, rate in best.items():
+            if rate:
+                print(f"  {'this tree':<16} {len(axes)} axes at {rate / 1000:g} kHz: "
+                      f"{interrupts(elves['this tree'], machine, axes, rate, idle['this tree'])}")
+    circle()
+    garbage()
+    sizes()
     return 0
 
 

@@ -49,5 +49,13 @@
 #if MIN_PERIOD_US - PULSE_HIGH_US < 10
 #error "the step period must leave at least 10 us low after the pulse"
 #endif
+#if DIR_SETUP_US > MIN_PERIOD_US - PULSE_HIGH_US
+#error "a direction changes at a pulse's end: its set-up must fit the low part of the shortest period"
+#endif
+
+/* How far a joint taken at speed may round the corner (the host planner's junction_deviation_mm). */
+#ifndef JUNCTION_DEVIATION_MM
+#define JUNCTION_DEVIATION_MM 0.01f
+#endif
 
 #endif

@@ -12,6 +12,7 @@
 #include "io.h"
 #include "link.h"
 #include "planner.h"
+#include "segment.h"
 #include "stepper.h"
 #include "switches.h"
 
@@ -58,9 +59,11 @@ static const int32_t max_steps[N_AXES] = MAX_STEPS;
 static void forget_motion(void)
 {
     stepper_stop();
+    planner_clear();
+    segment_reset();
     queue_clear();
     dwelling = 0;
-    stepper_hold(0);
+    segment_hold(0);
     home_phase = HOME_IDLE;
     thread_chain = 0;
     stepper_position(planned);         /* prepare from where the axes really are, */
@@ -122,7 +125,7 @@ uint8_t interp_accepts(const command_t *cmd)
 
 static uint8_t idle(void)
 {
-    return !stepper_running() && !stepper_pending() && !dwelling && !home_phase;
+    return !stepper_busy() && planner_empty() && !segment_active() && !dwelling && !home_phase;
 }
 
 uint8_t interp_position_answer(uint8_t *answer)
@@ -228,7 +231,7 @@ static void homing_step(uint8_t events)
             flags |= ST_HOMED;
         return;
     }
-    stepper_submit(&m);
+    planner_submit(&m);
 }
 
 static void start_homing(const command_t *c)
@@ -264,7 +267,7 @@ static void fetch_motion(const command_t *c)
         }
         m.chained = synchronised && thread_chain;      /* the next pass of the same thread */
         thread_chain = synchronised;
-        stepper_submit(&m);
+        planner_submit(&m);
         for (uint8_t i = 0; i < N_AXES; i++)
             planned[i] = target[i];
     }
@@ -277,7 +280,7 @@ static void fetch_at_rest(const command_t *c)
     case OP_DELY:
         dwell_left_ms = c->value;
         dwelling = dwell_left_ms != 0;
-        stepper_hold(dwelling);                        /* the next move waits for the dwell */
+        segment_hold(dwelling);                        /* the next move waits for the dwell */
         break;
     case OP_ZMOV:
         start_homing(c);
@@ -325,20 +328,26 @@ void interp_override(const command_t *c)
     float feed = (float)c->value / FEED_UNITS_PER_MM;
     if (c->op == OP_FFDR) {
         fast_feed = feed;
-        stepper_set_feed(FEED_FAST, feed);             /* even mid-move */
+        planner_set_feed(FEED_FAST, feed);             /* even mid-move */
     } else {
         machining_feed = feed;
         program_feed_waiting = 0;                      /* the operator's feed wins */
-        stepper_set_feed(FEED_MACHINING, feed);
+        planner_set_feed(FEED_MACHINING, feed);
     }
 }
 
 void interp_run(void)
 {
+    segment_prepare();                                 /* keep the step interrupt fed */
     uint8_t events = stepper_take_events();
     if (events & EV_LIMIT) {
         fault();
         return;
+    }
+    if (events & EV_SWITCH) {                          /* a homing move ended on its switch: */
+        stepper_stop();                                /* the rest of it is dropped */
+        planner_clear();
+        segment_reset();
     }
     if (home_phase) {
         homing_step(events);
@@ -351,7 +360,7 @@ void interp_run(void)
     uint8_t motion = op == OP_FMOV || op == OP_PMOV;
     uint8_t at_rest = op == OP_DELY || op == OP_ZMOV || op == OP_PSTN || op == OP_SPIN ||
                       op == OP_COOL;
-    if ((motion && stepper_pending()) || (at_rest && !idle()))
+    if ((motion && planner_room() < 2) || (at_rest && !idle()))
         return;                                        /* the processor cannot take it yet */
     if ((motion || op == OP_DELY || op == OP_ZMOV) && program_feed_waiting) {
         machining_feed = program_feed;
@@ -371,8 +380,8 @@ void interp_tick_1ms(void)
 {
     if (dwelling && --dwell_left_ms == 0) {
         dwelling = 0;
-        stepper_hold(0);
+        segment_hold(0);
     }
-    profile_update();
+    stepper_fold();
     led_set(!idle());
 }

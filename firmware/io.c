@@ -44,7 +44,8 @@ static void halt_outputs(void)
         ;
 }
 
-/* Interruptible: the step interrupt may come in while the switches are sampled. */
+/* Interrupts stay on in here: the step interrupt's timing does not wait for the clock, and the
+ * switches are sampled between steps. */
 ISR(TIMER3_COMPA_vect, ISR_NOBLOCK)
 {
     millis++;

@@ -1,25 +1,37 @@
-/* planner.c - phase one of 002's path planner, and the trapezoidal speed profile.
+/* planner.c - phase one of 002's path planner, and the look-ahead over the queued moves.
  *
  * 002: "First phase is executed immediately upon interpreting command as a motion command. On
  * the end of first phase all calculated data for phase two are saved as parameters of the new
  * pending movement." Here that data is the Bresenham set-up (steps per axis, the base count),
- * the directions, the backlash take-up and the speed limits in step cycles per second.
+ * the directions, the backlash take-up, and the move's length, direction and speed limits.
  *
- * The speed of the running move is set once a millisecond from the main loop: it starts at the
- * rate a motor at rest can take, rises at the axes' acceleration to the feed (which FFDR and
- * MFDR may change at any time), and falls again so that it is back at the start rate when the
- * last step comes. Moves do not blend: each starts and ends at the start rate. */
+ * Prepared moves wait in a queue of PLANNER_MOVES. The speed at each joint follows the host
+ * planner's rule (retrofit/motion/lookahead.py): the joint is rounded by an arc that deviates
+ * JUNCTION_DEVIATION_MM from the corner, whose centripetal acceleration must stay within the
+ * moves' acceleration; each axis's velocity jump at the joint must fit half its acceleration
+ * over one step; a move that turns at speed keeps the other half of its acceleration. A
+ * backward pass over the queue then brings every entry speed down to what still lets the tool
+ * brake to a stop at the end of the last queued move, so a link that falls silent stops the
+ * machine as planned. "A stop" is the rate a motor at rest may start at (one event's worth of
+ * acceleration), as without look-ahead. The step generator (segment.c) reads the oldest move. */
 #include <math.h>
 
 #include "config.h"
 #include "planner.h"
+#include "stepper.h"
 
 static const float steps_per_mm[N_AXES] = STEPS_PER_MM;
 static const float max_rate[N_AXES] = MAX_RATE_STEPS_S;       /* steps/s */
 static const float max_accel[N_AXES] = ACCEL_STEPS_S2;        /* steps/s^2 */
 static const uint16_t backlash[N_AXES] = BACKLASH_STEPS;      /* 'JocL' / 'JocT' */
 
-static int8_t last_dir[N_AXES];          /* +1 / -1: which way the axis last moved */
+#define JUNCTION_SHARE 0.5f            /* of an axis's acceleration, for a turn's velocity jump */
+#define FEED_NONE 255                  /* a take-up move: no override changes it */
+
+static int8_t last_dir[N_AXES];        /* +1 / -1: which way the axis last moved */
+static move_t queue[PLANNER_MOVES];
+static uint8_t q_first, q_count;
+static uint8_t cut[PLANNER_MOVES];     /* the move's acceleration was cut for a turn */
 
 void planner_reset(void)
 {
@@ -40,23 +52,39 @@ static uint16_t takeup(uint8_t axis, int8_t dir)
     return steps;
 }
 
-/* Speed limits of a move, in events/s and events/s^2, from the axes that move. */
+/* The feed along the path (mm/s): within the axes' limit, at least MIN_RATE events a second. */
+static float nominal(float feed_mm_min, float cap, float per_mm)
+{
+    float v = feed_mm_min / 60.0f < cap ? feed_mm_min / 60.0f : cap;
+    return v * per_mm < MIN_RATE ? MIN_RATE / per_mm : v;
+}
+
+/* Speed and acceleration limits of a move along its path, from the axes that move. */
 static void limits(move_t *m)
 {
-    m->rate_max = MAX_RATE;
-    m->accel = 1e12f;
+    float v = 1e9f, a = 1e12f;
     for (uint8_t i = 0; i < N_AXES; i++) {
         if (!m->delta[i])
             continue;
-        float scale = (float)m->events / (float)m->delta[i];
-        if (max_rate[i] * scale < m->rate_max)
-            m->rate_max = max_rate[i] * scale;
-        if (max_accel[i] * scale < m->accel)
-            m->accel = max_accel[i] * scale;
+        float share = (float)m->delta[i] / steps_per_mm[i] / m->mm;   /* |unit| of the axis */
+        if (max_rate[i] / steps_per_mm[i] / share < v)
+            v = max_rate[i] / steps_per_mm[i] / share;
+        if (max_accel[i] / steps_per_mm[i] / share < a)
+            a = max_accel[i] / steps_per_mm[i] / share;
     }
-    m->rate_start = sqrtf(2.0f * m->accel);      /* the rate after one event from rest */
-    if (m->rate_start > m->rate_max)
-        m->rate_start = m->rate_max;
+    float per_mm = (float)m->events / m->mm;
+    if (v * per_mm > MAX_RATE)
+        v = MAX_RATE / per_mm;
+    m->v_cap = v;
+    m->accel = a;
+    m->v_rest = sqrtf(2.0f * a / per_mm);      /* the speed after one event from rest */
+    if (m->v_rest < MIN_RATE / per_mm)
+        m->v_rest = MIN_RATE / per_mm;
+    if (m->v_rest > v)
+        m->v_rest = v;
+    m->v_nominal = nominal(m->feed, v, per_mm);
+    m->v_junction = 0.0f;
+    m->v_entry = move_rest(m);
 }
 
 uint8_t plan_line(move_t *m, const int32_t *from, const int32_t *to, uint8_t feed_kind,
@@ -72,26 +100,27 @@ uint8_t plan_line(move_t *m, const int32_t *from, const int32_t *to, uint8_t fee
         int32_t d = to[i] - from[i];
         m->delta[i] = d < 0 ? (uint32_t)-d : (uint32_t)d;
         m->takeup[i] = 0;
+        m->unit[i] = (float)d / steps_per_mm[i];
         if (!d)
             continue;
         if (d < 0)
             m->dir_bits |= (uint8_t)(1 << i);
         m->takeup[i] = takeup(i, d < 0 ? -1 : 1);
-        float mm = (float)d / steps_per_mm[i];
-        length2 += mm * mm;
+        length2 += m->unit[i] * m->unit[i];
         if (m->delta[i] > most)
             most = m->delta[i];
     }
     if (!most)
         return 0;
-    float length = sqrtf(length2);
-    m->events = most;                          /* clock: the base axis steps every cycle */
+    m->mm = sqrtf(length2);
+    for (uint8_t i = 0; i < N_AXES; i++)
+        m->unit[i] /= m->mm;
+    m->events = most;                          /* clock: the base axis steps every event */
     m->feed = feed;
-    m->k_feed = (float)m->events / length / 60.0f;
     m->chained = 0;
-    limits(m);                                 /* in steps of the base axis (take-up's rate) */
+    limits(m);
     if (indexer && feed > 0.0f) {              /* ISTP: the encoder counts of the line; at */
-        float counts = length / feed * (float)ENCODER_COUNTS_PER_REV;   /* most one step each */
+        float counts = m->mm / feed * (float)ENCODER_COUNTS_PER_REV;   /* most one step each */
         if (counts > (float)most)
             m->events = counts < 1e9f ? (uint32_t)(counts + 0.5f) : 1000000000UL;
     }
@@ -119,6 +148,7 @@ void plan_home(move_t *m, uint8_t axis, int8_t dir, uint32_t steps, uint8_t kind
     for (uint8_t i = 0; i < N_AXES; i++) {
         m->delta[i] = 0;
         m->takeup[i] = 0;
+        m->unit[i] = 0.0f;                     /* no joint with anything: it starts and stops */
     }
     m->kind = kind;
     m->feed_kind = feed_kind;
@@ -128,40 +158,152 @@ void plan_home(move_t *m, uint8_t axis, int8_t dir, uint32_t steps, uint8_t kind
     m->takeup[axis] = takeup(axis, dir);
     m->dir_bits = dir < 0 ? (uint8_t)(1 << axis) : 0;
     m->events = steps;
+    m->mm = (float)steps / steps_per_mm[axis];
     m->feed = feed;
-    m->k_feed = steps_per_mm[axis] / 60.0f;
     limits(m);
 }
 
-void profile_update(void)
+/* ---- the queue and the look-ahead -------------------------------------------------------- */
+
+static uint8_t slot(uint8_t k)
 {
-    static float rate;
-    static uint8_t seen = 255;
-    static move_t m;                           /* the running move's constants */
-    uint8_t seq;
-    uint32_t left = stepper_snapshot(&m, &seq, 0);
-    if (left && seq != seen) {                 /* a new move started at its start rate */
-        left = stepper_snapshot(&m, &seq, 1);
-        if (!left)
-            return;
-        seen = seq;
-        rate = m.rate_start;
-    }
-    if (!left || m.indexer)
+    uint8_t s = (uint8_t)(q_first + k);
+    return s >= PLANNER_MOVES ? (uint8_t)(s - PLANNER_MOVES) : s;
+}
+
+uint8_t planner_room(void) { return (uint8_t)(PLANNER_MOVES - q_count); }
+
+uint8_t planner_empty(void) { return q_count == 0; }
+
+void planner_clear(void) { q_count = 0; }
+
+move_t *planner_first(void) { return q_count ? &queue[q_first] : 0; }
+
+void planner_pop(void)
+{
+    if (!q_count)
         return;
-    float cruise = m.feed * m.k_feed;
-    if (cruise > m.rate_max)
-        cruise = m.rate_max;
-    if (cruise < MIN_RATE)
-        cruise = MIN_RATE;
-    float end = m.rate_start < cruise ? m.rate_start : cruise;
-    float brake = (rate * rate - end * end) / (2.0f * m.accel);   /* events to slow down in */
-    float dv = m.accel * 0.001f;
-    if ((float)left <= brake + 1.0f)
-        rate = rate - dv > end ? rate - dv : end;
-    else if (rate < cruise)
-        rate = rate + dv < cruise ? rate + dv : cruise;
-    else if (rate > cruise)
-        rate = rate - dv > cruise ? rate - dv : cruise;
-    stepper_set_rate(rate, seq);
+    q_first = slot(1);
+    q_count--;
+}
+
+float planner_exit_speed(void)
+{
+    return q_count > 1 ? queue[slot(1)].v_entry : 0.0f;
+}
+
+/* The highest speed each axis's velocity jump allows at a turn (lookahead.py _jump_limit). */
+static float jump_limit(const move_t *a, const move_t *b)
+{
+    float best = 1e9f;
+    for (uint8_t k = 0; k < N_AXES; k++) {
+        float du = fabsf(b->unit[k] - a->unit[k]);
+        if (!(du > 0.0f))
+            continue;
+        float m = fmaxf(fabsf(a->unit[k]), fabsf(b->unit[k]));
+        float acc = max_accel[k] / steps_per_mm[k], step = 1.0f / steps_per_mm[k];
+        float c = sqrtf(2.0f * acc * step);
+        float budget = JUNCTION_SHARE * acc * step;
+        float v = (-du * c + sqrtf(du * du * c * c + 4.0f * du * m * budget)) / (2.0f * du * m);
+        if (v < best)
+            best = v;
+    }
+    return best;
+}
+
+/* The joint of `a` into `b`, geometry only (the feeds come in at each plan): mm/s. */
+static float junction(const move_t *a, uint8_t a_cut, const move_t *b)
+{
+    if (a->indexer || b->indexer || a->kind != MOVE_LINE || b->kind != MOVE_LINE)
+        return 0.0f;                           /* a thread, a homing or take-up move: a stop */
+    float cos_turn = 0.0f;
+    for (uint8_t k = 0; k < N_AXES; k++)
+        cos_turn += a->unit[k] * b->unit[k];
+    if (cos_turn >= 1.0f - 1e-6f)
+        return 1e9f;                           /* straight on: only the feeds limit it */
+    if (cos_turn <= -1.0f + 1e-6f)
+        return 0.0f;                           /* a reversal */
+    float sin_half = sqrtf(0.5f * (1.0f + cos_turn));
+    float acc = fminf(a_cut ? 2.0f * a->accel : a->accel, b->accel);
+    float radius = JUNCTION_DEVIATION_MM * sin_half / (1.0f - sin_half);
+    return fminf(sqrtf(acc * radius), jump_limit(a, b));
+}
+
+/* Backward pass: each entry speed as high as the joint, the feeds and braking to a stop at the
+ * end of the queue allow. The oldest move is under way: its entry is history. */
+static void replan(void)
+{
+    if (q_count < 2)
+        return;
+    float exit = move_rest(&queue[slot(q_count - 1)]);
+    for (uint8_t k = q_count - 1; k >= 1; k--) {
+        move_t *m = &queue[slot(k)];
+        const move_t *before = &queue[slot(k - 1)];
+        float v = fminf(m->v_junction, fminf(m->v_nominal, before->v_nominal));
+        float reach = sqrtf(exit * exit + 2.0f * m->accel * m->mm);
+        if (reach < v)
+            v = reach;
+        if (v < move_rest(m))
+            v = move_rest(m);
+        m->v_entry = v;
+        exit = v;
+    }
+}
+
+uint8_t planner_submit(move_t *m)
+{
+    uint8_t need = 1, any = 0;
+    for (uint8_t i = 0; i < N_AXES; i++)
+        any |= m->takeup[i] != 0;
+    need += any;
+    if (planner_room() < need)
+        return 0;
+    if (any) {                                 /* 003: the clearance first, at the stop rate */
+        move_t *t = &queue[slot(q_count)];
+        *t = *m;
+        t->kind = MOVE_TAKEUP;
+        t->feed_kind = FEED_NONE;
+        t->indexer = 0;
+        t->events = 0;
+        for (uint8_t i = 0; i < N_AXES; i++) {
+            t->delta[i] = m->takeup[i];
+            if (t->delta[i] > t->events)
+                t->events = t->delta[i];
+        }
+        t->mm = (float)t->events * m->mm / (float)m->events;
+        t->v_cap = t->v_nominal = t->v_entry = t->v_rest = move_rest(m);
+        t->v_junction = 0.0f;
+        cut[slot(q_count)] = 0;
+        q_count++;
+    }
+    uint8_t s = slot(q_count);
+    queue[s] = *m;
+    cut[s] = 0;
+    if (q_count) {
+        uint8_t p = slot(q_count - 1);
+        float j = junction(&queue[p], cut[p], &queue[s]);
+        queue[s].v_junction = j;
+        if (j > 0.0f && j < 1e9f) {            /* a turn at speed: half the acceleration */
+            if (!cut[p] && p != q_first)
+                queue[p].accel *= 1.0f - JUNCTION_SHARE;
+            cut[p] = 1;
+            queue[s].accel *= 1.0f - JUNCTION_SHARE;
+            cut[s] = 1;
+        }
+    }
+    q_count++;
+    replan();
+    return 1;
+}
+
+void planner_set_feed(uint8_t kind, float feed)
+{
+    for (uint8_t k = 0; k < q_count; k++) {
+        move_t *m = &queue[slot(k)];
+        if (m->feed_kind != kind || m->indexer)
+            continue;
+        m->feed = feed;
+        m->v_nominal = nominal(feed, m->v_cap, (float)m->events / m->mm);
+    }
+    replan();
 }

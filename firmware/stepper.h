@@ -1,63 +1,63 @@
-/* stepper.h - phase two of 002's path planner: the move executing in the timer interrupt. */
+/* stepper.h - phase two of 002's path planner: the step interrupt over prepared segments.
+ *
+ * The main loop (segment.c) cuts the planned moves into short segments, each with its number
+ * of timer ticks and the tick period already computed; the Timer1 interrupt only runs Bresenham
+ * over them. A move's stepping data (steps per axis, directions) is a line_t; its segments name
+ * it. Under ISTP a line's events come from the spindle encoder instead (INT0). */
 #ifndef STEPPER_H
 #define STEPPER_H
 
 #include <stdint.h>
 #include "config.h"
 
-/* A line ends at its end point; a homing move also ends when its switch closes (SEEK) or
- * opens (RELEASE), and a homing move that runs out of travel has missed its switch. */
-enum move_kind { MOVE_LINE, MOVE_SEEK, MOVE_RELEASE };
-enum feed_kind { FEED_FAST, FEED_MACHINING, FEED_HOMING };
+/* Adaptive multi-axis step smoothing (AMASS): at low rates the interrupt ticks 2^level times
+ * per event of the base axis, so the other axes step at finer times. Step counts are kept
+ * shifted left by AMASS_MAX, so each level divides them by a shift. */
+#define AMASS_MAX 6
 
-/* What phase one (prepare, in the main loop) leaves for phase two (execute, in the interrupt):
- * 002's "pending movement". Rates count step cycles (Bresenham events) per second. */
 typedef struct {
-    uint8_t kind;                  /* enum move_kind */
-    uint8_t feed_kind;             /* which feed governs its speed (FFDR / MFDR may change it) */
-    uint8_t indexer;               /* 1: the spindle encoder clocks it (ISTP), 0: the timer */
-    uint8_t chained;               /* ISTP: continues the pass before it (no wait for SIND) */
+    uint32_t steps[N_AXES];        /* steps of each axis (<< AMASS_MAX for a timed line) */
+    uint32_t base;                 /* Bresenham's base count (<< AMASS_MAX for a timed line) */
     uint8_t dir_bits;              /* bit i: axis i moves towards negative */
-    uint8_t watch;                 /* the switch a homing move watches */
-    uint32_t delta[N_AXES];        /* steps of each axis */
-    uint32_t events;               /* Bresenham's base count: step cycles or encoder counts */
-    uint16_t takeup[N_AXES];       /* backlash: motor steps through the clearance first (003) */
-    float feed;                    /* mm/min now (FFDR / MFDR update it while it runs) */
-    float k_feed;                  /* events/s per mm/min */
-    float rate_max;                /* events/s the axes' speed limits allow */
-    float accel;                   /* events/s^2 the axes' acceleration limits allow */
-    float rate_start;              /* events/s a motor at rest may start at (and stop from) */
-    uint16_t start_ocr;            /* the start rate as a timer period (set by stepper_submit) */
-    uint8_t start_skip;
-} move_t;
+    uint8_t kind;                  /* enum move_kind (planner.h) */
+    uint8_t watch;                 /* the switch a homing line watches */
+    uint8_t chained;               /* ISTP: no wait for SIND */
+} line_t;
+
+#define SEG_FIRST    0x01          /* the first segment of its line: counters and directions */
+#define SEG_LAST     0x02          /* its last: the line ends with it */
+#define SEG_INDEXER  0x04          /* the whole line, clocked by the spindle encoder */
+
+typedef struct {
+    uint16_t ticks;                /* timer ticks (events << level) */
+    uint16_t period;               /* timer counts (0.5 us) a tick */
+    uint8_t level;                 /* AMASS level */
+    uint8_t line;                  /* index in stepper_lines */
+    uint8_t flags;
+} segment_t;
+
+#define SEGMENTS 12                /* prepared ahead: SEGMENTS x SEGMENT_MS of motion */
+#define LINES (SEGMENTS + 2)
+extern line_t stepper_lines[LINES];
 
 /* Events the interrupt reports to the main loop (stepper_take_events). */
 #define EV_LIMIT   0x01            /* a limit switch stopped a move: the queue must be dropped */
 #define EV_SWITCH  0x02            /* a homing move ended on its switch (closed / opened) */
-#define EV_DONE    0x04            /* a move ended */
+#define EV_DONE    0x04            /* a line ended */
 
 void stepper_init(void);
-/* Hand a prepared move to the interrupt; 0 if the pending slot is still full. */
-uint8_t stepper_submit(const move_t *move);
-uint8_t stepper_pending(void);     /* the pending slot is full */
-uint8_t stepper_running(void);     /* a move executes */
-/* While held, the interrupt does not start the pending move (a dwell runs). */
-void stepper_hold(uint8_t on);
-/* Abrupt stop: the running and the pending move are dropped at once. */
+/* The free segment slot, or 0 when SEGMENTS wait; stepper_push publishes it. */
+segment_t *stepper_slot(void);
+void stepper_push(void);
+uint8_t stepper_queued(void);      /* segments waiting */
+void stepper_start(void);          /* tick, if idle and segments wait */
+uint8_t stepper_busy(void);        /* segments wait, or the interrupt steps */
+/* Abrupt stop: stepping ends at once and every prepared segment is dropped. */
 void stepper_stop(void);
 uint8_t stepper_take_events(void);
 void stepper_position(int32_t *steps);
+void stepper_fold(void);           /* at least every 0.5 s: the interrupt counts in 16 bits */
 void stepper_set_position(uint8_t axis, int32_t steps);
-/* The step-cycle rate (events/s) the interrupt uses from its next cycle, if the move numbered
- * `sequence` (stepper_snapshot) still runs. */
-void stepper_set_rate(float rate, uint8_t sequence);
-/* A rate as timer cycles: after a step pulse, `skip` + 1 cycles of `ocr` counts each. */
-void stepper_period(float rate, uint16_t *ocr, uint8_t *skip);
-/* Change the feed of the running and pending moves governed by `kind` (FFDR, MFDR). */
-void stepper_set_feed(uint8_t kind, float feed_mm_min);
-/* For the speed profile: the running move's feed (and with `whole` its constant limits and
- * rates) and the events it has left (0: none). */
-uint32_t stepper_snapshot(move_t *copy, uint8_t *sequence, uint8_t whole);
 /* Which way each axis last stepped (+1 / -1; -1 before any step). */
 void stepper_directions(int8_t *dirs);
 uint8_t stepper_index_seen(void);  /* SIND has pulsed since the last call to clear it */

@@ -26,6 +26,7 @@ void uart_init(void)
 ISR(USART0_RX_vect)
 {
     uint8_t byte = UDR0;
+    sei();                           /* read: the step interrupt need not wait for the rest */
     uint8_t next = (rx_head + 1) & (RX_SIZE - 1);
     if (next != rx_tail) {           /* a full buffer drops the byte: the CRC will catch it */
         rx_buf[rx_head] = byte;
@@ -41,6 +42,7 @@ ISR(USART0_UDRE_vect)
     }
     UDR0 = tx_buf[tx_tail];
     tx_tail = (tx_tail + 1) & (TX_SIZE - 1);
+    sei();                           /* sent: the step interrupt need not wait for the rest */
 }
 
 int16_t uart_getc(void)

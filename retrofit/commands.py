@@ -40,6 +40,7 @@ class Command:
     immediate: ClassVar[bool] = False      # STOP, RDPS, RDST: run at once, ahead of the queue
     motion: ClassVar[bool] = False         # goes through prepare/execute
     host: ClassVar[bool] = False           # TOOL, PAUS: handled by the run on the host, never sent to a device
+    linked: ClassVar[bool] = True          # the serial link carries it (DOUT, WAIT: not yet)
 
     def __str__(self) -> str:
         return self.mnemonic
@@ -201,8 +202,10 @@ class Tool(Command):
         return f"{self.mnemonic} T{self.number}"
 
 
-#: why a program pauses: PAUS M0 (program pause), M1 (optional stop), M60 (pallet shuttle), M6 (manual tool change)
+#: why a program pauses: PAUS M0 (program pause), M1 (optional stop), M60 (pallet shuttle), M6 (manual
+#: tool change), M19 (G87: the operator orients the stopped spindle)
 PAUSE_REASONS = {0: "program pause (M0)", 1: "optional stop (M1)", 60: "pallet change pause (M60)",
+                 19: "orient the spindle by hand (G87 back boring)",
                  6: "manual tool change (M6)"}
 
 
@@ -221,12 +224,76 @@ class Paus(Command):
         return f"{self.mnemonic} M{self.reason}"
 
 
+#: DOUT's M codes: (level, synchronised with the next move) as LinuxCNC's M62-M65
+DOUT_CODES = {62: (1, True), 63: (0, True), 64: (1, False), 65: (0, False)}
+
+
+@dataclass(frozen=True)
+class Dout(Command):
+    """Digital output ``output`` (``[io]`` out<n>) on or off: ``code`` 62/63 as the next move
+    starts, 64/65 at once (LinuxCNC's M62-M65). Not one of 002's 14; the link does not carry it."""
+    mnemonic: ClassVar[str] = "DOUT"
+    linked: ClassVar[bool] = False
+    code: int = 64
+    output: int = 0
+
+    def __str__(self) -> str:
+        return f"{self.mnemonic} M{self.code} P{self.output}"
+
+    @property
+    def level(self) -> int:
+        return DOUT_CODES[self.code][0]
+
+    @property
+    def synced(self) -> bool:
+        return DOUT_CODES[self.code][1]
+
+    @classmethod
+    def from_values(cls, values: dict) -> "Dout":
+        code, output = values["M"], values["P"]
+        if code not in DOUT_CODES:
+            raise CommandError(f"DOUT M{_num(code)}: the code is 62, 63, 64 or 65")
+        if not output.is_integer() or not 0 <= output < 64:
+            raise CommandError(f"DOUT P{_num(output)}: the output is a whole number from 0 to 63")
+        return cls(int(code), int(output))
+
+
+@dataclass(frozen=True)
+class Wait(Command):
+    """Wait on digital input ``input`` (``[io]`` in<n>), LinuxCNC's M66 P L Q: ``mode`` 0 reads
+    it at once, 1/2 wait for a rising/falling edge, 3/4 for high/low, at most ``timeout`` s.
+    The moves before it end first. Not one of 002's 14; the link does not carry it."""
+    mnemonic: ClassVar[str] = "WAIT"
+    linked: ClassVar[bool] = False
+    motion: ClassVar[bool] = True
+    input: int = 0
+    mode: int = 0
+    timeout: float = 0.0
+
+    def __str__(self) -> str:
+        return f"{self.mnemonic} P{self.input} L{self.mode} Q{_num(self.timeout)}"
+
+    @classmethod
+    def from_values(cls, values: dict) -> "Wait":
+        number, mode, timeout = values["P"], values["L"], values["Q"]
+        if not number.is_integer() or not 0 <= number < 64:
+            raise CommandError(f"WAIT P{_num(number)}: the input is a whole number from 0 to 63")
+        if mode not in (0.0, 1.0, 2.0, 3.0, 4.0):
+            raise CommandError(f"WAIT L{_num(mode)}: the mode is 0, 1, 2, 3 or 4")
+        if not 0.0 <= timeout <= 86400.0 or (mode and not timeout > 0.0):
+            raise CommandError(f"WAIT Q{_num(timeout)}: the timeout is from 0 to 86400 s, above 0 "
+                               f"when L is 1-4")
+        return cls(int(number), int(mode), timeout)
+
+
 #: every command class by mnemonic
 COMMANDS: dict[str, type[Command]] = {c.mnemonic: c for c in (
     Init, FMov, ZMov, PMov, Stop, FFdr, MFdr, PFdr, Dely, CStp, IStp, Pstn, Rdps, Rdst, Spin, Cool,
-    Tool, Paus)}
-#: the commands a device executes (what the serial link carries): all but the host's own
-DEVICE_COMMANDS: dict[str, type[Command]] = {m: c for m, c in COMMANDS.items() if not c.host}
+    Tool, Paus, Dout, Wait)}
+#: the commands a device executes (what the serial link carries): all but the host's own and
+#: those the link does not carry yet
+DEVICE_COMMANDS: dict[str, type[Command]] = {m: c for m, c in COMMANDS.items()
+                                             if not c.host and c.linked}
 
 _WORD = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)$")
 
@@ -249,12 +316,14 @@ def parse_command(text: str) -> Command:
         return ZMov(tuple(words))
     values = dict(_words(head, words))
     expected = {FFdr: "F", MFdr: "F", PFdr: "F", Dely: "P", Spin: "SD", Cool: "M", Tool: "T",
-                Paus: "M"}.get(cls, "")
+                Paus: "M", Dout: "MP", Wait: "PLQ"}.get(cls, "")
     extra = set(values) - set(expected)
     missing = set(expected) - set(values)
     if extra or missing:
         form = " ".join(f"{c}<number>" for c in expected) or "no arguments"
         raise CommandError(f"{text.strip()!r}: expected {head} {form}".rstrip())
+    if hasattr(cls, "from_values"):
+        return cls.from_values(values)
     if cls in (FFdr, MFdr, PFdr):
         return cls(_check(head, "F", values["F"], minval=0.0))
     if cls is Dely:

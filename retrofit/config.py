@@ -143,6 +143,7 @@ SECTION_PARSERS: dict[str, str] = {
     "tools": "retrofit.atc.settings:read_tools_section",
     "setter": "retrofit.atc.setter:read_setter_section",
     "ramps": "retrofit.atc.board:read_ramps_section",
+    "io": "retrofit.iopins:read_io_section",
 }
 
 
@@ -197,6 +198,8 @@ def load_machine(name_or_path: str | Path) -> Machine:
             module, _, func = SECTION_PARSERS[key].partition(":")
             parts[key] = getattr(import_module(module), func)(root.section(key), axes)
     root.finish()
+    from .iopins import check_io_pins
+    check_io_pins(path.name, port, axes, parts)
     return Machine(name=name, description=description, source=str(path), tick_us=tick_us, port=port,
                    axes=axes, sim=sim, motion=motion, parts=parts)
 

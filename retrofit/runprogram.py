@@ -37,6 +37,7 @@ class Run:
     report: dict = field(default_factory=dict)
     how: str = ""
     command_count: int = 0
+    io: dict | None = None          # DOUT changes and WAITs (retrofit.digital.io_report)
 
 
 def read_program(name: str, stdin=None) -> tuple[str, str]:
@@ -97,6 +98,7 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
     reason = "--controller" if opts.controller else controller_reason(run.expanded.commands, machine)
     streamed = False
     if reason:
+        refuse_io_on_controller(run.expanded, reason)
         run.log = run_on_controller(run.expanded, machine, opts.backlash_comp, opts.reference, reason)
         run.how = f"002 controller ({reason})"
         progress.done("plan")
@@ -107,6 +109,7 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
             run.program.commands = run.expanded.commands = []     # planned: let the objects go
         run.log = None if streamed else execute(run.plan, opts.reference)
         run.how = "reference path" if opts.reference else "fast path"
+        run.io = digital_outputs(run)
     progress.done("execute")
     # 4. outputs: frames to every output, stopping at pauses on a real machine; a clock-timed
     #    run to sim:// and vcd:// only is made and delivered a window at a time (bounded memory)
@@ -120,6 +123,39 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
     from .runreport import run_report
     run.report = run_report(run)
     return run
+
+
+def refuse_io_on_controller(expanded, reason: str) -> None:
+    """DOUT and WAIT are timed by the planner's run; the controller's run does not make them."""
+    from .commands import Dout, Wait
+    for cmd, line in zip(expanded.commands, expanded.lines):
+        if isinstance(cmd, (Dout, Wait)):
+            raise GcodeError(f"{cmd}: digital outputs and input waits (M62-M66) run on the "
+                             f"planner's path; this program runs through the controller ({reason}), "
+                             f"which does not make them", expanded.file, line)
+
+
+def refuse_io_on_link(url: str, device) -> None:
+    """The link and the firmware do not carry DOUT and WAIT: refused before anything is sent."""
+    found = next((c for c in device if not c.linked), None)
+    if found is not None:
+        raise OutputError(f"{url}: {found}: the serial link does not carry digital outputs and "
+                          f"input waits (M62-M66); run the program on sim:// (or a port-frame "
+                          f"output such as parport://)")
+
+
+def digital_outputs(run: Run) -> dict | None:
+    """The run's DOUT changes written in its port frames; the report's ``io`` part (None when
+    the program has no DOUT or WAIT)."""
+    from .commands import Dout, Wait
+    from .digital import io_report, output_changes, with_outputs
+    commands = run.expanded.commands
+    if not any(isinstance(c, (Dout, Wait)) for c in commands):
+        return None
+    changes = output_changes(run.plan, commands)
+    if run.log is not None:
+        run.log.frames = with_outputs(run.log.frames, changes, run.machine)
+    return io_report(run.plan, commands, run.expanded.lines, changes)
 
 
 def sim_prober(machine: Machine, spindle_tool: int = 0):
@@ -231,7 +267,9 @@ def can_stream(run: Run, opts) -> bool:
     the fast path, no pause, no tool changer (its magazine check replays the whole run), no
     ``--html`` (which keeps every frame for its pulse view), only ``sim://`` and ``vcd://``."""
     from .outputs import OutputURL
+    from .commands import Dout
     return (not opts.reference and not run.expanded.pauses and "atc" not in run.machine.parts
+            and not any(isinstance(c, Dout) for c in run.expanded.commands)
             and not getattr(opts, "keep_frames", False)
             and all(OutputURL.parse(u).scheme in STREAM_SCHEMES for u in opts.urls))
 
@@ -278,6 +316,7 @@ def command_outputs(urls: list[str], machine: Machine, commands, pauses=(), wait
             raise OutputError(f"{url}: this output runs a program's commands; this run has only "
                               "port frames (use it with retrofit run)")
         device = [c for c in commands if not c.host]
+        refuse_io_on_link(url, device)
         with open_output(url, machine) as out:
             done, part, sent = 0, None, 0
             for index, says in list(pauses) + [(len(device), None)]:

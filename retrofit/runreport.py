@@ -42,6 +42,8 @@ def run_report(run) -> dict:
     report["pauses"] = [{"line": e.line, "says": e.says} for e in exp.pauses]
     if remote:
         report["remote"] = remote
+    if getattr(run, "io", None):
+        report["io"] = run.io
     return report
 
 

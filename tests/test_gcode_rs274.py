@@ -42,14 +42,14 @@ RETROFIT_ALLOWS = {
 RETROFIT_REFUSES = {
     **dict.fromkeys(("gridprobe", "smartprobe", "tool-length-probe", "x-trim"),
                     "G38 probing: the test machine has no probe input"),
-    **dict.fromkeys(("lathe_g70_71_demo", "lathe_g7x_face_boring", "lathe_g7x_quadrants",
-                     ), "G70/G71 lathe cycles"),
+    **dict.fromkeys(("lathe_g70_71_demo", "lathe_g7x_face_boring", "lathe_g7x_quadrants"),
+                    "G71/G72 lathe roughing cycles"),
+    "lathe-g70-offset": "G70 passes offset from the profile (D, E not 0)",
     **dict.fromkeys(("3D_Chips", "b-index", "daisy"), "axes A/B/C: not on the test machine"),
     **dict.fromkeys(("polar", "hole-circle", "spiral"), "polar coordinates @ ^"),
     "threading": "G33 on a machine without a spindle encoder",
     "m70m72-demo": "M70-M73", "m73-demo": "M70-M73", "toplevel": "M70-M73",
     "err-unclosed-sub": "an o-sub never closed (rs274 stops at the M2 inside it)",
-    "cycle-g87": "G87 back boring needs an oriented spindle stop",
 }
 #: programs where retrofit makes one rapid more than rs274: G88 retracts Z after its pause with
 #: the spindle stopped (rs274 leaves the retract to the operator's hands)

@@ -46,7 +46,8 @@ def test_vcd_holds_exactly_the_edges_of_the_port_frames(tmp_path, invert):
     frames = PositionErrorLoop(machine).run(circle_targets(machine, 3.0, 24)).frames
     out = write_vcd(machine, frames, tmp_path / "run.vcd")
     vcd = VCDVCD(str(tmp_path / "run.vcd"))
-    assert sorted(vcd.signals) == ["chivu_lathe.X.dir", "chivu_lathe.X.step", "chivu_lathe.Z.dir", "chivu_lathe.Z.step"]
+    assert sorted(vcd.signals) == ["chivu_lathe.X.dir", "chivu_lathe.X.step", "chivu_lathe.Z.dir",
+                                   "chivu_lathe.Z.step", "chivu_lathe.out0", "chivu_lathe.out1"]
     for axis in machine.axes:
         for kind, bit in (("step", axis.step_bit), ("dir", axis.dir_bit)):
             got = vcd_edges(vcd, f"chivu_lathe.{axis.name}.{kind}", out.units_per_tick)

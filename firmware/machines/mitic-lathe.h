@@ -19,6 +19,7 @@
 #define DIR_SETUP_US        100
 #define RAPID_FEED_MM_MIN   1500.0f
 #define DEFAULT_FEED_MM_MIN 100.0f
+#define JUNCTION_DEVIATION_MM 0.01f
 #define ENCODER_COUNTS_PER_REV 400
 #define SPINDLE_MAX_RPM     2000UL
 /* SWITCH(id, axis, side, kind, RAMPS endstop connector, status bit or -1) */

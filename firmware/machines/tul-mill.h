@@ -19,6 +19,7 @@
 #define DIR_SETUP_US        10
 #define RAPID_FEED_MM_MIN   3000.0f
 #define DEFAULT_FEED_MM_MIN 300.0f
+#define JUNCTION_DEVIATION_MM 0.01f
 #define ENCODER_COUNTS_PER_REV 0
 #define SPINDLE_MAX_RPM     3000UL
 /* SWITCH(id, axis, side, kind, RAMPS endstop connector, status bit or -1) */

@@ -139,6 +139,7 @@ def header(m: Machine) -> str:
         *axis_lines(m, axes),
         f"#define RAPID_FEED_MM_MIN   {_float(m.motion.rapid_feed_mm_min)}",
         f"#define DEFAULT_FEED_MM_MIN {_float(m.motion.default_feed_mm_min)}",
+        f"#define JUNCTION_DEVIATION_MM {_float(m.motion.junction_deviation_mm)}",
         f"#define ENCODER_COUNTS_PER_REV {spindle.encoder_counts_per_rev if spindle else 0}",
         f"#define SPINDLE_MAX_RPM     {round(spindle.max_rpm) if spindle else 3000}UL",
         *switches,

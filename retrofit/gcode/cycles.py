@@ -1,4 +1,4 @@
-"""Canned cycles G73, G74, G81-G86, G88, G89 in the XY plane (G17), as LinuxCNC runs them.
+"""Canned cycles G73, G74, G81-G89 in the XY plane (G17), as LinuxCNC runs them.
 
 Words: X Y the hole, Z the bottom, R the retract plane, L repeats, P the dwell (G82, G86, G88,
 G89, and G74/G84 at the bottom), Q the peck (G73, G83). Each hole: if Z is below R, rapid up to R first (once); rapid over the hole at
@@ -8,8 +8,13 @@ tap with a floating holder -- feed in at F (program F = pitch x rpm), reverse th
 feed out, turn forward again; G86 bores, stops the spindle at the bottom and rapids out; G88
 bores, stops the spindle and pauses (M0) for the operator, then rapids out with the spindle
 stopped (LinuxCNC leaves the retract to the operator's hands; a stepper machine's position
-cannot be moved by hand) and restarts it. Under G91, X and Y are steps from hole to hole (repeated L
-times), R is measured from the current Z and Z from R.
+cannot be moved by hand) and restarts it. G87 back-bores: at R it moves off the hole by I J, stops the
+spindle and pauses (PAUS M19) while the operator turns the stopped spindle so that the bar's edge
+clears the hole (LinuxCNC orients the spindle, M19; these machines cannot), rapids down through the
+hole to Z, back over the hole centre, restarts the spindle, feeds up to K and back down to Z, stops
+and pauses again for the orientation, moves off by I J and rapids out, back over the hole centre,
+and restarts the spindle. Under G91, X and Y are steps from hole to hole (repeated L
+times), R is measured from the current Z, Z from R and G87's K from Z.
 """
 
 from __future__ import annotations
@@ -19,11 +24,11 @@ from .errors import RuleError
 from .state import clean_mm
 from .threading import leave
 
-CYCLES = (73, 74, 81, 82, 83, 84, 85, 86, 88, 89)
+CYCLES = (73, 74, 81, 82, 83, 84, 85, 86, 87, 88, 89)
 #: cycles that dwell P at the bottom and need P the first time
 DWELLING = (82, 86, 88, 89)
 #: cycles that need the spindle turning, and the direction they need (0: either)
-SPINDLE = {74: -1, 84: 1, 86: 0, 88: 0}
+SPINDLE = {74: -1, 84: 1, 86: 0, 87: 0, 88: 0}
 #: G83's rapid stop above the last peck, and G73's chip-breaking retract (mm)
 PECK_CLEARANCE_MM = 0.254
 #: most holes one cycle block may drill (L)
@@ -45,6 +50,12 @@ def run(tr, block, mode) -> None:
         raise RuleError(f"G{mode:g}: dwell time P word missing (seconds at the bottom)")
     if mode in SPINDLE:
         _check_spindle(s, mode)
+    if mode == 87:
+        s.cycle_ijk.update({a: v[a] for a in "IJK" if a in v})
+        missing = [a for a in "IJK" if a not in s.cycle_ijk]
+        if missing:
+            raise RuleError(f"G87: {missing[0]} word missing (back boring needs I J, the offset "
+                            f"that clears the hole, and K, the top of the back bore)")
     repeats = v.get("L", 1.0)
     if repeats != int(repeats) or not 0 <= repeats <= MAX_REPEATS:
         raise RuleError(f"{block.texts['L']}: L repeats a cycle 0 to {MAX_REPEATS} times")
@@ -101,6 +112,9 @@ def _check_spindle(s, mode) -> None:
 def _spindle_cycle(tr, mode, bottom: float, clear: float) -> bool:
     """G74, G84, G86, G88 at one hole (the tool at R); False for the other cycles."""
     s = tr.state
+    if mode == 87:
+        _back_bore(tr, bottom, clear)
+        return True
     if mode not in SPINDLE:
         return False
     at = lambda z: {**s.position, "Z": clean_mm(z)}  # noqa: E731
@@ -118,6 +132,31 @@ def _spindle_cycle(tr, mode, bottom: float, clear: float) -> bool:
         tr.rapid(at(clear))
     tr._emit(forward)
     return True
+
+
+def _back_bore(tr, bottom: float, clear: float) -> None:
+    """G87 at one hole, the tool at R over its centre."""
+    s = tr.state
+    centre = dict(s.position)
+    off = {**centre, "X": clean_mm(centre["X"] + s.to_mm(s.cycle_ijk["I"])),
+           "Y": clean_mm(centre["Y"] + s.to_mm(s.cycle_ijk["J"]))}
+    k = s.to_mm(s.cycle_ijk["K"]) + (bottom if s.incremental else s.offset("Z"))
+    forward = Spin(s.rpm, s.spindle)
+    at = lambda xy, z: {**xy, "Z": clean_mm(z)}  # noqa: E731
+    tr.rapid(off)
+    tr._emit(Spin(0.0, 0))
+    tr._emit(Paus(19))
+    tr.rapid(at(off, bottom))
+    tr.rapid(at(centre, bottom))
+    tr._emit(forward)
+    tr.feed_line(at(centre, k), 87)
+    tr.feed_line(at(centre, bottom), 87)
+    tr._emit(Spin(0.0, 0))
+    tr._emit(Paus(19))
+    tr.rapid(at(off, bottom))
+    tr.rapid(at(off, clear))
+    tr.rapid(at(centre, clear))
+    tr._emit(forward)
 
 
 def _cut(tr, mode, r: float, bottom: float, clear: float) -> None:

@@ -20,6 +20,7 @@ from .dialect import run_dollar
 from .errors import RuleError
 from .expressions import evaluate
 from .lexer import lex_lines
+from . import lathecycles
 from .ocode import Source, scan
 from .state import ModalState
 from .translate import Translator
@@ -118,7 +119,7 @@ class Interpreter:
 
     def _line(self, src: Source, line) -> bool:
         """One line of words; True when it ends the program."""
-        if line.plain:
+        if line.plain and ("G", 70.0) not in line.words:
             return self.tr.run(make_block(line.number, line.words, self.machine), src.file)
         for kind, text in line.messages:
             self.messages.append((src.file, line.number, kind, self._substitute(text)))
@@ -132,6 +133,8 @@ class Interpreter:
                 self.params.write(ref, value)
         if not words:
             return False
+        if ("G", 70.0) in words:
+            return lathecycles.run_g70(self, src, line, words)
         return self.tr.run(make_block(line.number, words, self.machine), src.file)
 
     def _ref(self, target):

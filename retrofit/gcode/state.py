@@ -63,6 +63,7 @@ class ModalState:
     cycle_z: float | None = None        # the last Z of a canned cycle
     cycle_q: float | None = None        # the last Q (peck) of a canned cycle
     cycle_p: float | None = None        # the last P (dwell) of a canned cycle
+    cycle_ijk: dict[str, float] = field(default_factory=dict)   # G87's last I J K (program units)
     cycle_start: float | None = None    # machine Z where the current run of cycles began
     spline_ij: tuple = (0.0, 0.0)       # G5's first control point when I J are left out (mm)
     nurbs: dict | None = None           # G5.2 control points collected until G5.3

@@ -3,10 +3,11 @@
 G0 is FMOV and G1 is PMOV, both naming every machine axis with its target in machine
 coordinates (mm); a G2/G3 arc becomes one PMOV per chord (:mod:`retrofit.motion.arcs`); F
 becomes a PFDR sent just before the next feed move when it changed; G4 is DELY; M3/M4/M5 with S
-are SPIN, M7/M8/M9 COOL; M6 (and T on a machine that changes on T) is TOOL; M0/M1/M60 PAUS.
+are SPIN, M7/M8/M9 COOL; M6 (and T on a machine that changes on T) is TOOL; M0/M1/M60 PAUS; M62-M66 DOUT and
+WAIT (:mod:`retrofit.gcode.iowords`).
 Offsets (G5x, G92, G43) are kept here, never sent: see :mod:`retrofit.gcode.coords`.
 
-Within a block the words act in LinuxCNC's order: feed mode, F, S, T, M6, M3/M4/M5, M7/M8/M9,
+Within a block the words act in LinuxCNC's order: feed mode, F, S, T, M62-M66, M6, M3/M4/M5, M7/M8/M9,
 G4, plane, units, G40/G41/G42 (:mod:`retrofit.gcode.radiuscomp`), G43/G49, G54.., G61/G64,
 G90/G91, G98/G99, then G10/G28/G30/G92 or the motion, then M0/M1/M2/M30/M60.
 """
@@ -18,7 +19,7 @@ import math
 from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, Tool, ZMov
 from ..config import Machine
 from ..motion.arcs import arc_extent, arc_points
-from . import coords, cycles, pathcontrol, probing, radiuscomp, spindle, splines
+from . import coords, cycles, iowords, pathcontrol, probing, radiuscomp, spindle, splines
 from .arcwords import arc_center, plane_axes
 from .blocks import Block
 from .errors import RuleError
@@ -55,6 +56,7 @@ class Translator:
         atc = machine.parts.get("atc")
         self.change_on_t = getattr(atc, "change_on", "M6") == "T"
         self.comp = radiuscomp.RadiusComp()     # G40/G41/G42
+        self.spindle_tool = state.tool          # in the spindle at the start (M66 plans from it)
 
     def run(self, block: Block, file: str = "") -> bool:
         """Translate one block; True when it ends the program (M2, M30)."""
@@ -74,6 +76,8 @@ class Translator:
             spindle.set_feed_mode(self, g["feed mode"])
         if "F" in block.values:
             self._feed_word(block.values["F"])
+        if "io" in block.m:
+            iowords.run(self, block)          # M62-M66: after T selects, before M6
         self._tool_words(block)
         self._spindle(block)
         self._coolant(block)

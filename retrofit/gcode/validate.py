@@ -71,7 +71,7 @@ AXIS_NONMODAL = (10, 28, 30, 92)
 #: letters every block may carry
 _ALWAYS = frozenset("FST")
 #: canned cycles (motion group)
-CYCLE_CODES = (73, 74, 81, 82, 83, 84, 85, 86, 88, 89)
+CYCLE_CODES = (73, 74, 81, 82, 83, 84, 85, 86, 87, 88, 89)
 
 
 def check_word_use(block, mode) -> None:
@@ -94,16 +94,17 @@ def check_word_use(block, mode) -> None:
     spline = mode in (5, 5.1) and block.motion == mode
     nurbs = mode == 5.2 and nonmodal not in AXIS_NONMODAL
     uses = {
-        "I": arc or g76 or spline, "J": arc or g76 or spline,
-        "K": arc or g76 or (mode == 33 and moving),
+        "I": arc or g76 or spline or (cycle and mode == 87),
+        "J": arc or g76 or spline or (cycle and mode == 87),
+        "K": arc or g76 or (mode == 33 and moving) or (cycle and mode == 87),
         "R": arc or cycle or g76 or nonmodal == 10,
         "P": nonmodal in (4, 10) or arc or g76 or (cycle and mode in (74, 82, 84, 86, 88, 89))
         or g.get("path control") == 64 or (spline and mode == 5) or nurbs
-        or block.m.get("override") in (50, 51, 52, 53),
-        "Q": g76 or (cycle and mode in (73, 83)) or g.get("path control") == 64
+        or block.m.get("override") in (50, 51, 52, 53) or "io" in block.m,
+        "Q": block.m.get("io") == 66 or g76 or (cycle and mode in (73, 83)) or g.get("path control") == 64
         or (spline and mode == 5),
-        "L": nonmodal == 10 or cycle or g76 or nurbs or g.get("cutter radius") in (41.1, 42.1),
-        "H": g.get("tool length") == 43 or g76, "E": g76,
+        "L": block.m.get("io") == 66 or nonmodal == 10 or cycle or g76 or nurbs or g.get("cutter radius") in (41.1, 42.1),
+        "H": g.get("tool length") == 43 or g76, "E": g76 or block.m.get("io") == 66,
         "D": g.get("cutter radius") in (41, 42, 41.1, 42.1) or g.get("spindle speed mode") == 96,
     }
     for letter, used in uses.items():
@@ -120,8 +121,9 @@ def check_word_use(block, mode) -> None:
         raise RuleError("G92 with no axis words (G92 X0 sets the current X to 0)")
 
 
-_USED_BY = {"I": "G2/G3 arcs, G5, G5.1, G76", "J": "G2/G3 arcs, G5, G5.1, G76",
-            "K": "G2/G3 arcs, G33, G76", "R": "G2/G3 arcs, canned cycles, G10, G76",
-            "P": "G4, G10, G2/G3 turns, G5, G5.2, G74, G82, G84, G86, G88, G89, G64, G76, M50-M53",
-            "Q": "G5, G73, G83, G64, G76", "L": "G10, canned cycles, G5.2, G76, G41.1/G42.1",
-            "H": "G43, G76", "E": "G76", "D": "G41, G42, G41.1, G42.1, G96"}
+_USED_BY = {"I": "G2/G3 arcs, G5, G5.1, G76, G87", "J": "G2/G3 arcs, G5, G5.1, G76, G87",
+            "K": "G2/G3 arcs, G33, G76, G87", "R": "G2/G3 arcs, canned cycles, G10, G76",
+            "P": "G4, G10, G2/G3 turns, G5, G5.2, G74, G82, G84, G86, G88, G89, G64, G76, M50-M53, M62-M66",
+            "Q": "G5, G73, G83, G64, G76, M66",
+            "L": "G10, canned cycles, G5.2, G76, G41.1/G42.1, M66",
+            "H": "G43, G76", "E": "G76, M66", "D": "G41, G42, G41.1, G42.1, G96"}

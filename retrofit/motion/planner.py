@@ -13,7 +13,7 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from ..commands import Command, Dely, FFdr, FMov, MFdr, PFdr, PMov, Pstn, ZMov
+from ..commands import Command, Dely, FFdr, FMov, MFdr, PFdr, PMov, Pstn, Wait, ZMov
 from ..config import Machine
 from ..errors import MotionError
 from . import profile as prof
@@ -79,6 +79,7 @@ class _Segment:
     kin: Kinematics
     dwell_s: float
     index: int
+    wait: Wait | None = None        # M66: a dwell as long as the input makes it
 
 
 def plan_program(commands: Iterable[Command], machine: Machine, backlash_comp: bool = True,
@@ -109,7 +110,8 @@ def plan_walked(commands: list[Command], machine: Machine, backlash_comp: bool, 
         row = None
         if seg.kin.length_mm > 0.0:
             row = profile_row(seg.kin, entry, exit_, seg.kin.a_max_mm_s2, exponential)
-        move = PlannedMove(seg.start, seg.end, seg.target, t, row, seg.dwell_s, seg.index)
+        dwell = seg.dwell_s if seg.wait is None else wait_seconds(machine, seg.wait, t)
+        move = PlannedMove(seg.start, seg.end, seg.target, t, row, dwell, seg.index)
         plan.moves.append(move)
         t = t + move.duration_s
     plan.end_s = t
@@ -123,6 +125,16 @@ def profile_row(kin: Kinematics, entry: float, exit_: float, accel: float, expon
         return prof.exponential(kin.length_mm, entry, kin.v_max_mm_s, exit_, accel,
                                 min(EXP_START_MM_S, kin.v_max_mm_s))
     return prof.trapezoid(kin.length_mm, entry, kin.v_max_mm_s, exit_, accel)
+
+
+def wait_seconds(machine: Machine, wait: Wait, start_s: float) -> float:
+    """How long a WAIT started ``start_s`` into the run lasts on the machine's simulated input."""
+    from ..iopins import wait_outcome
+    io = machine.parts.get("io")
+    if io is None or wait.input >= len(io.inputs):
+        raise MotionError(f"{wait}: machine {machine.name} has no digital input {wait.input} "
+                          f"([io] in{wait.input} in its machine file)")
+    return wait_outcome(io, wait.input, wait.mode, wait.timeout, start_s).seconds
 
 
 def kinematics(machine: Machine, start: Sequence[int], end: Sequence[int], feed_mm_s: float) -> Kinematics:
@@ -183,6 +195,10 @@ class _Walker:
         elif isinstance(cmd, Dely):
             kin = Kinematics(0.0, np.zeros(len(machine.axes)), 1.0, 1.0, stop_before=True)
             yield _Segment(tuple(self.motor), tuple(self.motor), tuple(self.position), kin, cmd.seconds, index)
+        elif isinstance(cmd, Wait):
+            kin = Kinematics(0.0, np.zeros(len(machine.axes)), 1.0, 1.0, stop_before=True)
+            yield _Segment(tuple(self.motor), tuple(self.motor), tuple(self.position), kin, 0.0,
+                           index, cmd)
         elif isinstance(cmd, (FMov, PMov, ZMov)):
             yield self._move(cmd, index)
 

@@ -3,7 +3,8 @@
 URL grammar: ``vcd://FILE.vcd`` (relative path) or ``vcd:///abs/FILE.vcd``; no options.
 
 One 1-bit wire per used port bit, named after the machine's pins (``X.step``, ``X.dir``,
-``Z.step``, ...) in a scope named after the machine; the level written is the level on the pin
+``Z.step``, ...), and ``out0``.. for the spare outputs on a parallel port's data pins
+(``[io]``), in a scope named after the machine; the level written is the level on the pin
 (inversions included). Values change at the frame ticks and the file ends at the run's end
 tick. The timescale is the tick itself when VCD can state it (1, 10 or 100 of a unit: a 100 us
 tick gives ``100 us`` and VCD time = tick number); otherwise the largest such unit that divides
@@ -53,6 +54,9 @@ def signal_bits(machine) -> list[tuple[str, int, int | None]]:
     for axis in machine.axes:
         out.append((f"{axis.name}.step", axis.step_bit, axis.step_pin))
         out.append((f"{axis.name}.dir", axis.dir_bit, axis.dir_pin))
+    io = machine.parts.get("io")
+    if io is not None and machine.port == "db25":       # spare outputs on the port's data pins
+        out.extend((f"out{k}", pin - 2, pin) for k, pin in enumerate(io.outputs))
     return out
 
 

@@ -101,7 +101,18 @@ def cycles() -> dict[str, str]:
                              f"G0 Z12\nM2\n")        # rs274 takes no L with G74
     progs["cycle-g84-no-p"] = PRE + "M3 S300\nG0 X0 Y0 Z10\nG98 G84 X1 Y1 Z-3 R2 F150\nG80\nM2\n"
     progs["cycle-g88"] = PRE + "M3 S300\nG0 X0 Y0 Z10\nF150\nG88 X1 Y1 Z-3 R2 P0.5\nG80\nG0 Z12\nM2\n"
-    progs["cycle-g87"] = PRE + "M3 S300\nG0 X0 Y0 Z10\nF150\nG87 X1 Y1 Z-3 R2 I0.5 J0 K-1\nG80\nM2\n"
+    progs["cycle-g87"] = PRE + "M3 S300\nG0 X0 Y0 Z10\nF150\nG99 G87 X1 Y1 Z-3 R2 I0.5 J0 K-1\nG80\nM2\n"
+    progs["cycle-g87-g98-g99"] = PRE + ("M3 S300\nG0 X0 Y0 Z10\nF150\nG98 G87 X1 Y1 Z-3 R2 I0.5 J-0.25 K-1\n"
+                                        "G99 X4 Y1\nX6 K0 I-0.3\nG90 G80\nG0 Z12\nM2\n")
+    progs["cycle-g87-g91-l2"] = PRE + ("M4 S300\nG0 X0 Y0 Z10\nF150\nG99 G87 X1 Y1 Z-3 R2 I0 J0.4 K-1\n"
+                                       "G91 X2 Y0 Z-2 R-3 K1 L2\nG90 G80\nG0 Z12\nM2\n")
+    progs["cycle-g87-g98-l3"] = PRE + ("M3 S500\nG0 X0 Y0 Z10\nF150\nG98 G91 G87 X3 Y-1 Z-4 R-3 I0.5 J0 "
+                                       "K1.5 L3\nG90 G80\nM2\n")
+    progs["cycle-g87-g20-g55"] = ("G20 G90 G94 G40 G49 G80 G54 G91.1 G17\nG10 L2 P2 X1 Y-0.5 Z-0.2\nM3 S300\n"
+                                  "G0 X0 Y0 Z1\nF6\nG55 G98 G87 X0.1 Y0.1 Z-0.3 R0.2 I0.05 J0 K-0.1\n"
+                                  "G80\nM2\n")
+    progs["err-cycle-g87-no-j"] = PRE + "M3 S300\nG0 Z10\nG87 X1 Y1 Z-3 R2 I0.5 K-1 F100\nM2\n"
+    progs["err-cycle-g87-no-spindle"] = PRE + "G0 Z10\nG87 X1 Y1 Z-3 R2 I0.5 J0 K-1 F100\nM2\n"
     progs["err-cycle-g84-m4"] = PRE + "M4 S300\nG0 Z10\nG84 X1 Y1 Z-2 R1 F100\nM2\n"
     progs["err-cycle-g74-m3"] = PRE + "M3 S300\nG0 Z10\nG74 X1 Y1 Z-2 R1 F100\nM2\n"
     progs["err-cycle-g86-no-spindle"] = PRE + "G0 Z10\nG86 X1 Y1 Z-2 R1 P1 F100\nM2\n"
@@ -194,6 +205,15 @@ def language() -> dict[str, str]:
     p["inverse-time"] = PRE + "G93\nG1 X10 F2\nG1 Y10 F4\nG94\nG1 X0 F100\nM2\n"
     p["path-control"] = PRE + "G64 P0.01\nG0 X1\nG61\nG0 X2\nG61.1\nG64\nG0 X3\nM2\n"
     p["feed-units"] = PRE + "G20\nG1 X1 F10\nG21\nG1 X10\nM2\n"
+    g70 = "G18 G21 G90 G8\nF100\nO100 SUB\nG0 X5 Z2\nG1 Z-5\n{arc}\nG0 X10\nG1 Z-15\nO100 ENDSUB\n"
+    p["lathe-g70-turn"] = g70.format(arc="G3 X8 Z-8 K-3 I0") + "G0 X12 Z5\nG70 Q100\nG0 X14\nM2\n"
+    p["lathe-g70-r-p2"] = g70.format(arc="G3 X8 Z-8 R3") + "G0 X12 Z5\nG70 Q100 X13 Z4 P2\nM2\n"
+    p["lathe-g70-g7"] = g70.format(arc="G3 X16 Z-8 K-3 I0").replace("G8", "G7").replace(
+        "X5 ", "X10 ").replace("X10\nG1", "X20\nG1") + "G0 X24 Z5\nG70 Q100\nM2\n"
+    p["lathe-g70-face"] = ("G18 G21 G90 G8\nF100\nO100 SUB\nG0 X12 Z0\nG1 X6\nG3 X4 Z-2 K0 I-2\n"
+                           "G1 X2\nZ-5\nO100 ENDSUB\nG0 X14 Z2\nG70 Q100\nM2\n")
+    p["lathe-g70-offset"] = g70.format(arc="G3 X8 Z-8 K-3 I0") + "G0 X12 Z5\nG70 Q100 D1 E0 P2\nM2\n"
+    p["err-lathe-g70-not-monotonic"] = g70.format(arc="G2 X8 Z-8 K-3 I0") + "G0 X12 Z5\nG70 Q100\nM2\n"
     p["lathe-diameter-mode"] = "G18 G21 G90\nG7\nG0 X20 Z5\nG1 Z-10 F100\nG8\nG1 X15\nM2\n"
     p["lathe-profile"] = "G18 G21 G90 G94\nG0 X30 Z2\nG1 Z0 F100\nG1 X0\nG0 Z2\nX24\nG1 Z-20\nG2 X30 Z-23 R3\nG0 X40\nZ2\nM2\n"
     p["modal-repeat"] = PRE + "G1 X1 F100\nY1\nX0\nY0\nG0 Z1\nX5\nM2\n"

@@ -1,0 +1,123 @@
+/* stepper_int.h - what the step generator's files (stepper.c, tick.c, tick_asm.c) share: the
+ * interrupt's state, the pins of the RAMPS sockets and the timing constants. Not for others. */
+#ifndef STEPPER_INT_H
+#define STEPPER_INT_H
+
+#include <avr/interrupt.h>
+#include <avr/io.h>
+#include <util/atomic.h>
+
+#include "board.h"
+#include "planner.h"
+#include "stepper.h"
+#include "switches.h"
+
+#define PASTE(a, b, c) a##b##c
+#define PIN_OF(slot, what) PASTE(RAMPS_, slot, what)
+
+#define PULSE_COUNTS US_TO_COUNTS(PULSE_HIGH_US)
+/* The pins rise this many counts after the match: the interrupt's entry and register saves
+ * (about 60 cycles) plus the longest time another interrupt or an interrupts-off stretch may
+ * hold it off. */
+#ifndef SLOT_COUNTS
+#define SLOT_COUNTS 9
+#endif
+/* From a wake-up (the first segment, or the end of an ISTP line) to the first tick. */
+#define WAKE_COUNTS (PULSE_COUNTS + SLOT_COUNTS + 40)
+/* The pulse's end is set this many counts early: the end's interrupt lowers the pins about as
+ * much later after its match as the entry raised them after the slot. */
+#ifndef FALL_LEAD_COUNTS
+#define FALL_LEAD_COUNTS (-1)
+#endif
+
+
+extern segment_t st_ring[SEGMENTS];
+extern volatile uint8_t st_ring_head, st_ring_tail;   /* the main loop writes head, the interrupt tail */
+
+enum { IDLE, TICKING, ENCODER };
+extern volatile uint8_t st_state, st_halted, st_events, st_index_seen, st_index_wait, st_pulse_high;
+extern volatile uint8_t st_stepped_negative;  /* bit i: axis i last stepped towards - */
+extern int32_t st_position[N_AXES];                 /* 002's actual position, steps, ... */
+extern volatile int16_t st_moved[N_AXES];           /* ... plus the steps counted since its update, */
+extern volatile uint16_t st_fired;                   /* and events of the axes that step every one */
+
+/* The running segment and its line. */
+extern const line_t *st_ln;
+extern uint8_t st_seg_flags, st_seg_level, st_bres_axes, st_always_axes;
+extern uint16_t st_ticks_left, st_period, st_tick_at, st_tick_next;
+extern int32_t st_counter[N_AXES];                  /* Bresenham's error term minus the base */
+extern uint32_t st_inc[N_AXES], st_base, st_enc_left;
+/* The event of the next tick, and when its pins rise and fall (read by the interrupt's entry). */
+extern volatile uint8_t st_ev_bits;
+extern uint8_t st_ev_neg, st_ev_count, st_ev_last;
+extern uint16_t st_fall_at;
+extern uint8_t st_pin_dirs;                          /* bit i set: axis i's pin says negative */
+extern volatile uint8_t st_dir_pending, st_dir_next;
+extern volatile uint8_t st_busy, st_missed;             /* tick_body runs; a match came meanwhile */
+extern uint8_t st_plain, st_fast;       /* a line without switches to watch; the next tick is plain */
+
+
+#define STEP_HIGH(i, slot) \
+    if (bits & (1 << (i))) PIN_OF(slot, _STEP_PORT) |= _BV(PIN_OF(slot, _STEP_BIT));
+#define STEP_LOW(i, slot) PIN_OF(slot, _STEP_PORT) &= (uint8_t)~_BV(PIN_OF(slot, _STEP_BIT));
+/* Direction: pin high = positive (003: 5 V = right), unless the axis inverts it. */
+#define DIR_SET(i, slot)                                                          \
+    if ((((dirs >> (i)) & 1) ^ ((DIR_INVERT >> (i)) & 1)) == 0)                   \
+        PIN_OF(slot, _DIR_PORT) |= _BV(PIN_OF(slot, _DIR_BIT));                   \
+    else                                                                          \
+        PIN_OF(slot, _DIR_PORT) &= (uint8_t)~_BV(PIN_OF(slot, _DIR_BIT));
+#define PINS_OUT(i, slot)                                                         \
+    PIN_OF(slot, _STEP_DDR) |= _BV(PIN_OF(slot, _STEP_BIT));                      \
+    PIN_OF(slot, _DIR_DDR) |= _BV(PIN_OF(slot, _DIR_BIT));                        \
+    PIN_OF(slot, _EN_DDR) |= _BV(PIN_OF(slot, _EN_BIT));                          \
+    PIN_OF(slot, _EN_PORT) &= (uint8_t)~_BV(PIN_OF(slot, _EN_BIT)); /* enabled */
+/* One Bresenham event of axis i into the step bits b; the term runs from -base to 0. */
+#define BRESENHAM(i, slot)                                                        \
+    if (bres & (1 << (i))) {                                                      \
+        st_counter[i] += st_inc[i];                                                     \
+        if (st_counter[i] >= 0) {                                                    \
+            st_counter[i] -= st_base;                                                   \
+            b |= (uint8_t)(1 << (i));                                             \
+        }                                                                         \
+    }
+#define COUNT(i, slot)                                                            \
+    if (bits & (1 << (i))) {                                                      \
+        if (neg & (1 << (i)))                                                     \
+            st_moved[i]--;                                                           \
+        else                                                                      \
+            st_moved[i]++;                                                           \
+    }
+/* The axes whose limit switches stop them (switches.c checks which is actuated). */
+#define SWITCH(id, axis, side, kind, stop, bit) | ((kind) == SW_LIMIT ? 1 << (axis) : 0)
+#define LIMIT_AXES (0 SWITCHES)
+
+static inline void write_directions(uint8_t dirs)
+{
+    FOR_EACH_AXIS(DIR_SET)
+}
+
+/* The next match at count t, and when its pins rise (compare C) and fall (fall_at).
+ * schedule() puts it one period after this one, never at a count the counter has passed. */
+static inline __attribute__((always_inline)) void set_next(uint16_t t)
+{
+    OCR1A = t;
+    st_tick_next = t;
+    OCR1C = t + SLOT_COUNTS;                   /* its flag marks when the pins rise */
+    TIFR1 = _BV(OCF1C);
+    st_fall_at = t + (uint16_t)(SLOT_COUNTS + PULSE_COUNTS - FALL_LEAD_COUNTS);
+}
+
+static inline __attribute__((always_inline)) void schedule(void)
+{
+    uint16_t t = st_tick_at + st_period;
+    if ((int16_t)(t - TCNT1) < 3)
+        t = TCNT1 + 3;
+    set_next(t);
+}
+
+void set_directions(uint8_t dirs);
+void halt(uint8_t why);
+void fold_fired(void);
+void wake(void);
+
+#endif

@@ -1,0 +1,171 @@
+/* tick.c - the step interrupt's slow path, in C: a new segment, a new line or AMASS level, the
+ * end of what was prepared, the switches of a homing move or of a limit. The common tick (the
+ * next event within a segment of a line without switches to watch) is in tick_asm.c; both are
+ * described in stepper.c. */
+#include "stepper_int.h"
+
+/* The direction pins of a new line: at once when no pulse is high, else at its end. */
+void set_directions(uint8_t dirs)
+{
+    if (dirs == st_pin_dirs)
+        return;
+    st_pin_dirs = dirs;
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+        if (st_pulse_high) {
+            st_dir_next = dirs;
+            st_dir_pending = 1;
+        } else
+            write_directions(dirs);
+    }
+}
+
+
+/* The end of a tick's rest: a match that came meanwhile is taken at once. */
+static inline __attribute__((always_inline)) void finish_tick(void)
+{
+    cli();
+    if (st_missed) {
+        st_missed = 0;
+        set_next(TCNT1 + 3);
+    }
+    st_busy = 0;
+    sei();
+}
+
+void halt(uint8_t why)
+{
+    st_events |= why | EV_DONE;
+    st_halted = 1;                                /* no wake-up until the main loop flushes */
+    st_state = IDLE;
+    st_ev_bits = 0;
+}
+
+/* The events counted once for the axes that step at every one, into each axis's count (before
+ * that set of axes or their directions change). */
+void fold_fired(void)
+{
+    uint16_t n = st_fired;
+    st_fired = 0;
+    for (uint8_t i = 0; i < N_AXES; i++)
+        if (st_always_axes & (1 << i))
+            st_moved[i] += (st_ev_neg >> i) & 1 ? -(int16_t)n : (int16_t)n;
+}
+
+/* The Bresenham increments at AMASS level `level`; at level 0 an axis that steps at every
+ * event needs no arithmetic. */
+static void set_level(uint8_t level)
+{
+    fold_fired();
+    st_seg_level = level;
+    st_bres_axes = st_always_axes = 0;
+    for (uint8_t i = 0; i < N_AXES; i++) {
+        uint32_t steps = st_ln->steps[i];
+        st_inc[i] = steps >> level;
+        if (!steps)
+            continue;
+        if (!level && steps == st_base)
+            st_always_axes |= (uint8_t)(1 << i);
+        else
+            st_bres_axes |= (uint8_t)(1 << i);
+    }
+}
+
+/* A new line: Bresenham's terms at the mid-point, its directions. */
+static void begin_line(uint8_t index)
+{
+    fold_fired();
+    st_ln = &stepper_lines[index];
+    st_base = st_ln->base;
+    uint8_t moving = 0;
+    for (uint8_t i = 0; i < N_AXES; i++) {
+        st_counter[i] = -(int32_t)(st_base >> 1);
+        if (st_ln->steps[i])
+            moving |= (uint8_t)(1 << i);
+    }
+    st_plain = st_ln->kind == MOVE_LINE && !(moving & LIMIT_AXES);
+    set_directions(st_ln->dir_bits);
+    st_stepped_negative = (uint8_t)((st_stepped_negative & ~moving) | (st_ln->dir_bits & moving));
+    st_seg_level = 0xFF;
+}
+
+/* Take the next segment; 0 when there is none to tick (the end, or an ISTP line). */
+static uint8_t next_segment(void)
+{
+    uint8_t t = st_ring_tail;
+    if (t == st_ring_head) {
+        st_state = IDLE;                          /* the end of what was prepared */
+        st_ev_bits = 0;
+        return 0;
+    }
+    const segment_t *s = &st_ring[t];
+    st_seg_flags = s->flags;
+    if (st_seg_flags & SEG_FIRST)
+        begin_line(s->line);
+    uint8_t level = s->level;
+    uint16_t ticks = s->ticks, p = s->period;
+    st_ring_tail = (uint8_t)(t + 1 == SEGMENTS ? 0 : t + 1);
+    if (level != st_seg_level)
+        set_level(level);
+    if (st_seg_flags & SEG_INDEXER) {
+        st_state = ENCODER;                       /* the encoder's clock takes over */
+        st_enc_left = st_base;
+        st_index_wait = !st_ln->chained;             /* a thread pass waits for SIND */
+        st_ev_bits = 0;
+        return 0;
+    }
+    st_ticks_left = ticks;
+    st_period = p;
+    return 1;
+}
+
+/* Prepare the event of the next tick. */
+static inline void prepare(void)
+{
+    if (!st_ticks_left && !next_segment())
+        return;
+    st_ticks_left--;
+    uint8_t b = st_always_axes, bres = st_bres_axes;
+    FOR_EACH_AXIS(BRESENHAM)
+    const line_t *l = st_ln;
+    uint8_t kind = l->kind;
+    if (kind != MOVE_LINE) {
+        if (kind != MOVE_TAKEUP && switch_on(l->watch) == (kind == MOVE_SEEK)) {
+            halt(EV_SWITCH);                   /* the homing switch closed / opened */
+            return;
+        }
+    }
+    if ((b & LIMIT_AXES) && kind != MOVE_TAKEUP && switch_blocks(b, l->dir_bits)) {
+        halt(EV_LIMIT);                        /* a limit switch: everything stops here */
+        return;
+    }
+    st_ev_neg = l->dir_bits;
+    st_ev_count = kind != MOVE_TAKEUP;            /* take-up steps do not move the position */
+    st_ev_last = !st_ticks_left && (st_seg_flags & SEG_LAST) && kind != MOVE_TAKEUP;
+    st_ev_bits = b;
+}
+
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmisspelled-isr"
+void tick_body(void) __attribute__((signal, used, externally_visible));
+void tick_body(void)
+{
+    uint8_t bits = st_ev_bits;
+    st_tick_at = st_tick_next;                       /* the match being served */
+    if (bits && st_ev_count) {
+        uint8_t neg = st_ev_neg;
+        FOR_EACH_AXIS(COUNT)
+    }
+    if (st_ev_last) {
+        st_ev_last = 0;
+        st_events |= EV_DONE;
+    }
+    prepare();
+    st_fast = st_plain && st_ticks_left && !st_ev_last;
+    cli();
+    if (st_state != TICKING)
+        TIMSK1 = _BV(OCIE1B);
+    sei();
+    schedule();                                /* the next segment's period is known now */
+    finish_tick();
+}
+#pragma GCC diagnostic pop

@@ -1,0 +1,182 @@
+"""The firmware's step generation in simavr, measured on its pins in cycles: the exact pulse
+width and period at the highest rate it runs, look-ahead across a joint, braking to the stop
+rate at a move's end, acceleration within the limit, and a link full of garbage during a move.
+
+Oracles: the configured pulse width and the period 1/rate; the host planner's junction speed
+(retrofit.motion.lookahead) for a joint; the start rate of a motor at rest, sqrt(2 a) steps/s;
+the machine file's acceleration limit.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+
+import numpy as np
+import pytest
+
+from retrofit.commands import parse_command
+from retrofit.config import load_machine
+from retrofit.link import QUEUED, FrameDecoder, decode_reply, encode_command, encode_frame, seq_byte
+from retrofit.motion.lookahead import Kinematics, junction_speed
+from tests.test_firmware_sim import Script
+
+pytestmark = pytest.mark.skipif(
+    shutil.which("avr-gcc") is None or shutil.which("make") is None,
+    reason="the firmware needs avr-gcc and make: apt-get install gcc-avr avr-libc make libsimavr-dev")
+
+fs = pytest.importorskip("retrofit.firmware_sim")
+S = fs.F_CPU
+BENCH = fs.ROOT / "bench" / "steprate.toml"
+
+
+@pytest.fixture(scope="module")
+def mill():
+    machine = load_machine("tul-mill")
+    return machine, fs.build(machine.name)
+
+
+@pytest.fixture(scope="module")
+def bench(tmp_path_factory):
+    """The bench machine (2 us pulse, no speed limit the firmware could reach) built in a copy."""
+    machine = load_machine(BENCH)
+    return machine, fs.build_copy(machine, tmp_path_factory.mktemp("steprate"))
+
+
+def cruise_move(machine, elf, axes: str, rate: float):
+    """A move of ``axes`` (equal distances) cruising at ``rate`` steps/s for ~40 ms; the log."""
+    steps = int(rate * 0.04)
+    feed = rate * math.sqrt(len(axes)) * 60 / machine.axis(axes[0]).steps_per_mm
+    move = "FMOV " + " ".join(f"{a}{steps / machine.axis(a).steps_per_mm:g}" for a in axes)
+    script = Script(machine).at(2_000_000, f"FFDR F{feed:.4f}").at(2_200_000, move)
+    log = fs.Harness(elf, machine, script=script.items,
+                     cycles=2_400_000 + int(steps / rate * S * 1.3) + 800_000).run()
+    return log, steps
+
+
+@pytest.mark.parametrize("axes, rate", [("X", 40_000), ("XYZ", 30_000), ("XYZA", 30_000)])
+def test_every_pulse_and_interval_is_exact_at_the_top_rate(bench, axes, rate):
+    machine, elf = bench
+    log, steps = cruise_move(machine, elf, axes, rate)
+    rises, falls, _ = fs.step_times(log, machine, axes[0])
+    assert len(rises) == len(falls) == steps
+    width_us = (falls - rises) / 16
+    assert width_us.min() >= 2.0 and width_us.max() <= 3.0          # 2 us configured, +1 at most
+    cruise = np.diff(rises)[steps // 4: 3 * steps // 4]
+    assert np.abs(cruise - S / rate).max() <= 16                     # +-1 us of the period
+    for other in axes[1:]:                                           # every axis on the same edge
+        r, f, _ = fs.step_times(log, machine, other)
+        assert len(r) == steps and np.abs(r - rises).max() <= 16
+        assert ((f - r) / 16).min() >= 2.0
+
+
+def corner(machine, elf, turn_deg: float):
+    """FMOV X10, then 10 mm on at ``turn_deg`` from X: the X step times."""
+    x, y = 10 + 10 * math.cos(math.radians(turn_deg)), 10 * math.sin(math.radians(turn_deg))
+    script = Script(machine).at(3_200_000, "FMOV X10").at(3_300_000, f"FMOV X{x:.4f} Y{y:.4f}")
+    log = fs.Harness(elf, machine, script=script.items, cycles=int(1.0 * S)).run()
+    rises, _, _ = fs.step_times(log, machine, "X")
+    return rises, log
+
+
+def test_a_colinear_two_segment_path_does_not_stop_at_the_joint(mill):
+    machine, elf = mill
+    rises, _ = corner(machine, elf, 0.0)
+    assert len(rises) == 2000
+    speed = 1.0 / (np.diff(rises) / S)                                # X steps/s, interval by interval
+    # at the joint (step 1000) the axis runs at the rapid feed, 50 mm/s = 5000 steps/s, as in the
+    # middle of a single move: no braking towards the stop rate (447 steps/s)
+    assert speed[990:1010].min() == pytest.approx(5000, rel=0.02)
+    # and the two moves take as long as one 20 mm move: 20/50 + 50/1000 s (a trapezoid)
+    assert (rises[-1] - rises[0]) / S == pytest.approx(0.45, rel=0.03)
+
+
+def test_a_shallow_turn_is_taken_at_the_host_planners_junction_speed(mill):
+    machine, elf = mill
+    turn = 5.0
+    rises, _ = corner(machine, elf, turn)
+    axes = machine.axes
+    before = Kinematics(10.0, np.array([1.0, 0, 0, 0]), 50.0, 1000.0)
+    after = Kinematics(10.0, np.array([math.cos(math.radians(turn)), math.sin(math.radians(turn)), 0, 0]),
+                       50.0, 1000.0)
+    vj = junction_speed(before, after, machine.motion.junction_deviation_mm,
+                        np.array([a.max_accel_mm_s2 for a in axes]), np.array([a.step_mm for a in axes]))
+    assert 5 < vj < 20                                                # 10.6 mm/s: between stop and feed
+    speed_mm_s = 1.0 / (np.diff(rises) / S) / machine.axis("X").steps_per_mm
+    slowest = speed_mm_s[900:1100].min()                              # X's speed around the joint
+    assert vj * math.cos(math.radians(turn)) * 0.97 <= slowest <= vj * 1.25
+
+
+def test_a_move_brakes_to_the_stop_rate_at_its_end_within_the_acceleration_limit(mill):
+    machine, elf = mill
+    script = Script(machine).at(3_200_000, "FMOV X20")
+    log = fs.Harness(elf, machine, script=script.items, cycles=int(0.8 * S)).run()
+    rises, _, _ = fs.step_times(log, machine, "X")
+    assert len(rises) == 2000
+    x = machine.axis("X")
+    accel = x.max_accel_mm_s2 * x.steps_per_mm                       # 100 000 steps/s^2
+    stop_rate = math.sqrt(2 * accel)                                  # one step from rest: 447/s
+    last = np.diff(rises[-6:]) / S
+    assert np.all(np.diff(last) >= -1e-6)                             # still slowing down
+    # braking at a to the stop rate r0 at the end: the step k from the end takes
+    # (sqrt(r0^2 + 2 a k) - sqrt(r0^2 + 2 a (k - 1))) / a, the last (632 - 447) / a s
+    for k in (1, 2, 3):
+        planned = (math.sqrt(stop_rate ** 2 + 2 * accel * k)
+                   - math.sqrt(stop_rate ** 2 + 2 * accel * (k - 1))) / accel
+        assert last[-k] == pytest.approx(planned, rel=0.15), k
+    window = 0.02
+    assert fs.windowed_accel(rises, window) <= accel + 2 / window ** 2
+    report = fs.report(log, machine)
+    assert not report["violations"]
+
+
+def test_framed_garbage_during_a_move_leaves_every_step_interval_as_planned(mill):
+    """Damaged frames back to back for most of FMOV X30: each is NAKed, the move's steps come
+    at the same cycles as without them, to the interrupt latency the frames cost (< 1 us)."""
+    machine, elf = mill
+    end = int(1.0 * S)
+
+    def run(garbage: bool):
+        script = Script(machine).at(3_200_000, "FMOV X30").at(end - 200_000, "RDPS")
+        if garbage:
+            good = encode_frame(seq_byte(QUEUED, 5), encode_command(parse_command("FMOV X1"), machine))
+            bad = bytearray(good)
+            bad[6] ^= 0x10                                            # the CRC fails
+            for k in range(int(0.6 * S / 35_200)):
+                script.items.append((3_400_000 + k * 35_200, bytes(bad)))
+        return fs.Harness(elf, machine, script=script.items, cycles=end).run()
+
+    quiet, noisy = run(False), run(True)
+    answers = [decode_reply(f.payload, machine) for f in FrameDecoder().feed(noisy.answer_bytes())]
+    naks = sum(type(a).__name__ == "Nak" for a in answers)
+    assert naks == int(0.6 * S / 35_200)
+    assert dict(answers[-1].steps)["X"] == 3000                       # executed once
+    q, _, _ = fs.step_times(quiet, machine, "X")
+    n, _, _ = fs.step_times(noisy, machine, "X")
+    assert len(q) == len(n) == 3000
+    assert np.abs(n - q).max() <= 32                                  # every step within 2 us
+
+
+@pytest.mark.slow
+def test_the_474_segment_circle_runs_within_5_percent_of_the_host_plan(mill):
+    """3 R10 circles at F1200, sent through the link as the host streams them (BUSY waited
+    out), the AVR's time at the wall clock's pace: as long as the host plan (junction deviation
+    over 16 moves) to 5 %, each axis's acceleration within its limit plus the quantisation."""
+    from retrofit.gcode import compile_program
+    from retrofit.runprogram import plan_compiled
+    machine, elf = mill
+    text = "G21 G90 G17\nG0 X30 Y20\nG1 F1200\n" + "G2 X30 Y20 I-10 J0\n" * 3 + "M2\n"
+    program = compile_program(text, machine, file="circle.ngc")
+    assert sum(type(c).__name__ == "PMov" for c in program.commands) == 474
+    _, plan = plan_compiled(program, machine)
+    log, remote = fs.send_through_link(elf, machine, program.commands)
+    assert remote["position_steps"] == {"X": 3000, "Y": 2000, "Z": 0, "E": 0}
+    rx, _, _ = fs.step_times(log, machine, "X")
+    ry, _, _ = fs.step_times(log, machine, "Y")
+    both = np.sort(np.concatenate([rx, ry]))
+    assert (both[-1] - both[0]) / S == pytest.approx(plan.end_s, rel=0.05)
+    window = 0.02
+    for name, rises in (("X", rx), ("Y", ry)):
+        a = machine.axis(name)
+        assert fs.windowed_accel(rises, window) <= a.max_accel_mm_s2 * a.steps_per_mm + 2 / window ** 2
+    assert not fs.report(log, machine)["violations"]
