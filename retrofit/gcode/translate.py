@@ -148,10 +148,23 @@ class Translator:
             s.selected = int(number)
             if self.change_on_t and "tool change" not in block.m:
                 self._change_tool()
-        if "tool change" in block.m:
+        if block.m.get("tool change") == 61:
+            self._set_tool_number(block)
+        elif "tool change" in block.m:
             if s.selected is None:
                 s.selected = s.tool      # M6 without T: LinuxCNC changes to the tool in the spindle
             self._change_tool()
+
+    def _set_tool_number(self, block: Block) -> None:
+        """M61 Q: the tool in the spindle is now tool Q; nothing moves, no TOOL is sent."""
+        number = math.floor(block.values.get("Q", -1.0) + 0.5)       # rs274 rounds to nearest
+        if number < 0 or number > MAX_TOOL:
+            raise RuleError(f"M61 {block.texts.get('Q', 'without Q')}: M61 needs Q<tool number>, "
+                            f"a whole number from 0 to {MAX_TOOL}")
+        if number and self.tool_table is not None and self.tool_table.get(number) is None:
+            raise RuleError(f"M61 Q{number}: requested tool {number} not found in the tool table")
+        self.state.tool = number
+        self.state.params.write(5400, float(number))
 
     def _change_tool(self) -> None:
         leave(self)
