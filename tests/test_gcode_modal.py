@@ -4,6 +4,7 @@ it, checked against hand computations."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pytest
@@ -48,3 +49,26 @@ def test_m61_then_m6_changes_to_the_selected_tool():
 def test_m61_refusals_name_the_line_and_rule(text, message):
     with pytest.raises(GcodeError, match=message.replace("<", ".").replace(">", ".")):
         run(text)
+
+
+def test_polar_hole_circle_by_hand():
+    # six holes on a 30 mm bolt circle round G54 X100 Y50, one every 60 degrees from 0 degrees
+    prog = run("G10 L2 P1 X100 Y50\nG0 @15 ^0 Z5\nG98 G91 G81 ^60 R-3 Z-2 L6 F100\nG90 G80\nM2")
+    holes = [(x, y) for x, y, z in ends(prog) if z == 2.0]
+    expected = [(100 + 15 * math.cos(math.radians(a)), 50 + 15 * math.sin(math.radians(a)))
+                for a in (60, 120, 180, 240, 300, 360)]
+    assert len(holes) == 6
+    for (x, y), (ex, ey) in zip(holes, expected):
+        assert abs(x - ex) < 1e-9 and abs(y - ey) < 1e-9
+
+
+def test_polar_inch_radius_and_angle_alone():
+    # G20 @1 ^90: (0, 25.4) mm; ^180 keeps the radius; G91 @-0.5 halves it along the same ray
+    prog = run("G20 G0 @1 ^90\n^180\nG91 @-0.5\nM2")
+    assert [(round(x, 9), round(y, 9)) for x, y, _ in ends(prog)] == [(0.0, 25.4), (-25.4, 0.0),
+                                                                      (-12.7, 0.0)]
+
+
+def test_polar_refusal_names_the_line():
+    with pytest.raises(GcodeError, match=r"^<string>:3: polar coordinates \(@ \^\) with cutter"):
+        run("G0 X-10 Y-10\nG41.1 D2 G1 X0 Y0 F100\nG1 @5 ^10\nM2")

@@ -66,6 +66,7 @@ class Block:
     m: dict[str, float] = field(default_factory=dict)        # group -> M code
     axes: dict[str, float] = field(default_factory=dict)     # machine axis -> value, program units
     values: dict[str, float] = field(default_factory=dict)   # other letters -> value
+    polar: tuple | None = None      # (@ radius, ^ angle), either None (retrofit.gcode.polar)
 
     @property
     def texts(self) -> dict[str, str]:

@@ -19,7 +19,7 @@ import math
 from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, Tool, ZMov
 from ..config import Machine
 from ..motion.arcs import arc_extent, arc_points
-from . import coords, cycles, iowords, pathcontrol, probing, radiuscomp, spindle, splines
+from . import coords, cycles, iowords, pathcontrol, polar, probing, radiuscomp, spindle, splines
 from .arcwords import arc_center, plane_axes
 from .blocks import Block
 from .errors import RuleError
@@ -69,6 +69,8 @@ class Translator:
         if block.motion is not None:
             s.motion_given = True
         mode = block.motion if block.motion is not None else s.motion
+        if "@" in block.values or "^" in block.values:
+            polar.mark(self, block)
         check_word_use(block, mode)
         if self.comp.on:
             radiuscomp.before(self, block)
@@ -240,6 +242,8 @@ class Translator:
     def _motion(self, block: Block, mode) -> None:
         if mode is None and block.axes and not self.state.motion_given:
             mode = self.state.motion = 0      # grbl: G0 is the motion mode from power-up
+        if block.polar is not None and not (mode in cycles.CYCLES and self.state.incremental):
+            polar.resolve(self, block)
         if self.comp.watching and radiuscomp.motion(self, block, mode):
             return
         if mode in splines.MODES:

@@ -23,3 +23,24 @@ def tool_number() -> dict[str, str]:
     p["err-m61-unknown-tool"] = PRE + "M61 Q5\nG0 X1\nM2\n"
     p["err-m61-with-m6"] = PRE + "T1 M6 M61 Q2\nG0 X1\nM2\n"
     return p
+
+
+def polar() -> dict[str, str]:
+    """@ radius and ^ angle in place of X Y, absolute and incremental, in moves and cycles."""
+    p = {}
+    p["polar-g90-moves"] = PRE + "G0 @10 ^30\nG1 ^90 F100\nG1 @5\nG1 @7 ^-135 Z-1\nG0 ^200\nM2\n"
+    p["polar-g91-moves"] = PRE + ("G0 X10 Y0\nG91 G1 ^45 F100\nG1 @2\nG1 @-1 ^-30 Z-1\n"
+                                  "G0 ^-90\nG90 G0 @3\nM2\n")
+    p["polar-offsets-g20"] = PRE + ("G10 L2 P1 X5 Y5\nG92 X1\nG20 G0 @1 ^45\nG91 G1 ^45 F10\n"
+                                    "G1 @0.5\nG21 G90 G0 ^0\nG92.1\nM2\n")
+    p["polar-arc-end"] = PRE + "G0 X10 Y0\nG3 @10 ^90 I-10 J0 F100\nG2 ^0 R10\nM2\n"
+    p["polar-cycle-g91"] = PRE + ("G0 X10 Y0 Z5\nF100\nG98 G91 G81 ^45 R-3 Z-2 L8\nG81 @2 R-3 Z-2 L3\n"
+                                  "G90 G80\nG0 Z5\nM2\n")
+    p["polar-cycle-g90"] = PRE + "G0 X0 Y0 Z5\nF100\nG98 G81 @10 ^0 R2 Z-1\n^120\n^240\n@5\nG80\nM2\n"
+    p["err-polar-g18"] = PRE + "G18\nG0 @1 ^30\nM2\n"
+    p["err-polar-with-x"] = PRE + "G0 X1 @1 ^30\nM2\n"
+    p["err-polar-g91-origin"] = PRE + "G91 G0 ^30\nM2\n"
+    p["err-polar-no-angle-at-origin"] = PRE + "G0 @5\nM2\n"
+    p["err-polar-g53"] = PRE + "G0 X1\nG53 G0 @1 ^10\nM2\n"
+    p["err-polar-g92"] = PRE + "G0 X1\nG92 @1 ^10\nM2\n"
+    return p
