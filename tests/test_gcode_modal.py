@@ -5,6 +5,7 @@ it, checked against hand computations."""
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import pytest
@@ -72,3 +73,25 @@ def test_polar_inch_radius_and_angle_alone():
 def test_polar_refusal_names_the_line():
     with pytest.raises(GcodeError, match=r"^<string>:3: polar coordinates \(@ \^\) with cutter"):
         run("G0 X-10 Y-10\nG41.1 D2 G1 X0 Y0 F100\nG1 @5 ^10\nM2")
+
+
+@pytest.mark.parametrize("name", ["m70m72-demo", "m73-demo", "toplevel"])
+def test_m70_m73_demos_report_the_state_rs274_reports(name):
+    # LinuxCNC's demos print the modal state (#<_imperial> #<_absolute> #<_feed> #<_rpm>) with
+    # DEBUG before, inside and after the saving subroutine; rs274 printed them as MESSAGE calls
+    golden = (HERE / "golden" / "linuxcnc" / f"{name}.canon").read_text()
+    expected = [text.strip() for text in re.findall(r'MESSAGE\("(.*)"\)', golden)]
+    prog = compile_program((HERE / "linuxcnc" / f"{name}.ngc").read_text(), MACHINE,
+                           tool_table=TOOLS)
+    got = [text for _, _, _, text in prog.messages]
+    assert len(got) == len(expected)
+    for ours, theirs in zip(got, expected):
+        assert _numbers(ours) == pytest.approx(_numbers(theirs)) and \
+            re.sub(_NUMBER, "", ours) == re.sub(_NUMBER, "", theirs)
+
+
+_NUMBER = r"-?\d+(?:\.\d+)?"
+
+
+def _numbers(text: str) -> list[float]:
+    return [float(v) for v in re.findall(_NUMBER, text)]

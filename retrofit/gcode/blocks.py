@@ -29,7 +29,7 @@ G_GROUPS: dict[float, str] = {
 #: M codes by group
 M_GROUPS: dict[float, str] = {
     **dict.fromkeys((0, 1, 2, 30, 60), "stopping"), **dict.fromkeys((6, 61), "tool change"),
-    **dict.fromkeys((3, 4, 5), "spindle"), **dict.fromkeys((7, 8, 9), "coolant"),
+    **dict.fromkeys((3, 4, 5, 70, 71, 72, 73), "spindle"), **dict.fromkeys((7, 8, 9), "coolant"),
     **dict.fromkeys((48, 49, 50, 51, 52, 53), "override"),
     **dict.fromkeys((62, 63, 64, 65, 66), "io"),
 }
@@ -43,7 +43,6 @@ REFUSED: dict[str, str] = {
                     "write the roughing passes out (or with an O-word loop)"),
     **dict.fromkeys(("M67", "M68"), "analog outputs are not supported (the boards have none)"),
     "M19": "spindle orientation is not supported",
-    **dict.fromkeys(("M70", "M71", "M72", "M73"), "saving modal state is not supported"),
 }
 #: 3D-printer codes seen in grbl-flavoured files: a CNC has no hot end, bed or extruder
 PRINTER: dict[str, str] = {

@@ -19,7 +19,7 @@ import math
 from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, Tool, ZMov
 from ..config import Machine
 from ..motion.arcs import arc_extent, arc_points
-from . import coords, cycles, iowords, pathcontrol, polar, probing, radiuscomp, spindle, splines
+from . import coords, cycles, iowords, modalsave, pathcontrol, polar, probing, radiuscomp, spindle, splines
 from .arcwords import arc_center, plane_axes
 from .blocks import Block
 from .errors import RuleError
@@ -57,6 +57,7 @@ class Translator:
         self.change_on_t = getattr(atc, "change_on", "M6") == "T"
         self.comp = radiuscomp.RadiusComp()     # G40/G41/G42
         self.spindle_tool = state.tool          # in the spindle at the start (M66 plans from it)
+        self.saved_states: dict[int, tuple] = {}   # call level -> (M70/M73 state, restore on return)
 
     def run(self, block: Block, file: str = "") -> bool:
         """Translate one block; True when it ends the program (M2, M30)."""
@@ -82,6 +83,8 @@ class Translator:
             iowords.run(self, block)          # M62-M66: after T selects, before M6
         self._tool_words(block)
         self._spindle(block)
+        if "spindle" in block.m:
+            modalsave.run(self, block)        # M70-M73: LinuxCNC's spindle group
         self._coolant(block)
         if g.get("non-modal") == 4:
             self._dwell(block.values["P"])

@@ -44,3 +44,25 @@ def polar() -> dict[str, str]:
     p["err-polar-g53"] = PRE + "G0 X1\nG53 G0 @1 ^10\nM2\n"
     p["err-polar-g92"] = PRE + "G0 X1\nG92 @1 ^10\nM2\n"
     return p
+
+
+def saved_state() -> dict[str, str]:
+    """M70 save, M71 forget, M72 restore, M73 save and restore on return; moves show the modes."""
+    p = {}
+    p["m7x-m70-m72-modes"] = PRE + ("G0 X1 Y1\nM70\nG20 G91 G1 X1 F10\nG55 G0 Y0.1\nM72\n"
+                                    "G1 X5 F100\nG0 Y2\nM72\nG0 X7\nM2\n")
+    p["m7x-m73-endsub"] = PRE + ("G10 L2 P2 X10 Y10\no<s> sub\n  M73\n  G55 G20 G91\n  G0 X1 Y1\n"
+                                 "o<s> endsub\nG0 X1 Y1\no<s> call\nG0 X3 Y3\nG91 G0 X1\n"
+                                 "o<s> call\nG0 X1\nM2\n")
+    p["m7x-m73-return"] = PRE + ("o<s> sub\n  M73\n  G91 G18\n  o1 if [#1 GT 0]\n    o<s> return\n"
+                                 "  o1 endif\n  G0 X1\no<s> endsub\nG0 X2 Y2\no<s> call [1]\n"
+                                 "G0 X5\no<s> call [0]\nG0 Y5\nM2\n")
+    p["m7x-m71-forgets-m73"] = PRE + ("o<s> sub\n  M73\n  G91\n  M71\no<s> endsub\nG0 X2\n"
+                                      "o<s> call\nG0 X1\nG90 M70\nG91\nM72\nG0 X4\nM2\n")
+    p["m7x-sub-keeps-caller"] = PRE + ("o<s> sub\n  M70\n  G91\n  M72\n  G0 X1\no<s> endsub\n"
+                                       "M70\nG91 G0 X1\no<s> call\nM72\nG0 X1\nM2\n")
+    p["err-m7x-m72-first"] = PRE + "G0 X1\nM72\nM2\n"
+    p["err-m7x-m72-after-m71"] = PRE + "M70\nG91\nM71\nM72\nG0 X1\nM2\n"
+    p["err-m7x-m72-caller-level"] = PRE + "o<s> sub\n  M72\no<s> endsub\nM70\no<s> call\nM2\n"
+    p["err-m7x-with-m3"] = PRE + "S100 M3 M70\nM2\n"
+    return p
