@@ -46,9 +46,7 @@ RETROFIT_REFUSES = {
                     "G71/G72 lathe roughing cycles"),
     "lathe-g70-offset": "G70 passes offset from the profile (D, E not 0)",
     **dict.fromkeys(("3D_Chips", "b-index", "daisy"), "axes A/B/C: not on the test machine"),
-    **dict.fromkeys(("polar", "hole-circle", "spiral"), "polar coordinates @ ^"),
     "threading": "G33 on a machine without a spindle encoder",
-    "m70m72-demo": "M70-M73", "m73-demo": "M70-M73", "toplevel": "M70-M73",
     "err-unclosed-sub": "an o-sub never closed (rs274 stops at the M2 inside it)",
 }
 #: programs where retrofit makes one rapid more than rs274: G88 retracts Z after its pause with

@@ -28,8 +28,8 @@ G_GROUPS: dict[float, str] = {
 }
 #: M codes by group
 M_GROUPS: dict[float, str] = {
-    **dict.fromkeys((0, 1, 2, 30, 60), "stopping"), 6: "tool change",
-    **dict.fromkeys((3, 4, 5), "spindle"), **dict.fromkeys((7, 8, 9), "coolant"),
+    **dict.fromkeys((0, 1, 2, 30, 60), "stopping"), **dict.fromkeys((6, 61), "tool change"),
+    **dict.fromkeys((3, 4, 5, 70, 71, 72, 73), "spindle"), **dict.fromkeys((7, 8, 9), "coolant"),
     **dict.fromkeys((48, 49, 50, 51, 52, 53), "override"),
     **dict.fromkeys((62, 63, 64, 65, 66), "io"),
 }
@@ -43,8 +43,6 @@ REFUSED: dict[str, str] = {
                     "write the roughing passes out (or with an O-word loop)"),
     **dict.fromkeys(("M67", "M68"), "analog outputs are not supported (the boards have none)"),
     "M19": "spindle orientation is not supported",
-    "M61": "setting the tool number without a change is not supported (use T<n> M6)",
-    **dict.fromkeys(("M70", "M71", "M72", "M73"), "saving modal state is not supported"),
 }
 #: 3D-printer codes seen in grbl-flavoured files: a CNC has no hot end, bed or extruder
 PRINTER: dict[str, str] = {
@@ -67,6 +65,7 @@ class Block:
     m: dict[str, float] = field(default_factory=dict)        # group -> M code
     axes: dict[str, float] = field(default_factory=dict)     # machine axis -> value, program units
     values: dict[str, float] = field(default_factory=dict)   # other letters -> value
+    polar: tuple | None = None      # (@ radius, ^ angle), either None (retrofit.gcode.polar)
 
     @property
     def texts(self) -> dict[str, str]:

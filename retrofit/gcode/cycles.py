@@ -20,6 +20,7 @@ times), R is measured from the current Z, Z from R and G87's K from Z.
 from __future__ import annotations
 
 from ..commands import Paus, Spin
+from . import polar
 from .errors import RuleError
 from .state import clean_mm
 from .threading import leave
@@ -90,6 +91,8 @@ def run(tr, block, mode) -> None:
     for _ in range(int(repeats)):
         if s.incremental:
             xy = {a: clean_mm(s.position[a] + step[a]) for a in "XY"}
+            if block.polar is not None:          # G91 @ ^: out and round again at every hole
+                xy = polar.turn_machine(s, xy, block.polar)
         else:
             xy = s.target(hole)
         tr.rapid({**s.position, "X": xy["X"], "Y": xy["Y"], "Z": clean_mm(height)})

@@ -183,16 +183,13 @@ def _words(code: str, pos: int, line: Line) -> None:
                 raise RuleError("a parameter at the start of a word must be assigned: #1=2.5")
             value, pos = read_value(code, pos + 1)
             line.assigns.append((target, value))
-        elif "A" <= ch <= "Z" and ch != "O" or ch == "$":
+        elif "A" <= ch <= "Z" and ch != "O" or ch in "$@^":
             if pos + 1 >= len(code):
                 raise RuleError(f"word {ch!r} has no value (expected e.g. {ch}10)")
             value, pos = read_value(code, pos + 1)
             line.words.append((ch, value))
         elif ch == "O":
             raise RuleError("an O-word must be the first word of its line (after N)")
-        elif ch in "@^":
-            raise RuleError(f"{ch}: polar coordinates (@ radius, ^ angle) are not supported; "
-                            f"give X and Y")
         else:
             raise RuleError(f"unexpected character {ch!r} (a word is a letter and a value, "
                             f"e.g. X12.5, X#1 or X[#1+2])")

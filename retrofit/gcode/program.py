@@ -20,7 +20,7 @@ from .dialect import run_dollar
 from .errors import RuleError
 from .expressions import evaluate
 from .lexer import lex_lines
-from . import lathecycles
+from . import lathecycles, modalsave
 from .ocode import Source, scan
 from .state import ModalState
 from .translate import Translator
@@ -165,6 +165,7 @@ class Interpreter:
             if not calls:
                 raise RuleError(f"o{name} {kw.lower()} reached outside a call")
             self.params.leave()
+            modalsave.leaving(self.tr, line.number)
             return calls.pop()
         if kw == "IF":
             for branch in src.branches[pc]:
@@ -210,6 +211,7 @@ class Interpreter:
         target = src if name in src.subs else self._sub_file(name, src)
         start, _ = target.subs[name]
         self.params.enter(args)
+        modalsave.entered(self.tr)
         calls.append((src, pc + 1))
         return target, start + 1
 
@@ -237,7 +239,8 @@ _PREDEFINED = {
     "_metric": lambda s: 0.0 if s.inch else 1.0, "_imperial": lambda s: 1.0 if s.inch else 0.0,
     "_absolute": lambda s: 0.0 if s.incremental else 1.0,
     "_incremental": lambda s: 1.0 if s.incremental else 0.0,
-    "_current_tool": lambda s: float(s.tool), "_feed": lambda s: s.feed_mm_min,
+    "_current_tool": lambda s: float(s.tool),
+    "_feed": lambda s: s.feed_mm_min / 25.4 if s.inch and not s.inverse_time else s.feed_mm_min,
     "_rpm": lambda s: s.rpm,
     **{f"_{a.lower()}": (lambda s, a=a: s.program_position(a) / (25.4 if s.inch else 1.0))
        for a in "XYZABCUVW"},

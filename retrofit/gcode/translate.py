@@ -19,7 +19,7 @@ import math
 from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, Tool, ZMov
 from ..config import Machine
 from ..motion.arcs import arc_extent, arc_points
-from . import coords, cycles, iowords, pathcontrol, probing, radiuscomp, spindle, splines
+from . import coords, cycles, iowords, modalsave, pathcontrol, polar, probing, radiuscomp, spindle, splines
 from .arcwords import arc_center, plane_axes
 from .blocks import Block
 from .errors import RuleError
@@ -57,6 +57,7 @@ class Translator:
         self.change_on_t = getattr(atc, "change_on", "M6") == "T"
         self.comp = radiuscomp.RadiusComp()     # G40/G41/G42
         self.spindle_tool = state.tool          # in the spindle at the start (M66 plans from it)
+        self.saved_states: dict[int, tuple] = {}   # call level -> (M70/M73 state, restore on return)
 
     def run(self, block: Block, file: str = "") -> bool:
         """Translate one block; True when it ends the program (M2, M30)."""
@@ -69,6 +70,8 @@ class Translator:
         if block.motion is not None:
             s.motion_given = True
         mode = block.motion if block.motion is not None else s.motion
+        if "@" in block.values or "^" in block.values:
+            polar.mark(self, block)
         check_word_use(block, mode)
         if self.comp.on:
             radiuscomp.before(self, block)
@@ -80,6 +83,8 @@ class Translator:
             iowords.run(self, block)          # M62-M66: after T selects, before M6
         self._tool_words(block)
         self._spindle(block)
+        if "spindle" in block.m:
+            modalsave.run(self, block)        # M70-M73: LinuxCNC's spindle group
         self._coolant(block)
         if g.get("non-modal") == 4:
             self._dwell(block.values["P"])
@@ -148,10 +153,23 @@ class Translator:
             s.selected = int(number)
             if self.change_on_t and "tool change" not in block.m:
                 self._change_tool()
-        if "tool change" in block.m:
+        if block.m.get("tool change") == 61:
+            self._set_tool_number(block)
+        elif "tool change" in block.m:
             if s.selected is None:
                 s.selected = s.tool      # M6 without T: LinuxCNC changes to the tool in the spindle
             self._change_tool()
+
+    def _set_tool_number(self, block: Block) -> None:
+        """M61 Q: the tool in the spindle is now tool Q; nothing moves, no TOOL is sent."""
+        number = math.floor(block.values.get("Q", -1.0) + 0.5)       # rs274 rounds to nearest
+        if number < 0 or number > MAX_TOOL:
+            raise RuleError(f"M61 {block.texts.get('Q', 'without Q')}: M61 needs Q<tool number>, "
+                            f"a whole number from 0 to {MAX_TOOL}")
+        if number and self.tool_table is not None and self.tool_table.get(number) is None:
+            raise RuleError(f"M61 Q{number}: requested tool {number} not found in the tool table")
+        self.state.tool = number
+        self.state.params.write(5400, float(number))
 
     def _change_tool(self) -> None:
         leave(self)
@@ -227,6 +245,8 @@ class Translator:
     def _motion(self, block: Block, mode) -> None:
         if mode is None and block.axes and not self.state.motion_given:
             mode = self.state.motion = 0      # grbl: G0 is the motion mode from power-up
+        if block.polar is not None and not (mode in cycles.CYCLES and self.state.incremental):
+            polar.resolve(self, block)
         if self.comp.watching and radiuscomp.motion(self, block, mode):
             return
         if mode in splines.MODES:

@@ -101,7 +101,7 @@ def check_word_use(block, mode) -> None:
         "P": nonmodal in (4, 10) or arc or g76 or (cycle and mode in (74, 82, 84, 86, 88, 89))
         or g.get("path control") == 64 or (spline and mode == 5) or nurbs
         or block.m.get("override") in (50, 51, 52, 53) or "io" in block.m,
-        "Q": block.m.get("io") == 66 or g76 or (cycle and mode in (73, 83)) or g.get("path control") == 64
+        "Q": block.m.get("io") == 66 or block.m.get("tool change") == 61 or g76 or (cycle and mode in (73, 83)) or g.get("path control") == 64
         or (spline and mode == 5),
         "L": block.m.get("io") == 66 or nonmodal == 10 or cycle or g76 or nurbs or g.get("cutter radius") in (41.1, 42.1),
         "H": g.get("tool length") == 43 or g76, "E": g76 or block.m.get("io") == 66,
@@ -124,6 +124,6 @@ def check_word_use(block, mode) -> None:
 _USED_BY = {"I": "G2/G3 arcs, G5, G5.1, G76, G87", "J": "G2/G3 arcs, G5, G5.1, G76, G87",
             "K": "G2/G3 arcs, G33, G76, G87", "R": "G2/G3 arcs, canned cycles, G10, G76",
             "P": "G4, G10, G2/G3 turns, G5, G5.2, G74, G82, G84, G86, G88, G89, G64, G76, M50-M53, M62-M66",
-            "Q": "G5, G73, G83, G64, G76, M66",
+            "Q": "G5, G73, G83, G64, G76, M61, M66",
             "L": "G10, canned cycles, G5.2, G76, G41.1/G42.1, M66",
             "H": "G43, G76", "E": "G76, M66", "D": "G41, G42, G41.1, G42.1, G96"}

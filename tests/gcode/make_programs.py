@@ -13,8 +13,10 @@ from pathlib import Path
 
 try:
     from comp_programs import compensation, refusals
+    from modal_programs import polar, saved_state, tool_number
 except ImportError:               # imported as tests.gcode.make_programs
     from .comp_programs import compensation, refusals
+    from .modal_programs import polar, saved_state, tool_number
 
 OUT = Path(__file__).resolve().parent / "programs"
 PRE = "G21 G90 G94 G40 G49 G80 G54 G91.1 G17\n"
@@ -256,7 +258,8 @@ def main() -> None:
         if not old.name.startswith("hand-"):
             old.unlink()
     programs = {**arcs(), **offsets(), **cycles(), **splines(), **language(), **compensation(),
-                **refusals()}
+                **refusals(), **tool_number(), **polar(),
+                **saved_state()}
     for name, text in programs.items():
         (OUT / f"{name}.ngc").write_text(text)
     print(f"{len(programs)} programs written to {OUT}")
