@@ -16,10 +16,10 @@ from __future__ import annotations
 
 import math
 
-from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, Tool, ZMov
+from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, ZMov
 from ..config import Machine
 from ..motion.arcs import arc_extent, arc_points
-from . import coords, cycles, iowords, modalsave, pathcontrol, polar, probing, radiuscomp, spindle, splines
+from . import coords, cycles, iowords, modalsave, pathcontrol, polar, probing, radiuscomp, spindle, splines, tools
 from .arcwords import arc_center, plane_axes
 from .blocks import Block
 from .errors import RuleError
@@ -32,7 +32,6 @@ MAX_DWELL_S = 86400.0
 #: feed and spindle speed ceilings: values beyond them overflow what any machine represents
 MAX_FEED_MM_MIN = 1.0e6
 MAX_RPM = 1.0e6
-MAX_TOOL = 99999
 #: the only non-axis letter of a plain block
 _PLAIN_VALUES = frozenset("F")
 
@@ -81,7 +80,7 @@ class Translator:
             self._feed_word(block.values["F"])
         if "io" in block.m:
             iowords.run(self, block)          # M62-M66: after T selects, before M6
-        self._tool_words(block)
+        tools.tool_words(self, block)
         self._spindle(block)
         if "spindle" in block.m:
             modalsave.run(self, block)        # M70-M73: LinuxCNC's spindle group
@@ -142,40 +141,6 @@ class Translator:
         if value < 0.0 or value > MAX_FEED_MM_MIN:
             raise RuleError(f"F{value:g}: a feed is from 0 to {MAX_FEED_MM_MIN:g}")
         self.state.feed_mm_min = value if self.state.inverse_time else clean_mm(self.state.to_mm(value))
-
-    def _tool_words(self, block: Block) -> None:
-        s = self.state
-        if "T" in block.values:
-            number = block.values["T"]
-            if number < 0 or number != int(number) or number > MAX_TOOL:
-                raise RuleError(f"{block.texts['T']}: a tool number is a whole number from 0 to "
-                                f"{MAX_TOOL}")
-            s.selected = int(number)
-            if self.change_on_t and "tool change" not in block.m:
-                self._change_tool()
-        if block.m.get("tool change") == 61:
-            self._set_tool_number(block)
-        elif "tool change" in block.m:
-            if s.selected is None:
-                s.selected = s.tool      # M6 without T: LinuxCNC changes to the tool in the spindle
-            self._change_tool()
-
-    def _set_tool_number(self, block: Block) -> None:
-        """M61 Q: the tool in the spindle is now tool Q; nothing moves, no TOOL is sent."""
-        number = math.floor(block.values.get("Q", -1.0) + 0.5)       # rs274 rounds to nearest
-        if number < 0 or number > MAX_TOOL:
-            raise RuleError(f"M61 {block.texts.get('Q', 'without Q')}: M61 needs Q<tool number>, "
-                            f"a whole number from 0 to {MAX_TOOL}")
-        if number and self.tool_table is not None and self.tool_table.get(number) is None:
-            raise RuleError(f"M61 Q{number}: requested tool {number} not found in the tool table")
-        self.state.tool = number
-        self.state.params.write(5400, float(number))
-
-    def _change_tool(self) -> None:
-        leave(self)
-        self.state.tool = self.state.selected
-        self.state.params.write(5400, float(self.state.tool))
-        self._emit(Tool(self.state.tool))
 
     def _spindle(self, block: Block) -> None:
         s = self.state
