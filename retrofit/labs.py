@@ -32,6 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .errors import ConfigError
+from .labplot import pyplot, save_figure  # noqa: F401  (the labs draw with these)
 
 LABS_ENV = "RETROFIT_LABS"
 TARGET_ENV = "RETROFIT_LAB_TARGET"
@@ -377,24 +378,6 @@ def result_lines(results: list[CheckResult], ascii_only: bool = False) -> list[s
     summary += f", {count['skipped']} skipped" if count["skipped"] else ""
     summary += f", {count['failed']} to fix" if count["failed"] else "; well done"
     return lines + [summary]
-
-
-def pyplot():
-    """``matplotlib.pyplot``, drawing to PNG files (the Agg backend) when there is no display."""
-    import matplotlib
-    if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")) or os.environ.get("MPLBACKEND") == "Agg":
-        matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
-
-
-def save_figure(fig, out_dir: str | Path, name: str) -> Path:
-    """Save a figure as ``out_dir/name`` (PNG), close it, and return the path."""
-    path = Path(out_dir) / name
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110, bbox_inches="tight")
-    pyplot().close(fig)
-    return path
 
 
 def run_lab(lab: Lab, solution: bool = False, out_dir: str | Path | None = None) -> list[Path]:
