@@ -46,7 +46,7 @@ ENGINES = ("auto", "compiled", "python")
 
 
 def _us(ns: float) -> str:
-    return f"{ns / 1000:.1f} us"
+    return f"{ns / 1000:.1f} us" if abs(ns) >= 1000 else f"{ns:.0f} ns"
 
 
 @dataclass(frozen=True)

@@ -56,7 +56,8 @@ def build(source: Path = SOURCE) -> Path:
         done = subprocess.run([cc, "-O2", "-shared", "-fPIC", "-o", tmp, str(source)],
                               capture_output=True, text=True)
         if done.returncode != 0:
-            first = (done.stderr.strip().splitlines() or ["no message"])[0]
+            lines = done.stderr.strip().splitlines() or ["no message"]
+            first = next((line for line in lines if "error" in line), lines[0])
             raise BuildError(f"{compiler()} failed to build {source.name} (exit {done.returncode}): {first}")
         os.replace(tmp, target)             # atomic: a concurrent build never loads half a file
     finally:
