@@ -244,3 +244,12 @@ def test_the_library_is_cached_and_rebuilt_when_the_source_changes(tmp_path, mon
 def test_unknown_engine_is_refused_with_the_choices(lathe, tmp_path):
     with pytest.raises(OutputError, match=r"engine='fast': expected one of auto, compiled, python"):
         open_output(f"parport+record://{tmp_path / 'e.bin'}?engine=fast", lathe)
+
+
+def test_the_compiled_writer_writes_to_the_port_fd_with_ppdev_and_says_when_refused(tmp_path):
+    """Given a file descriptor, the C loop writes with ioctl PPWDATA; a file that is no port refuses it."""
+    with open(tmp_path / "not-a-port", "wb") as f:
+        pacer = Pacer(200_000, paced=False, engine="compiled")
+        with pytest.raises(OutputError, match=r"port write 1 of the chunk \(tick 3\) failed: Inappropriate ioctl"):
+            pacer.play(PortFrames(np.array([3]), np.array([5], np.uint8), 5),
+                       lambda tick, value: pytest.fail("write() is not called when the port has a fd"), f.fileno())
