@@ -1,4 +1,7 @@
-"""The paced loop: bytes on the (recorded) port equal the frames, every tick, in order; lateness figures."""
+"""The paced loop: bytes on the (recorded) port equal the frames, every tick, in order; lateness figures.
+
+The tests that pace a run do it with both engines (the compiled writer and the Python loop).
+"""
 
 import os
 import re
@@ -13,6 +16,7 @@ from retrofit.errors import OutputError
 from retrofit.frames import PortFrames
 from retrofit.motion.errorloop import PositionErrorLoop
 from retrofit.outputs import open_output
+from retrofit.outputs import pacer_build
 from retrofit.outputs.pacer import Lateness, Pacer, RealtimeMode, calibrate, repeat_frames
 from retrofit.outputs.record import load_recording
 from retrofit.runner import deliver
@@ -21,6 +25,11 @@ from retrofit.runner import deliver
 @pytest.fixture(scope="module")
 def lathe():
     return load_machine("chivu-lathe")
+
+
+@pytest.fixture(params=["compiled", "python"])
+def engine(request):
+    return request.param
 
 
 @pytest.fixture(scope="module")
@@ -37,10 +46,10 @@ def record(lathe, frames, path, query):
     return out
 
 
-def test_paced_bytes_equal_the_sim_frames_every_tick_in_order(lathe, short_log, tmp_path):
+def test_paced_bytes_equal_the_sim_frames_every_tick_in_order(lathe, short_log, tmp_path, engine):
     """Through the runner, next to sim://: the recording is the frames the simulator saw, bit for bit."""
     path = tmp_path / "run.bin"
-    url = f"parport+record://{path}?tick_us=200&every_tick=1&force=1"
+    url = f"parport+record://{path}?tick_us=200&every_tick=1&force=1&engine={engine}"
     sim = deliver(short_log, ["sim://", url])
     assert sim.end_tick == short_log.frames.end_tick
     data = np.fromfile(path, np.uint8)
@@ -49,8 +58,9 @@ def test_paced_bytes_equal_the_sim_frames_every_tick_in_order(lathe, short_log, 
     assert load_recording(path) == short_log.frames
 
 
-def test_every_tick_mode_writes_each_tick_itself(lathe, short_log, tmp_path):
-    out = record(lathe, short_log.frames, tmp_path / "r.bin", "tick_us=200&every_tick=1&force=1")
+def test_every_tick_mode_writes_each_tick_itself(lathe, short_log, tmp_path, engine):
+    out = record(lathe, short_log.frames, tmp_path / "r.bin", f"tick_us=200&every_tick=1&force=1&engine={engine}")
+    assert out.pacer.engine == engine
     rec = out.recording
     assert rec.writes == short_log.frames.end_tick
     assert rec.filled == 0, "the loop wrote every tick; the recorder held nothing over"
@@ -58,26 +68,27 @@ def test_every_tick_mode_writes_each_tick_itself(lathe, short_log, tmp_path):
     assert out.timing.p50_ns <= out.timing.p99_ns <= out.timing.max_ns
 
 
-def test_changes_mode_writes_only_changes_and_the_latch_holds_them(lathe, short_log, tmp_path):
-    out = record(lathe, short_log.frames, tmp_path / "r.bin", "tick_us=200&force=1")
+def test_changes_mode_writes_only_changes_and_the_latch_holds_them(lathe, short_log, tmp_path, engine):
+    out = record(lathe, short_log.frames, tmp_path / "r.bin", f"tick_us=200&force=1&engine={engine}")
     assert out.recording.writes == len(short_log.frames)
     assert load_recording(tmp_path / "r.bin") == short_log.frames
 
 
-def test_unpaced_full_circle_same_code_path(lathe, tmp_path):
+def test_unpaced_full_circle_same_code_path(lathe, tmp_path, engine):
     log = PositionErrorLoop(lathe).run(circle_targets(lathe))
-    out = record(lathe, log.frames, tmp_path / "c.bin", "paced=0&every_tick=1")
+    out = record(lathe, log.frames, tmp_path / "c.bin", f"paced=0&every_tick=1&engine={engine}")
     assert not out.timing.paced and out.calibration is None
     assert np.array_equal(np.fromfile(tmp_path / "c.bin", np.uint8), log.frames.per_tick())
 
 
-def test_chunks_continue_one_schedule(lathe, short_log, tmp_path):
+def test_chunks_continue_one_schedule(lathe, short_log, tmp_path, engine):
     frames = short_log.frames
     cut = int(frames.ticks[len(frames) // 2]) + 1
     first = frames.ticks < cut
     chunks = [PortFrames(frames.ticks[first], frames.values[first], cut),
               PortFrames(frames.ticks[~first], frames.values[~first], frames.end_tick)]
-    out = open_output(f"parport+record://{tmp_path / 'k.bin'}?paced=0&every_tick=1", lathe)
+    out = open_output(f"parport+record://{tmp_path / 'k.bin'}?tick_us=50&force=1&every_tick=1&engine={engine}", lathe)
+    out.quiet = True
     with out:
         for chunk in chunks:
             out.write(chunk)
@@ -88,9 +99,9 @@ def test_chunks_continue_one_schedule(lathe, short_log, tmp_path):
             out.write(chunks[0])
 
 
-def test_pacer_writes_at_tick_boundaries_in_order():
+def test_pacer_writes_at_tick_boundaries_in_order(engine):
     seen = []
-    pacer = Pacer(100_000, every_tick=True, spin_ns=50_000)
+    pacer = Pacer(100_000, every_tick=True, spin_ns=50_000, engine=engine)
     pacer.play(PortFrames.from_per_tick([0, 1, 1, 3, 3, 0]), lambda tick, value: seen.append((tick, value)))
     timing = pacer.finish()
     assert seen == [(0, 0), (1, 1), (2, 1), (3, 3), (4, 3), (5, 0)]
@@ -98,20 +109,27 @@ def test_pacer_writes_at_tick_boundaries_in_order():
     assert (timing.samples_ns >= 0).all(), "no write before its tick boundary"
 
 
-def test_late_writes_are_written_not_skipped(lathe, short_log, tmp_path):
-    """A 2 us tick cannot be held; forced, every byte still goes out in order."""
-    out = record(lathe, short_log.frames, tmp_path / "f.bin", "tick_us=2&every_tick=1&force=1")
+#: a tick neither loop can hold: shorter than the two clock reads and the write of each tick
+IMPOSSIBLE_TICK_US = {"compiled": 0.01, "python": 2}
+
+
+def test_late_writes_are_written_not_skipped(lathe, short_log, tmp_path, engine):
+    """A tick that cannot be held; forced, every byte still goes out in order."""
+    tick = IMPOSSIBLE_TICK_US[engine]
+    out = record(lathe, short_log.frames, tmp_path / "f.bin", f"tick_us={tick}&every_tick=1&force=1&engine={engine}")
     assert not out.calibration.holds
     assert out.timing.late > 0
     assert load_recording(tmp_path / "f.bin") == short_log.frames
 
 
-def test_a_tick_this_computer_cannot_hold_is_refused_with_the_figure(lathe, tmp_path):
+def test_a_tick_this_computer_cannot_hold_is_refused_with_the_figure(lathe, tmp_path, engine):
+    tick = IMPOSSIBLE_TICK_US[engine]
     with pytest.raises(OutputError) as err:
-        open_output(f"parport+record://{tmp_path / 'x.bin'}?tick_us=2", lathe).open()
+        open_output(f"parport+record://{tmp_path / 'x.bin'}?tick_us={tick}&engine={engine}", lathe).open()
     text = str(err.value)
-    assert "cannot hold a 2.0 us tick" in text and "force=1" in text
-    assert re.search(r"p99 lateness [\d.]+ us", text) and "\n" not in text
+    said = {"compiled": "10 ns", "python": "2.0 us"}[engine]
+    assert f"cannot hold a {said} tick" in text and "force=1" in text
+    assert re.search(r"p99 lateness [\d.]+ (us|ns)", text) and "\n" not in text
     assert not (tmp_path / "x.bin").exists()
 
 
@@ -173,8 +191,65 @@ def test_repeat_frames_tiles_the_run():
 
 
 def test_only_the_pacer_reads_the_clock_or_sleeps():
-    folder = Path(__file__).resolve().parents[1] / "retrofit" / "outputs"
-    for name in ("parport.py", "record.py", "vcd.py"):
-        text = (folder / name).read_text()
+    """Of the port outputs only pacer.py reads the clock; of the C files only pacer_c.c, which it drives.
+
+    The C file must read it too: it is the same paced loop, moved out of the interpreter so the
+    GIL is released while it waits and writes.
+    """
+    package = Path(__file__).resolve().parents[1] / "retrofit"
+    for name in ("parport.py", "record.py", "vcd.py", "pacer_build.py"):
+        text = (package / "outputs" / name).read_text()
         assert not re.search(r"^\s*(import time|from time import)", text, re.M), name
         assert "sleep(" not in text and "perf_counter" not in text, name
+    readers = [p.name for p in package.rglob("*.[ch]") if re.search(r"clock_gettime|nanosleep", p.read_text())]
+    assert readers == ["pacer_c.c"]
+
+
+def test_without_a_compiler_the_python_loop_paces_and_says_why(lathe, short_log, tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))     # nothing built yet
+    monkeypatch.setenv("CC", "no-such-cc")
+    out = record(lathe, short_log.frames, tmp_path / "n.bin", "tick_us=200&every_tick=1&force=1")
+    assert out.pacer.engine == "python"
+    assert load_recording(tmp_path / "n.bin") == short_log.frames
+    note = [line for line in out.report_lines() if line.startswith("engine:")]
+    assert note == ["engine: Python loop (the compiled writer is not available: no C compiler: "
+                    "'no-such-cc' not found on PATH (install gcc, or set CC))"]
+    with pytest.raises(OutputError, match="engine=compiled: the compiled writer is not available: no C compiler"):
+        Pacer(200_000, engine="compiled")
+    assert not (tmp_path / "cache" / "retrofit").exists() or not list((tmp_path / "cache" / "retrofit").iterdir())
+
+
+def test_a_source_that_does_not_compile_is_refused_with_the_compiler_message(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    bad = tmp_path / "pacer_c.c"
+    bad.write_text("int retrofit_now_ns(void) { return }\n")
+    with pytest.raises(pacer_build.BuildError, match=r"gcc failed to build pacer_c.c \(exit 1\): .*error"):
+        pacer_build.build(bad)
+    assert list((tmp_path / "cache" / "retrofit").iterdir()) == [], "no half-built library left behind"
+
+
+def test_the_library_is_cached_and_rebuilt_when_the_source_changes(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    source = tmp_path / "pacer_c.c"
+    source.write_text(pacer_build.SOURCE.read_text())
+    first = pacer_build.build(source)
+    built = first.stat().st_mtime_ns
+    assert pacer_build.build(source) == first and first.stat().st_mtime_ns == built, "not rebuilt"
+    source.write_text(source.read_text() + "\n/* changed */\n")
+    second = pacer_build.build(source)
+    assert second != first and second.exists()
+    assert second.parent == tmp_path / "cache" / "retrofit"
+
+
+def test_unknown_engine_is_refused_with_the_choices(lathe, tmp_path):
+    with pytest.raises(OutputError, match=r"engine='fast': expected one of auto, compiled, python"):
+        open_output(f"parport+record://{tmp_path / 'e.bin'}?engine=fast", lathe)
+
+
+def test_the_compiled_writer_writes_to_the_port_fd_with_ppdev_and_says_when_refused(tmp_path):
+    """Given a file descriptor, the C loop writes with ioctl PPWDATA; a file that is no port refuses it."""
+    with open(tmp_path / "not-a-port", "wb") as f:
+        pacer = Pacer(200_000, paced=False, engine="compiled")
+        with pytest.raises(OutputError, match=r"port write 1 of the chunk \(tick 3\) failed: Inappropriate ioctl"):
+            pacer.play(PortFrames(np.array([3]), np.array([5], np.uint8), 5),
+                       lambda tick, value: pytest.fail("write() is not called when the port has a fd"), f.fileno())

@@ -1,11 +1,17 @@
 """The paced real-time loop: each port byte written at its tick boundary, and how late it was.
 
-This is the only module of retrofit that reads the wall clock or sleeps. Frames are computed
+This is the only Python module of retrofit that reads the wall clock or sleeps (the compiled
+writer ``pacer_c.c``, which it drives, is the only other code that does). Frames are computed
 ahead (``PortFrames``, run-length); the loop writes at every change tick (or, with
 ``every_tick``, at every tick, unchanged bytes included, like a base thread). It sleeps for most
 of each wait and busy-waits the last ``spin_ns`` on ``time.perf_counter_ns()``, and records each
 write's lateness (time after the write returned minus the tick boundary it was due at). A late
 write is never skipped: bytes go out in tick order, however late.
+
+Two engines run that loop: ``compiled`` (``pacer_c.c``, built with the system C compiler at
+first use by :mod:`.pacer_build` and called through ctypes, so the GIL is released for the whole
+chunk) and ``python`` (the loop below, in the interpreter). ``engine="auto"`` takes the compiled
+one when it builds and falls back to Python with a note saying why.
 
 Before a paced run, :func:`calibrate` measures what this computer can hold; a tick whose p99
 lateness in the trial exceeds half a tick is refused unless forced.
@@ -25,6 +31,7 @@ import numpy as np
 
 from ..errors import OutputError
 from ..frames import PortFrames
+from . import pacer_build
 
 #: a write: (tick, port byte)
 Write = Callable[[int, int], None]
@@ -35,10 +42,11 @@ LEAD_NS = 2_000_000            # the first write is due this long after the loop
 TRIAL_NS = 200_000_000         # calibration: about 0.2 s of ticks ...
 TRIAL_MIN_TICKS, TRIAL_MAX_TICKS = 20, 5000    # ... within these bounds
 SPIN_MIN_NS, SPIN_MAX_NS = 20_000, 2_000_000   # busy-wait window bounds
+ENGINES = ("auto", "compiled", "python")
 
 
 def _us(ns: float) -> str:
-    return f"{ns / 1000:.1f} us"
+    return f"{ns / 1000:.1f} us" if abs(ns) >= 1000 else f"{ns:.0f} ns"
 
 
 @dataclass(frozen=True)
@@ -155,31 +163,58 @@ class RealtimeMode:
         return "realtime: " + "; ".join(self.notes) if self.notes else "realtime: not asked for"
 
 
+def choose_engine(engine: str = "auto") -> tuple[ctypes.CDLL | None, str]:
+    """(the compiled writer, or None for the Python loop; a note saying which paces and why)."""
+    if engine not in ENGINES:
+        raise OutputError(f"engine {engine!r}: expected one of {', '.join(ENGINES)}")
+    if engine == "python":
+        return None, "engine: Python loop (asked for)"
+    try:
+        lib = pacer_build.load()
+    except pacer_build.BuildError as exc:
+        if engine == "compiled":
+            raise OutputError(f"engine=compiled: the compiled writer is not available: {exc}") from None
+        return None, f"engine: Python loop (the compiled writer is not available: {exc})"
+    return lib, "engine: compiled writer (C, GIL released during the run)"
+
+
 class Pacer:
     """Writes port frames at their tick boundaries; chunks continue one schedule.
 
     ``paced=False`` runs the very same loop without waiting (for tests and conversions).
+    ``engine`` is ``auto``, ``compiled`` or ``python`` (see the module docstring).
     """
 
     def __init__(self, tick_ns: int, *, every_tick: bool = False, paced: bool = True,
-                 spin_ns: int = SPIN_MIN_NS, lead_ns: int = LEAD_NS):
+                 spin_ns: int = SPIN_MIN_NS, lead_ns: int = LEAD_NS, engine: str = "auto"):
         if tick_ns <= 0:
             raise OutputError(f"tick of {tick_ns} ns: must be > 0")
         self.tick_ns, self.every_tick, self.paced = int(tick_ns), every_tick, paced
         self.spin_ns, self.lead_ns = int(spin_ns), int(lead_ns)
+        self._lib, self.engine_note = choose_engine(engine)
+        self.engine = "compiled" if self._lib is not None else "python"
+        self._now = self._lib.retrofit_now_ns if self._lib is not None else time.perf_counter_ns
         self.end_tick = 0           # one past the last tick played
         self.writes = 0
         self._t0: int | None = None
         self._held = 0              # the byte on the port (0 after opening)
-        self._late: list[int] = []
+        self._late: list[np.ndarray] = []
 
-    def play(self, frames: PortFrames, write: Write) -> None:
-        """Write one chunk of frames, in tick order, each at its tick."""
+    def play(self, frames: PortFrames, write: Write, fd: int | None = None) -> None:
+        """Write one chunk of frames, in tick order, each at its tick.
+
+        ``fd``: an open ppdev port the compiled writer writes to itself (``write`` is then not
+        called). Without it, the compiled writer keeps the bytes in memory and hands them to
+        ``write`` after the chunk, so it suits memory targets only (a recording, a trial).
+        """
         ticks, values = self._schedule(frames)
         if len(ticks):
             if self._t0 is None:
-                self._t0 = time.perf_counter_ns() + self.lead_ns - int(ticks[0]) * self.tick_ns
-            self._loop(ticks.tolist(), values.tolist(), write)
+                self._t0 = self._now() + self.lead_ns - int(ticks[0]) * self.tick_ns
+            if self._lib is not None:
+                self._loop_compiled(ticks, values, write, fd)
+            else:
+                self._loop(ticks.tolist(), values.tolist(), write)
             self._held = int(values[-1])
         self.end_tick = max(self.end_tick, int(frames.end_tick))
 
@@ -198,7 +233,8 @@ class Pacer:
 
     def _loop(self, ticks: list[int], values: list[int], write: Write) -> None:
         """The real-time loop: sleep, spin to the boundary, write, note the lateness."""
-        clock, sleep, late = time.perf_counter_ns, time.sleep, self._late.append
+        lateness: list[int] = []
+        clock, sleep, late = time.perf_counter_ns, time.sleep, lateness.append
         t0, tick_ns, spin_ns, paced = self._t0, self.tick_ns, self.spin_ns, self.paced
         for tick, value in zip(ticks, values):
             if paced:
@@ -212,18 +248,39 @@ class Pacer:
                 late(clock() - due)
             else:
                 write(tick, value)
+        self._late.append(np.array(lateness if paced else [], np.int64))
+        self.writes += len(ticks)
+
+    def _loop_compiled(self, ticks: np.ndarray, values: np.ndarray, write: Write, fd: int | None) -> None:
+        """The same loop in C (``pacer_c.c``), the GIL released until the chunk is written."""
+        ticks = np.ascontiguousarray(ticks, np.int64)
+        values = np.ascontiguousarray(values, np.uint8)
+        out, late = np.empty(len(ticks), np.uint8), np.empty(len(ticks), np.int64)
+        done = self._lib.retrofit_pace(ticks.ctypes.data, values.ctypes.data, len(ticks), self._t0,
+                                       self.tick_ns, self.spin_ns, int(self.paced),
+                                       -1 if fd is None else fd, out.ctypes.data, late.ctypes.data)
+        if done < 0:
+            i = -done - 1
+            raise OutputError(f"port write {i + 1} of the chunk (tick {int(ticks[i])}) failed: "
+                              f"{os.strerror(ctypes.get_errno()) or 'ioctl PPWDATA refused'}")
+        if fd is None:
+            for tick, value in zip(ticks.tolist(), out.tolist()):
+                write(tick, value)
+        if self.paced:
+            self._late.append(late)
         self.writes += len(ticks)
 
     def finish(self) -> Lateness:
         """Wait until the last byte has held its ticks (paced runs); return the lateness."""
         if self.paced and self._t0 is not None:
-            rest = self._t0 + self.end_tick * self.tick_ns - time.perf_counter_ns()
+            rest = self._t0 + self.end_tick * self.tick_ns - self._now()
             if rest > 0:
                 time.sleep(rest * 1e-9)
         return self.lateness()
 
     def lateness(self) -> Lateness:
-        return Lateness.of(self.tick_ns, self.writes, self._late, self.paced)
+        late = np.concatenate(self._late) if self._late else np.zeros(0, np.int64)
+        return Lateness.of(self.tick_ns, self.writes, late, self.paced)
 
 
 @dataclass(frozen=True)
@@ -283,7 +340,8 @@ def rt_throttle_us() -> tuple[int, int] | None:
     return (runtime, period) if 0 <= runtime < period else None
 
 
-def calibrate(tick_ns: int, realtime: RealtimeMode | None = None, gap_ticks: int = 1) -> Calibration:
+def calibrate(tick_ns: int, realtime: RealtimeMode | None = None, gap_ticks: int = 1,
+              engine: str = "auto") -> Calibration:
     """Choose the busy-wait window, then pace a trial of every tick at ``tick_ns`` to a null port.
 
     ``gap_ticks`` is the usual gap between writes (1 when every tick is written). When the loop
@@ -301,7 +359,7 @@ def calibrate(tick_ns: int, realtime: RealtimeMode | None = None, gap_ticks: int
         spin_ns = spin_window_ns()
     n = min(max(TRIAL_NS // tick_ns, TRIAL_MIN_TICKS), TRIAL_MAX_TICKS)
     trial = PortFrames.from_per_tick(np.arange(n) % 2)
-    pacer = Pacer(tick_ns, every_tick=True, spin_ns=spin_ns, lead_ns=LEAD_NS)
+    pacer = Pacer(tick_ns, every_tick=True, spin_ns=spin_ns, lead_ns=LEAD_NS, engine=engine)
     pacer.play(trial, lambda tick, value: None)
     return Calibration(int(tick_ns), spin_ns, pacer.lateness())
 

@@ -1,9 +1,11 @@
-"""parport://[DEVICE][?tick_us=US&every_tick=1&force=1&paced=0] — PC parallel port, a byte a tick.
+"""parport://[DEVICE][?tick_us=US&every_tick=1&force=1&paced=0&engine=E] — PC parallel port, a byte a tick.
 
 URL grammar: ``parport://`` (``/dev/parport0``) or ``parport:///dev/parportN``, with options
 ``tick_us`` (pace at this tick instead of the machine's ``tick_us``), ``every_tick`` (write every
 tick's byte, not only changes), ``force`` (run even when the calibration says this computer
-cannot hold the tick) and ``paced`` (``paced=0``: the same loop as fast as possible).
+cannot hold the tick), ``paced`` (``paced=0``: the same loop as fast as possible) and ``engine``
+(``auto``, ``compiled`` or ``python``: which paced loop writes, see :mod:`retrofit.outputs.pacer`;
+the compiled one writes to the port's file descriptor with ioctl PPWDATA).
 
 The data register (DB25 pins 2..9 = bits 0..7) gets the port-frame byte through pyparallel's
 ``setData`` (Linux ppdev), paced by :mod:`retrofit.outputs.pacer`. pyparallel is imported only
@@ -22,7 +24,7 @@ from ..errors import OutputError
 from ..frames import PortFrames
 from ..tomlreader import Section
 from .base import Output
-from .pacer import Calibration, Lateness, Pacer, RealtimeMode, calibrate
+from .pacer import ENGINES, Calibration, Lateness, Pacer, RealtimeMode, calibrate
 
 
 @dataclass(frozen=True)
@@ -100,6 +102,12 @@ class PpdevPort:
         self._port = parallel.Parallel(port=device)
         self._set_data = self._port.setData
 
+    @property
+    def fd(self) -> int | None:
+        """The open ppdev file descriptor, for the compiled writer (None if pyparallel hides it)."""
+        fd = getattr(self._port, "_fd", None)
+        return fd if isinstance(fd, int) else None
+
     def write(self, tick: int, value: int) -> None:
         self._set_data(value)
 
@@ -134,10 +142,10 @@ class ParportOutput(Output):
     """parport://[DEVICE][?tick_us=US&every_tick=1&force=1&paced=0] — one byte a tick on a DB25 port."""
 
     scheme = "parport"
-    grammar = "parport://[/dev/parportN][?tick_us=US&every_tick=1&force=1&paced=0]"
+    grammar = "parport://[/dev/parportN][?tick_us=US&every_tick=1&force=1&paced=0&engine=auto|compiled|python]"
     summary = "PC parallel port (DB25, Linux ppdev via pyparallel), paced in real time; default /dev/parport0"
     options = {"tick_us": (float, 0.0), "every_tick": (bool, False), "force": (bool, False),
-               "paced": (bool, True)}
+               "paced": (bool, True), "engine": (str, "auto")}
     default_device = "/dev/parport0"
 
     def __init__(self, url, machine):
@@ -149,6 +157,9 @@ class ParportOutput(Output):
         if not tick_us > 0:
             raise OutputError(f"{url.text}: tick_us must be > 0; expected {self.grammar}")
         self.tick_ns = round(tick_us * 1000)
+        if self.opts["engine"] not in ENGINES:
+            raise OutputError(f"{url.text}: engine={self.opts['engine']!r}: expected one of "
+                              f"{', '.join(ENGINES)}; expected {self.grammar}")
         self.settings: ParportSettings = machine.parts.get("parport") or ParportSettings()
         self.calibration: Calibration | None = None
         self.timing: Lateness | None = None
@@ -178,18 +189,30 @@ class ParportOutput(Output):
             raise
         super().open()
 
+    def _engine(self) -> str:
+        """The engine asked for; Python when the port offers the compiled writer no target."""
+        memory = getattr(self.port, "memory", False)
+        if self.opts["engine"] != "python" and not memory and getattr(self.port, "fd", None) is None:
+            if self.opts["engine"] == "compiled":
+                raise OutputError(f"{self.url.text}: engine=compiled needs the port's file descriptor, "
+                                  "which this pyparallel does not expose; use engine=python")
+            return "python"
+        return self.opts["engine"]
+
     def _make_pacer(self) -> Pacer:
         """Pacer for the run; calibrates first and refuses a tick this computer cannot hold."""
+        engine = self._engine()
         if not self.opts["paced"]:
-            return Pacer(self.tick_ns, every_tick=self.opts["every_tick"], paced=False)
+            return Pacer(self.tick_ns, every_tick=self.opts["every_tick"], paced=False, engine=engine)
         self.realtime.enter()
-        self.calibration = calibrate(self.tick_ns, self.realtime, 1 if self.opts["every_tick"] else 2)
+        self.calibration = calibrate(self.tick_ns, self.realtime, 1 if self.opts["every_tick"] else 2, engine)
         if not self.calibration.holds and not self.opts["force"]:
             raise OutputError(self.calibration.refusal(self.url.text))
-        return Pacer(self.tick_ns, every_tick=self.opts["every_tick"], spin_ns=self.calibration.spin_ns)
+        return Pacer(self.tick_ns, every_tick=self.opts["every_tick"], spin_ns=self.calibration.spin_ns,
+                     engine=engine)
 
     def write(self, frames: PortFrames) -> None:
-        self.pacer.play(frames, self.port.write)
+        self.pacer.play(frames, self.port.write, getattr(self.port, "fd", None))
 
     def close(self) -> None:
         if not self.is_open:
@@ -211,6 +234,8 @@ class ParportOutput(Output):
         lines = [self.calibration.line()] if self.calibration else []
         if self.opts["paced"]:
             lines.append(self.realtime.line())
+            if getattr(self, "pacer", None) is not None:
+                lines.append(self.pacer.engine_note)
         if self.timing:
             lines.append(self.timing.line())
         return lines

@@ -1,4 +1,4 @@
-"""parport+record://FILE[?tick_us=US&every_tick=1&force=1&paced=0] — the parport loop, recorded.
+"""parport+record://FILE[?tick_us=US&every_tick=1&force=1&paced=0&engine=E] — the parport loop, recorded.
 
 URL grammar: ``parport+record://FILE`` (relative path) or ``parport+record:///abs/FILE``, with the
 options of ``parport://``. The very same paced loop runs as for a real port; the bytes go to a
@@ -37,6 +37,8 @@ class RecordPort:
         self.filled = 0                # ticks held over between writes
         self.status_register = 0
         self.control_register = 0
+
+    memory = True                      # a memory target: the compiled writer may hand bytes over after a chunk
 
     @property
     def next_tick(self) -> int:
@@ -82,7 +84,7 @@ class RecordOutput(ParportOutput):
     """parport+record://FILE[?tick_us=US&every_tick=1&force=1&paced=0] — parport:// recorded to FILE."""
 
     scheme = "parport+record"
-    grammar = "parport+record://FILE[?tick_us=US&every_tick=1&force=1&paced=0]"
+    grammar = "parport+record://FILE[?tick_us=US&every_tick=1&force=1&paced=0&engine=auto|compiled|python]"
     summary = "the parport:// loop writing every tick's byte to FILE (raw, one byte per tick) instead of a port"
     default_device = ""
 
