@@ -32,6 +32,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from retrofit import firmware_runs as fr  # noqa: E402
 from retrofit import firmware_sim as fs  # noqa: E402
 from retrofit.commands import parse_command  # noqa: E402
 from retrofit.config import load_machine  # noqa: E402
@@ -123,7 +124,7 @@ def circle() -> None:
     program = compile_program(text, machine, file="circle.ngc")
     _, plan = plan_compiled(program, machine)
     elf = fs.build("tul-mill")
-    log, remote = fs.send_through_link(elf, machine, program.commands)
+    log, remote = fr.send_through_link(elf, machine, program.commands)
     rx, _, _ = fs.step_times(log, machine, "X")
     ry, _, _ = fs.step_times(log, machine, "Y")
     both = np.sort(np.concatenate([rx, ry]))
@@ -136,7 +137,7 @@ def circle() -> None:
     for name, rises in (("X", rx), ("Y", ry)):
         a = machine.axis(name)
         limit = a.max_accel_mm_s2 * a.steps_per_mm
-        seen = fs.windowed_accel(rises, window)
+        seen = fr.windowed_accel(rises, window)
         print(f"  {name}: acceleration over {window * 1000:.0f} ms windows at most {seen:8.0f} "
               f"steps/s^2; limit {limit:.0f} + quantisation {2 / window ** 2:.0f}")
     report = fs.report(log, machine)

@@ -26,6 +26,7 @@ pytestmark = pytest.mark.skipif(
     reason="the firmware needs avr-gcc and make: apt-get install gcc-avr avr-libc make libsimavr-dev")
 
 fs = pytest.importorskip("retrofit.firmware_sim")
+fr = pytest.importorskip("retrofit.firmware_runs")
 S = fs.F_CPU
 BENCH = fs.ROOT / "bench" / "steprate.toml"
 
@@ -125,7 +126,7 @@ def test_a_move_brakes_to_the_stop_rate_at_its_end_within_the_acceleration_limit
                    - math.sqrt(stop_rate ** 2 + 2 * accel * (k - 1))) / accel
         assert last[-k] == pytest.approx(planned, rel=0.15), k
     window = 0.02
-    assert fs.windowed_accel(rises, window) <= accel + 2 / window ** 2
+    assert fr.windowed_accel(rises, window) <= accel + 2 / window ** 2
     report = fs.report(log, machine)
     assert not report["violations"]
 
@@ -169,7 +170,7 @@ def test_the_474_segment_circle_runs_within_5_percent_of_the_host_plan(mill):
     program = compile_program(text, machine, file="circle.ngc")
     assert sum(type(c).__name__ == "PMov" for c in program.commands) == 474
     _, plan = plan_compiled(program, machine)
-    log, remote = fs.send_through_link(elf, machine, program.commands)
+    log, remote = fr.send_through_link(elf, machine, program.commands)
     assert remote["position_steps"] == {"X": 3000, "Y": 2000, "Z": 0, "E": 0}
     rx, _, _ = fs.step_times(log, machine, "X")
     ry, _, _ = fs.step_times(log, machine, "Y")
@@ -178,5 +179,5 @@ def test_the_474_segment_circle_runs_within_5_percent_of_the_host_plan(mill):
     window = 0.02
     for name, rises in (("X", rx), ("Y", ry)):
         a = machine.axis(name)
-        assert fs.windowed_accel(rises, window) <= a.max_accel_mm_s2 * a.steps_per_mm + 2 / window ** 2
+        assert fr.windowed_accel(rises, window) <= a.max_accel_mm_s2 * a.steps_per_mm + 2 / window ** 2
     assert not fs.report(log, machine)["violations"]
