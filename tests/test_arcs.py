@@ -2,12 +2,14 @@
 
 import math
 
+import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
 from retrofit.config import load_machine
-from retrofit.motion.arcs import MAX_CHORD_ANGLE, arc_points, chord_angle, chord_length
+from retrofit.gcode.state import clean_mm, clean_mm_list
+from retrofit.motion.arcs import MAX_CHORD_ANGLE, arc_columns, arc_points, chord_angle, chord_length
 
 TOL = 0.002
 
@@ -183,3 +185,37 @@ def test_any_arc_stays_within_tolerance_and_ends_exactly(radius, tol, a0, span, 
     assert max_radial_deviation(start, points, center, radius) <= tol + 1e-9
     for p, q in chords_of(start, points):
         assert math.dist(p, q) <= chord_length(radius, tol) + 1e-9
+
+
+@given(r0=st.floats(0.01, 400.0), r1=st.floats(0.01, 400.0), tol=st.floats(0.0005, 0.5),
+       a0=st.floats(-180.0, 180.0), a1=st.floats(-180.0, 180.0), clockwise=st.booleans(),
+       z=st.floats(-50.0, 50.0), turns=st.integers(0, 2), plane=st.sampled_from([(0, 1), (2, 0), (1, 2)]))
+def test_arc_columns_are_arc_points_bit_for_bit(r0, r1, tol, a0, a1, clockwise, z, turns, plane):
+    """The array form of the chords (what G-code arcs compile through) holds the very floats of
+    the readable per-point form, spirals and helices included."""
+    centre = [3.25, -7.5, 1.0]
+    a, b = plane
+    start, end = list(centre), list(centre)
+    for point, radius, angle in ((start, r0, a0), (end, r1, a1)):
+        point[a] += radius * math.cos(math.radians(angle))
+        point[b] += radius * math.sin(math.radians(angle))
+    end[3 - a - b] += z
+    points = arc_points(tuple(start), tuple(end), tuple(centre), clockwise, plane, tol, turns)
+    columns = arc_columns(tuple(start), tuple(end), tuple(centre), clockwise, plane, tol, turns)
+    assert columns.tolist() == [list(p) for p in points]
+
+
+@given(st.lists(st.floats(-1000.0, 1000.0), min_size=1, max_size=50))
+def test_clean_mm_list_rounds_as_python_round(values):
+    got = clean_mm_list(np.array(values))
+    assert [(v, str(v)) for v in got] == [(clean_mm(v), str(clean_mm(v))) for v in values]
+
+
+def test_clean_mm_list_breaks_ties_as_python_round():
+    """Values a hair off a half of the last decimal, where scaling by 1e9 rounds across the half."""
+    rng = np.random.default_rng(7)
+    halves = rng.integers(-10 ** 12, 10 ** 12, 20000) / 1e9 + 0.5e-9
+    values = np.concatenate([halves, np.nextafter(halves, 0.0), np.nextafter(halves, 1e9),
+                             [0.0, -0.0, -1e-12, 2.5e-9, -2.5e-9, 1e7 + 0.5e-9]])
+    got = clean_mm_list(values)
+    assert [str(v) for v in got] == [str(clean_mm(v)) for v in values.tolist()]

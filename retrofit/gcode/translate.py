@@ -14,16 +14,17 @@ G90/G91, G98/G99, then G10/G28/G30/G92 or the motion, then M0/M1/M2/M30/M60.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, ZMov
 from ..config import Machine
-from ..motion.arcs import arc_extent, arc_points
+from ..motion.arcs import arc_columns, arc_extent
 from . import coords, cycles, iowords, modalsave, pathcontrol, polar, probing, radiuscomp, spindle, splines, tools
 from .arcwords import arc_center, plane_axes
 from .blocks import Block
 from .errors import RuleError
-from .state import DECIMALS, ModalState, clean_mm
+from .state import DECIMALS, ModalState, clean_mm, clean_mm_list
 from .threading import g33, g76, leave
 from .validate import check_arc, check_feed, check_soft_limits, check_word_use
 
@@ -316,20 +317,27 @@ class Translator:
         except ValueError:
             raise RuleError(f"G{mode}: the arc's centre or radius is not a finite number") from None
         length = check_arc(self.machine, mode, *extent)
-        chords = arc_points(*args, tolerance, extra_turns)
+        chords = arc_columns(*args, tolerance, extra_turns)
         if emit is None:
             self._send_feed(length, mode)
             emit = self._emit
         s = self.state
-        x = names.index("X") if s.css is not None else None
         # an axis off the plane that does not move stays at its start on every chord
         words = [(n, clean_mm(start[n])) for n in names]
         moving = [(i, n) for i, n in enumerate(names) if i in plane or start[n] != end[n]]
-        for p in chords:
-            if x is not None:
-                spindle.follow(self, p[x])
-                if s.per_rev:
-                    self._send_feed(length, mode)
+        if s.css is None:
+            moves = chord_moves(words, moving, chords)
+            if emit == self._emit and not self._holding():
+                self.put_all(moves)
+            else:
+                for move in moves:
+                    emit(move)
+            return
+        x = names.index("X")
+        for p in chords.tolist():        # G96: the spindle speed follows the tool chord by chord
+            spindle.follow(self, p[x])
+            if s.per_rev:
+                self._send_feed(length, mode)
             for i, n in moving:
                 words[i] = (n, round(p[i], DECIMALS) + 0.0)                  # clean_mm, inlined
             emit(PMov(tuple(words)))
@@ -353,12 +361,25 @@ class Translator:
     def _axes(self, point: dict[str, float]) -> tuple[tuple[str, float], ...]:
         return tuple([(name, point[name]) for name in self.names])
 
-    def _emit(self, command: Command) -> None:
+    def _holding(self) -> bool:
+        """True while cutter compensation holds a move back (other commands wait behind it)."""
         held = self.comp.geometry
-        if held is not None and held.queue:       # a move is held back: wait behind it
-            held.hold((command, self._line, self._file))
+        return held is not None and bool(held.queue)
+
+    def _emit(self, command: Command) -> None:
+        if self._holding():
+            self.comp.geometry.hold((command, self._line, self._file))
             return
         self.put(command)
+
+    def put_all(self, commands: list[Command]) -> None:
+        """:meth:`put` each of ``commands``, moves of one block (after the first, a move of the
+        same block changes nothing put checks: the tool offset is taken, the block is the last)."""
+        if commands:
+            self.put(commands[0])
+            self.commands.extend(commands[1:])
+            self.lines.extend([self._line] * (len(commands) - 1))
+            self.files.extend([self._file] * (len(commands) - 1))
 
     def put(self, command: Command) -> None:
         """Append ``command`` now, with the source line of the block being translated."""
@@ -369,3 +390,12 @@ class Translator:
         self.commands.append(command)
         self.lines.append(self._line)
         self.files.append(self._file)
+
+
+def chord_moves(words: list[tuple[str, float]], moving: list[tuple[int, str]], chords) -> list[PMov]:
+    """One PMOV per row of ``chords`` ([chord, axis] mm): the axes in ``moving`` (index, name)
+    take the row's value rounded as ``clean_mm``, the others keep their word in ``words``."""
+    columns = [itertools.repeat(word) for word in words]
+    for i, n in moving:
+        columns[i] = zip(itertools.repeat(n), clean_mm_list(chords[:, i]))
+    return list(map(PMov, zip(*columns)))
