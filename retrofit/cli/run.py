@@ -92,6 +92,19 @@ def cmd_demo(args) -> int:
 
 
 def cmd_run(args) -> int:
+    import gc
+    # A run makes hundreds of thousands of objects (a command per arc chord, a planned move per
+    # command) and almost no reference cycles: refcounting frees them, and the cyclic collector
+    # would only walk them again and again (a tenth of a long run's CPU). This process ends with
+    # the run, so the collector stays off for it.
+    gc.disable()
+    try:
+        return _run(args)
+    finally:
+        gc.enable()
+
+
+def _run(args) -> int:
     from ..atc.state import SpindleStore, state_paths
     from ..config import load_machine
     from ..progress import Progress
