@@ -289,11 +289,17 @@ def _whole_run(plan: Plan, on_waypoints, progress):
 
 
 def _append(pending: _Axes, a: int, rises, turn_ticks, turn_dirs, wanted) -> None:
-    pending.rises[a] = np.concatenate((pending.rises[a], rises))
-    pending.turns[a] = np.concatenate((pending.turns[a], turn_ticks))
-    pending.turn_dirs[a] = np.concatenate((pending.turn_dirs[a], turn_dirs))
-    pending.wanted[a] = np.concatenate((pending.wanted[a], wanted))
-    pending.open_rises[a] = np.concatenate((pending.open_rises[a], rises))
+    pending.rises[a] = _joined(pending.rises[a], rises)
+    pending.turns[a] = _joined(pending.turns[a], turn_ticks)
+    pending.turn_dirs[a] = _joined(pending.turn_dirs[a], turn_dirs)
+    pending.wanted[a] = _joined(pending.wanted[a], wanted)
+    pending.open_rises[a] = _joined(pending.open_rises[a], rises)
+
+
+def _joined(kept: np.ndarray, new: np.ndarray) -> np.ndarray:
+    """``kept`` followed by ``new`` (``new`` itself when nothing is kept: the arrays pending are
+    only read and sliced, never written)."""
+    return np.concatenate((kept, new)) if len(kept) else new
 
 
 def _settle_lag(pending: _Axes, final: bool) -> int:

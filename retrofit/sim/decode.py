@@ -60,17 +60,11 @@ def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray) -> 
                   dtype=np.int64)
     gap = np.array([screw.gap], dtype=np.float64)
     switches = sim.switches.by_axis[axis.name]
-    sw = (np.array([s.spec.side for s in switches], dtype=np.float64),
-          np.array([s.spec.trip_mm for s in switches], dtype=np.float64),
-          np.array([s.spec.hysteresis_mm for s in switches], dtype=np.float64),
-          np.array([int(s.closed) for s in switches], dtype=np.int64))
-    n = min(len(frames.ticks), SUB_CHUNK)
-    buffers = (np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.float64),
-               np.empty(4 * n + 1, np.int64), np.empty(4 * n + 1, np.int64), np.empty(4 * n + 1, np.int64),
-               np.empty(4 * n + 1, np.float64), np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.int64))
+    params, side, trip, hysteresis = _constants(sim, i)
+    sw = (side, trip, hysteresis, np.array([int(s.closed) for s in switches], dtype=np.int64))
+    buffers = _buffers(sim, min(len(frames.ticks), SUB_CHUNK))
     w_out = np.zeros((2, len(watch)), np.float64)
     lo, hi = sim._travel[i]
-    params = axis_params(axis)
     done_watch = 0
     for start in range(0, max(len(frames.ticks), 1), SUB_CHUNK):
         stop = min(start + SUB_CHUNK, len(frames.ticks))
@@ -91,6 +85,31 @@ def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray) -> 
         s.closed = bool(sw[3][k])
     if len(watch):
         watch_out[:, i, :] = w_out.T
+
+
+def _constants(sim, i: int) -> tuple:
+    """(parameter row, switch sides, trip points, hystereses) of axis ``i``, made once per machine."""
+    cache = sim.__dict__.setdefault("_decode_constants", {})
+    if i not in cache:
+        switches = sim.switches.by_axis[sim.machine.axes[i].name]
+        cache[i] = (axis_params(sim.machine.axes[i]),
+                    np.array([s.spec.side for s in switches], dtype=np.float64),
+                    np.array([s.spec.trip_mm for s in switches], dtype=np.float64),
+                    np.array([s.spec.hysteresis_mm for s in switches], dtype=np.float64))
+    return cache[i]
+
+
+def _buffers(sim, n: int) -> tuple:
+    """The kernel's event buffers for ``n`` frames: trace points (one a frame), violations (four
+    a frame, and one), switch changes; kept by the machine for the next chunk (only the rows a
+    kernel call reports are read)."""
+    kept = sim.__dict__.get("_decode_buffers")
+    if kept is None or len(kept[0]) < n:
+        kept = sim._decode_buffers = (
+            np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.float64),
+            np.empty(4 * n + 1, np.int64), np.empty(4 * n + 1, np.int64), np.empty(4 * n + 1, np.int64),
+            np.empty(4 * n + 1, np.float64), np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.int64))
+    return kept
 
 
 def _own_frames(axis, driver, frames):
