@@ -187,3 +187,35 @@ def test_an_axis_idle_for_whole_chunks_holds_exactly_as_step_by_step():
     assert observed(fast, probe.tolist()) == observed(ref, probe.tolist())
     assert np.array_equal(fast.states_at(probe), ref.states_at(probe))
     assert fast.motor_steps[1] != start[1] and fast.motor_steps[0] != start[0]     # both axes moved
+
+
+def traces_of(sim: SimMachine) -> dict:
+    return {n: (t.stride, t.seen, t.ticks, t.motor_steps, t.carriage_mm) for n, t in sim.traces.items()}
+
+
+@pytest.mark.parametrize("strict, around", [(False, 0), (True, 3), (True, 0)],
+                         ids=["no-violations", "kept-near-violations", "violations-not-kept"])
+def test_decimated_trace_written_by_the_kernel_equals_every_point_given(strict, around):
+    """A decimated trace (no windows) gets only the points it keeps from the compiled decoder
+    (the points near violations in full): the same trace as when every step's point is handed to
+    it (a trace with a tick window, here one before the run, takes every point)."""
+    base = MITIC if strict else CHIVU
+    machine = replace(base, axes=tuple(replace(a, pulse_high_ticks=3 if strict else 1,
+                                               pulse_low_ticks=3 if strict else 1, dir_setup_ticks=2 if strict else 0,
+                                               dir_hold_ticks=2 if strict else 0) for a in base.axes))
+    start = (int(40.0 * 100), int(20.0 * 80)) if strict else None
+    frames = random_frames(machine, 21, 30000)
+    fast = SimMachine(machine, start, trace_limit=300, trace_around=around)
+    given = SimMachine(machine, start, trace_limit=300, trace_around=around, trace_windows=((-2, -1),))
+    for chunk in split(frames, list(range(0, len(frames), 2111))):
+        fast.feed(chunk)
+        given.feed(chunk)
+    assert bool(fast.violations) == strict and fast.violations == given.violations
+    assert min(t.stride for t in fast.traces.values()) > 8
+    assert traces_of(fast) == traces_of(given)
+    if around:
+        name = machine.axis_names[0]
+        marks = np.array([v.tick for v in fast.violations if v.axis == name])
+        ticks = np.array(fast.traces[name].ticks)
+        near = np.min(np.abs(ticks[:, None] - marks[None, :]), axis=1) <= around
+        assert near.sum() > len(ticks) / 2           # most points kept are kept for a violation

@@ -47,6 +47,25 @@ class AxisTrace:
         self._flush()
         self._add(np.asarray(ticks, np.int64), np.asarray(motor, np.int64), np.asarray(carriage, float), keep)
 
+    def kept_from(self) -> int | None:
+        """Which of the next steps a decimated trace without windows keeps: this one (0 the next
+        step), then every ``stride``-th (:meth:`extend_kept` takes them); None when it takes every
+        step (no limit, or windows kept in full)."""
+        if self.limit is None or self.windows:
+            return None
+        self._flush()
+        return (-self.seen) % self.stride
+
+    def extend_kept(self, ticks: np.ndarray, motor: np.ndarray, carriage: np.ndarray, steps: int) -> None:
+        """The points :meth:`kept_from` asked for, out of the next ``steps`` steps (the same trace
+        as :meth:`extend` of every step)."""
+        self._cache = None
+        self._chunks.append((ticks.copy(), motor.copy(), carriage.copy()))
+        self._kept += len(ticks)
+        self.seen += steps
+        while self._kept > self.limit:
+            self._halve()
+
     def _flush(self) -> None:
         if self._pending:
             t, m, c = zip(*self._pending)

@@ -69,13 +69,12 @@ def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray) -> 
     for start in range(0, max(len(frames.ticks), 1), SUB_CHUNK):
         stop = min(start + SUB_CHUNK, len(frames.ticks))
         end = int(frames.ticks[stop]) if stop < len(frames.ticks) else frames.end_tick
-        tr_t, tr_m, tr_c, v_t, v_c, v_v, v_car, sw_t, sw_i, sw_s = buffers
-        n_tr, n_v, n_sw, n_w = decode_axis(
-            frames.ticks[start:stop], frames.values[start:stop], params, ds, ms, gap, float(screw.width),
-            float(axis.steps_per_mm), float(lo), float(hi), *sw,
-            watch[done_watch:], w_out[:, done_watch:], np.int64(end), sim.traces[axis.name].limit != 0, *buffers)
-        done_watch += n_w
-        _events(sim, i, switches, (lo, hi), buffers, n_tr, n_v, n_sw)
+        args = (frames.ticks[start:stop], frames.values[start:stop], params, ds, ms, gap, float(screw.width),
+                float(axis.steps_per_mm), float(lo), float(hi), *sw,
+                watch[done_watch:], w_out[:, done_watch:], np.int64(end))
+        counts, strided = _decode(sim, sim.traces[axis.name], args, buffers)
+        done_watch += counts[3]
+        _events(sim, i, switches, (lo, hi), buffers, counts, strided)
     driver.step, driver.direction = int(ds[0]), int(ds[1])
     driver.last_rise, driver.last_fall, driver.last_dir_change = int(ds[2]), int(ds[3]), int(ds[4])
     sim.motor_steps[i], sim._last_dir[i], sim.reversals[i] = int(ms[0]), int(ms[1]), int(ms[2])
@@ -125,17 +124,40 @@ def _own_frames(axis, driver, frames):
     return PortFrames(ticks[:n], values[:n], frames.end_tick)
 
 
-def _events(sim, i: int, switches, travel, buffers, n_tr: int, n_v: int, n_sw: int) -> None:
+def _decode(sim, trace, args, buffers) -> tuple[tuple, bool]:
+    """``decode_axis`` over one sub-chunk (``args`` up to its end tick): its counts, and whether
+    the trace points written are only those a decimated trace keeps (every stride-th step).
+
+    A decimated trace that keeps the points near violations in full gets every point of a
+    sub-chunk with violations: that sub-chunk is decoded again from the state it started from.
+    """
+    first = trace.kept_from()
+    if trace.limit == 0 or first is None:
+        return decode_axis(*args, 0, 1 if trace.limit != 0 else 0, *buffers), False
+    state = (args[3], args[4], args[5], args[13])          # ds, ms, gap, the switches closed
+    before = [a.copy() for a in state] if sim.trace_around else None
+    counts = decode_axis(*args, first, trace.stride, *buffers)
+    if before is None or not counts[1]:
+        return counts, True
+    for now, then in zip(state, before):
+        now[:] = then
+    return decode_axis(*args, 0, 1, *buffers), False
+
+
+def _events(sim, i: int, switches, travel, buffers, counts, strided: bool) -> None:
     """Word the kernel's violations and switch changes; extend the trace."""
     axis, driver, trace = sim.machine.axes[i], sim.drivers[i], sim.traces[sim.machine.axes[i].name]
     tr_t, tr_m, tr_c, v_t, v_c, v_v, v_car, sw_t, sw_i, sw_s = buffers
+    n_tr, n_v, n_sw, _, steps = counts
     for j in range(n_v):
         kind = KINDS[v_c[j]]
         found = Violation(int(v_t[j]), axis.name, kind, _detail(kind, int(v_v[j]), float(v_car[j]), axis, travel))
         (sim.extra_violations if v_c[j] == V_TRAVEL else driver.violations).append(found)
     for j in range(n_sw):
         sim.switches.events.append(SwitchEvent(int(sw_t[j]), switches[sw_i[j]].spec.name, bool(sw_s[j])))
-    if trace.limit != 0 and n_tr:
+    if strided:
+        trace.extend_kept(tr_t[:n_tr], tr_m[:n_tr], tr_c[:n_tr], steps)
+    elif trace.limit != 0 and n_tr:
         keep = None
         if trace.limit is not None and n_v and sim.trace_around:
             keep = _near(tr_t[:n_tr], v_t[:n_v], sim.trace_around)

@@ -10,7 +10,8 @@ the next chunk lives in small state arrays, so a run of any length is decoded ch
 * every switch of the axis closed or open (``sw_closed``).
 
 Violations and switch changes come back as events (tick, code, values) the caller words;
-the carriage after each step goes to a trace buffer only when asked (``keep_trace``).
+the carriage after a step goes to a trace buffer for the steps asked (``trace_first``, then every
+``trace_stride``-th step of the call; a stride of 0 keeps none).
 """
 
 from __future__ import annotations
@@ -49,10 +50,11 @@ def own_changes(ticks, values, mask, seen, out_ticks, out_values):
 @kernel
 def decode_axis(ticks, values, par, ds, ms, gap, width, spm, lo, hi,
                 sw_side, sw_trip, sw_hyst, sw_closed,
-                watch, watch_out, end_tick, keep_trace,
+                watch, watch_out, end_tick, trace_first, trace_stride,
                 tr_ticks, tr_motor, tr_carriage,
                 v_ticks, v_codes, v_values, v_carriage, sw_ticks, sw_index, sw_state):
-    """Decode one axis over a chunk of frames; return (trace points, violations, switch events, watched).
+    """Decode one axis over a chunk of frames; return (trace points, violations, switch events,
+    watched, steps).
 
     ``watch`` is a sorted array of ticks whose (motor, carriage) at the end of the tick are
     written to ``watch_out`` (rows: motor, carriage) for those below ``end_tick``.
@@ -68,6 +70,8 @@ def decode_axis(ticks, values, par, ds, ms, gap, width, spm, lo, hi,
     last_rise, last_fall, last_turn = ds[D_RISE], ds[D_FALL], ds[D_TURN]
     motor, last_dir, reversals, out = ms[M_MOTOR], ms[M_LAST_DIR], ms[M_REVERSALS], ms[M_OUT]
     g = gap[0]
+    steps = 0
+    kept_next = trace_first
     for i in range(ticks.shape[0]):
         tick = ticks[i]
         logical = np.int64(values[i]) ^ logical_mask
@@ -113,11 +117,13 @@ def decode_axis(ticks, values, par, ds, ms, gap, width, spm, lo, hi,
         motor += d
         g = min(max(g + d, 0.0), width)
         carriage = (motor - g) / spm
-        if keep_trace:
+        if steps == kept_next and trace_stride > 0:
             tr_ticks[n_tr] = tick
             tr_motor[n_tr] = motor
             tr_carriage[n_tr] = carriage
             n_tr += 1
+            kept_next += trace_stride
+        steps += 1
         outside = not (lo - 1e-9 <= carriage <= hi + 1e-9)
         if outside and out == 0:
             v_ticks[n_v] = tick
@@ -142,4 +148,4 @@ def decode_axis(ticks, values, par, ds, ms, gap, width, spm, lo, hi,
     ds[D_STEP], ds[D_DIR], ds[D_RISE], ds[D_FALL], ds[D_TURN] = step, direction, last_rise, last_fall, last_turn
     ms[M_MOTOR], ms[M_LAST_DIR], ms[M_REVERSALS], ms[M_OUT] = motor, last_dir, reversals, out
     gap[0] = g
-    return n_tr, n_v, n_sw, w
+    return n_tr, n_v, n_sw, w, steps
