@@ -42,11 +42,12 @@ def _detail(kind: str, value: int, carriage: float, axis, travel) -> str:
 SUB_CHUNK = 1 << 16
 
 
-def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray) -> None:
+def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray, changing: int = 0xFF) -> None:
     """Decode axis ``i`` of ``sim`` over ``frames``; ``watch_out[:, i]`` gets (motor, carriage mm)
-    at the end of each watched tick."""
+    at the end of each watched tick. ``changing``: the bits not the same in every frame
+    (:func:`changing_bits`; an axis none of whose bits change is not read frame by frame)."""
     axis, driver, screw = sim.machine.axes[i], sim.drivers[i], sim.screws[i]
-    frames = _own_frames(axis, driver, frames)
+    frames = _own_frames(axis, driver, frames, changing)
     if not len(frames):                                # no edge of this axis in the chunk: it holds
         if len(watch):
             end = frames.end_tick
@@ -111,7 +112,14 @@ def _buffers(sim, n: int) -> tuple:
     return kept
 
 
-def _own_frames(axis, driver, frames):
+def changing_bits(frames) -> int:
+    """The port bits that are not the same in every frame of ``frames``."""
+    if not len(frames):
+        return 0
+    return int(np.bitwise_or.reduce(frames.values)) ^ int(np.bitwise_and.reduce(frames.values))
+
+
+def _own_frames(axis, driver, frames, changing: int):
     """The frames that change this axis's step or direction bits (the others change nothing for
     its driver), as the driver last saw them; the chunk's end tick kept."""
     if driver.direction == 0 or not len(frames):
@@ -119,6 +127,8 @@ def _own_frames(axis, driver, frames):
     mask = (1 << axis.step_bit) | (1 << axis.dir_bit)
     logical = (driver.step << axis.step_bit) | ((1 if driver.direction > 0 else 0) << axis.dir_bit)
     seen = logical ^ ((axis.invert_step << axis.step_bit) | (axis.invert_dir << axis.dir_bit))
+    if not changing & mask and int(frames.values[0]) & mask == seen:     # the axis's bits hold
+        return PortFrames(frames.ticks[:0], frames.values[:0], frames.end_tick)
     ticks, values = np.empty(len(frames), np.int64), np.empty(len(frames), np.uint8)
     n = own_changes(frames.ticks, frames.values, np.int64(mask), np.int64(seen), ticks, values)
     return PortFrames(ticks[:n], values[:n], frames.end_tick)

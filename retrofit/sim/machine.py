@@ -62,13 +62,14 @@ class SimMachine:
         pull-out motor model, or a small chunk before anything loaded the compiler, goes step by
         step). Chunks continue one another."""
         from ..motion._jit import compiled
-        from .decode import feed_axis
+        from .decode import changing_bits, feed_axis
         if not compiled(len(frames)):          # a small chunk: not worth loading the compiler
             return self.feed_reference(frames)
         watch, out = self._take_watch(frames.end_tick)
+        changing = changing_bits(frames)
         for i, (axis, driver) in enumerate(zip(self.machine.axes, self.drivers)):
             if self.motors[i] is None:
-                feed_axis(self, i, frames, watch, out)
+                feed_axis(self, i, frames, watch, out, changing)
             else:
                 rises, dirs = driver.edges(frames.ticks, frames.values)
                 self._move(i, axis, rises, dirs, (watch, out, frames.end_tick))
