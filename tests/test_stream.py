@@ -53,3 +53,22 @@ def test_chunks_are_bounded_and_follow_one_another():
         assert len(before) == 0 or before.ticks[-1] < before.end_tick
         assert len(after) == 0 or after.ticks[0] >= before.end_tick
     assert chunks[-1].end_tick == fast.frames.end_tick
+
+
+@pytest.mark.parametrize("text", ["G17 G2 X30 Y20 Z-3 I5 J0 F900",         # three axes step at once
+                                  "G17 G2 X30 Y20 I5 J0 F900\nG1 Y25\nG1 X10 Y5"],
+                         ids=["helix", "plane"])
+def test_streamed_frames_of_two_or_three_moving_axes_equal_the_fast_path(text, monkeypatch):
+    """Two axes' steps are walked into port bytes at once, three through the lists of changes:
+    both give the fast path's frames, in windows of a few steps (pulses and turns cut across)."""
+    import retrofit.motion.bitmerge as bitmerge
+    from retrofit.gcode import compile_program
+    machine = load_machine("engraver")
+    plan = plan_program(compile_program("G21 G90\nG0 X20 Y20 Z0\n" + text, machine).commands, machine)
+    walks = []
+    real = bitmerge.follow_two_axes
+    monkeypatch.setattr(bitmerge, "follow_two_axes", lambda *a: walks.append(1) or real(*a))
+    for window in (1, 7, 1000):
+        walks.clear()
+        assert execute_streamed(plan, window_steps=window).frames == execute_fast(plan).frames
+        assert (len(walks) < len(list(stream_frames(plan, window))) / 2) == ("Z" in text)

@@ -22,7 +22,7 @@ import numpy as np
 from ..frames import PinMap, PortFrames
 from ..runlog import RunLog, WaypointTable
 from ._jit import compiled, kernel
-from .bitmerge import axis_events, follow_two, merge_two
+from .bitmerge import merge_pending
 from .execute import tick_of
 from .fast import _bresenham_requests, _dda_requests, plan_steps
 from .planner import Plan
@@ -212,7 +212,7 @@ class _StepGen:
 
     def frames(self, limit: int, first: bool) -> PortFrames:
         """Port frames of the pending events before ``limit``."""
-        return _merge(self.pending, limit, self.high, self.step_mask, self.dir_mask, self.invert,
+        return merge_pending(self.pending, limit, self.high, self.step_mask, self.dir_mask, self.invert,
                       self.bits_last, first)
 
 
@@ -335,42 +335,6 @@ def _limit(shape_state, next_tick, next_dir, period, machine) -> int:
             bound = max(int(next_tick[a]), first, last_rise + int(period[a]))
         limit = min(limit, bound)
     return int(limit)
-
-
-def _merge(pending: _Axes, limit: int, high, step_mask, dir_mask, invert: int, bits_last, first: bool) -> PortFrames:
-    """Port frames of the pending events before ``limit``; what is merged leaves ``pending``.
-
-    Each axis's bit changes (rise, fall, turn: each flips its bit) are listed in tick order, the
-    axes' lists merged two at a time (changes at one tick joined), then the byte follows them.
-    """
-    streams = []
-    for a in range(len(pending.rises)):
-        rises, turns = pending.rises[a], pending.turns[a]
-        if not len(rises) and not len(turns):
-            continue
-        ev_t = np.empty(2 * len(rises) + len(turns), np.int64)
-        ev_m = np.empty(len(ev_t), np.uint8)
-        c, fallen, risen, turned = axis_events(rises, int(pending.i_rise[a]), turns, high[a], step_mask[a],
-                                                dir_mask[a], np.int64(limit), ev_t, ev_m)
-        pending.rises[a] = rises[fallen:]
-        pending.i_rise[a] = risen - fallen
-        pending.turns[a], pending.turn_dirs[a] = turns[turned:], pending.turn_dirs[a][turned:]
-        streams.append((ev_t[:c], ev_m[:c]))
-    while len(streams) > 2:
-        (at, am), (bt, bm) = streams.pop(), streams.pop()
-        out_t, out_m = np.empty(len(at) + len(bt), np.int64), np.empty(len(at) + len(bt), np.uint8)
-        c = merge_two(at, am, bt, bm, out_t, out_m)
-        streams.append((out_t[:c], out_m[:c]))
-    empty = (np.zeros(0, np.int64), np.zeros(0, np.uint8))
-    (at, am), (bt, bm) = (streams + [empty, empty])[:2]
-    start = 1 if first else 0
-    out_ticks = np.empty(len(at) + len(bt) + start, np.int64)
-    out_values = np.empty(len(out_ticks), np.uint8)
-    if first:
-        out_ticks[0], out_values[0] = 0, invert
-        bits_last[0], bits_last[1] = 0, invert
-    n = start + follow_two(at, am, bt, bm, np.int64(invert), bits_last, out_ticks[start:], out_values[start:])
-    return PortFrames(out_ticks[:n], out_values[:n], min(int(limit), int(_BIG)))
 
 
 def execute_streamed(plan: Plan, window_steps: int = 1 << 20) -> RunLog:
