@@ -88,15 +88,7 @@ def arc_points(start: Sequence[float], end: Sequence[float], center: Sequence[fl
     does every axis off the plane (helical motion). The last point is ``tuple(end)`` exactly.
     """
     a, b = plane_axes
-    r0 = math.hypot(start[a] - center[a], start[b] - center[b])
-    r1 = math.hypot(end[a] - center[a], end[b] - center[b])
-    if r0 == 0.0 or r1 == 0.0:
-        raise ValueError("arc radius is 0: the centre is on the start or the end point")
-    sweep = arc_sweep(start, end, center, clockwise, plane_axes, full_turns)
-    step = chord_angle(max(r0, r1), tolerance_mm)
-    n = max(1, math.ceil(sweep / step))
-    a0 = math.atan2(start[b] - center[b], start[a] - center[a])
-    sign = -1.0 if clockwise else 1.0
+    r0, r1, sweep, n, a0, sign = _chords(start, end, center, clockwise, plane_axes, tolerance_mm, full_turns)
     points = []
     for k in range(1, n):
         f = k / n
@@ -122,14 +114,7 @@ def arc_columns(start: Sequence[float], end: Sequence[float], center: Sequence[f
         True
     """
     a, b = plane_axes
-    r0 = math.hypot(start[a] - center[a], start[b] - center[b])
-    r1 = math.hypot(end[a] - center[a], end[b] - center[b])
-    if r0 == 0.0 or r1 == 0.0:
-        raise ValueError("arc radius is 0: the centre is on the start or the end point")
-    sweep = arc_sweep(start, end, center, clockwise, plane_axes, full_turns)
-    n = max(1, math.ceil(sweep / chord_angle(max(r0, r1), tolerance_mm)))
-    a0 = math.atan2(start[b] - center[b], start[a] - center[a])
-    sign = -1.0 if clockwise else 1.0
+    r0, r1, sweep, n, a0, sign = _chords(start, end, center, clockwise, plane_axes, tolerance_mm, full_turns)
     f = np.arange(1, n, dtype=np.float64) / n
     angles = (a0 + sign * sweep * f).tolist()
     radius = r0 + (r1 - r0) * f
@@ -140,6 +125,20 @@ def arc_columns(start: Sequence[float], end: Sequence[float], center: Sequence[f
     points[:-1, b] = center[b] + radius * np.fromiter(map(math.sin, angles), np.float64, n - 1)
     points[-1] = [float(v) for v in end]
     return points
+
+
+def _chords(start, end, center, clockwise: bool, plane_axes: tuple[int, int], tolerance_mm: float,
+            full_turns: int) -> tuple[float, float, float, int, float, float]:
+    """(start radius, end radius, sweep, chords, start angle, sense) of an arc cut into chords."""
+    a, b = plane_axes
+    r0 = math.hypot(start[a] - center[a], start[b] - center[b])
+    r1 = math.hypot(end[a] - center[a], end[b] - center[b])
+    if r0 == 0.0 or r1 == 0.0:
+        raise ValueError("arc radius is 0: the centre is on the start or the end point")
+    sweep = arc_sweep(start, end, center, clockwise, plane_axes, full_turns)
+    n = max(1, math.ceil(sweep / chord_angle(max(r0, r1), tolerance_mm)))
+    a0 = math.atan2(start[b] - center[b], start[a] - center[a])
+    return r0, r1, sweep, n, a0, -1.0 if clockwise else 1.0
 
 
 def arc_extent(start: Sequence[float], end: Sequence[float], center: Sequence[float],
