@@ -9,6 +9,7 @@ an output that cannot be used, 130 interrupted (Ctrl-C).
 from __future__ import annotations
 
 import argparse
+import gc
 import sys
 from importlib import import_module
 
@@ -35,7 +36,20 @@ def version() -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the command line; returns the exit code."""
+    """Run the command line; returns the exit code.
+
+    Called as the program (``argv`` None), the process ends once this returns: its objects are
+    frozen first, so that Python's collections at exit do not walk every object the run and its
+    libraries made (0.15 s after a compiled run) only for the operating system to free them.
+    """
+    try:
+        return _command(argv)
+    finally:
+        if argv is None:
+            gc.freeze()
+
+
+def _command(argv: list[str] | None) -> int:
     from ..atomic import not_written
     try:
         parser = _parser()

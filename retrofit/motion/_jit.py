@@ -2,17 +2,20 @@
 
 Every ``@kernel`` function is plain Python (IEEE-754 arithmetic, ``math.sqrt``, ``math.exp``,
 ``math.log``), so it gives the same numbers compiled or not. Loading Numba and its cached
-machine code costs over a second, more than a small program's whole run, so kernels stay Python
-until some stage asks for :func:`compiled` with enough work (``COMPILE_ABOVE`` steps or frames):
-then Numba compiles every kernel (cached on disk, so the compile cost is paid once per machine)
-and the compiled versions replace the Python ones in every ``retrofit`` module, for the rest of
-the process.
+machine code costs about a quarter of a second, more than a small program's whole run, so
+kernels stay Python until some stage asks for :func:`compiled` with enough work
+(``COMPILE_ABOVE`` steps or frames): then every kernel is handed to Numba, whose versions
+replace the Python ones in every ``retrofit`` module for the rest of the process; each loads
+its machine code from Numba's cache on disk at its first call (compiled there once per
+machine), so a run pays only for the kernels it calls.
 
 ``RETROFIT_NO_NUMBA=1`` keeps Python kernels; ``RETROFIT_NUMBA=always`` compiles from the start.
 """
 
 from __future__ import annotations
 
+import contextlib
+import gc
 import importlib.util
 import os
 import sys
@@ -36,23 +39,83 @@ def kernel(func):
 
 
 def _start_numba() -> None:
-    """Load Numba's CPU target now, telling its BLAS check there is none.
+    """Make Numba ready to load cached kernels; what only compiling needs waits for a compile.
 
-    When it first loads a kernel, Numba imports SciPy's linear algebra to see whether ``np.dot``
-    could be compiled (0.2 s and 30 MB); no kernel here uses linear algebra, so while the target
-    loads SciPy reads as absent (unless something imported it already). SciPy imports normally
-    afterwards.
+    Numba refreshes its whole CPU target before it loads a cached kernel: it imports and
+    registers the typing and lowering of every builtin, NumPy function, typed container and
+    random generator it knows (0.25 s), none of which running cached machine code uses. Here
+    the target gets only what a load needs (the runtime that allocates arrays, and NumPy's
+    array lowering whose environments the cached kernels refer to), and the full refresh runs
+    at the first compile, which always starts by refreshing the typing context. Where Numba's
+    internals differ from what this expects, the target is refreshed in full at once.
+
+    The CPU target is loaded with the collector off and its objects frozen: the hundred
+    thousand objects Numba makes at start-up are never garbage, so no collection walks them.
+    """
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        with _without_scipy():
+            if not _start_for_cache():
+                _refresh_target()
+    finally:
+        gc.freeze()
+        if enabled:
+            gc.enable()
+
+
+@contextlib.contextmanager
+def _without_scipy():
+    """SciPy reads as absent while Numba's target loads (unless something imported it already).
+
+    When it first loads its array lowering, Numba imports SciPy's linear algebra to see whether
+    ``np.dot`` could be compiled (0.2 s and 30 MB); no kernel here uses linear algebra. SciPy
+    imports normally afterwards.
     """
     blocked = "scipy" not in sys.modules
     if blocked:
         sys.modules["scipy"] = None
     try:
-        from numba.core.registry import cpu_target
-        cpu_target.target_context.refresh()
-        cpu_target.typing_context.refresh()
+        yield
     finally:
         if blocked:
             del sys.modules["scipy"]
+
+
+def _refresh_target() -> None:
+    """Numba's full refresh of its CPU target (typing and lowering of everything it knows)."""
+    from numba.core.registry import cpu_target
+    cpu_target.target_context.refresh()
+    cpu_target.typing_context.refresh()
+
+
+def _start_for_cache() -> bool:
+    """Load only what cached kernels need; the full refresh waits for the first compile.
+
+    False (nothing changed) where this Numba lacks the pieces this relies on.
+    """
+    try:
+        from numba.core.registry import cpu_target
+        from numba.core.runtime import rtsys
+        import numba.np.arraymath               # noqa: F401  (array lowering, BLAS check)
+    except ImportError:
+        return False
+    target, typing = cpu_target.target_context, cpu_target.typing_context
+    if not (callable(getattr(target, "refresh", None)) and callable(getattr(typing, "refresh", None))):
+        return False
+    rtsys.initialize(target)
+
+    def refresh_in_full() -> None:          # the first compile: back to Numba's own refresh
+        del target.refresh, typing.refresh
+        with _without_scipy():
+            _refresh_target()
+    target.refresh = _no_refresh
+    typing.refresh = refresh_in_full
+    return True
+
+
+def _no_refresh() -> None:
+    """A cached kernel's load asks the target to refresh: it has what a load needs."""
 
 
 def _njit(func):
