@@ -1,15 +1,20 @@
 """The one place the compiler is fenced off: kernels run as Python, or compiled once the work pays.
 
 Every ``@kernel`` function is plain Python (IEEE-754 arithmetic, ``math.sqrt``, ``math.exp``,
-``math.log``), so it gives the same numbers compiled or not. Loading Numba and its cached
-machine code costs about a quarter of a second, more than a small program's whole run, so
-kernels stay Python until some stage asks for :func:`compiled` with enough work
-(``COMPILE_ABOVE`` steps or frames): then every kernel is handed to Numba, whose versions
-replace the Python ones in every ``retrofit`` module for the rest of the process; each loads
-its machine code from Numba's cache on disk at its first call (compiled there once per
-machine), so a run pays only for the kernels it calls.
+``math.log``), so it gives the same numbers compiled or not. Compiled kernels come from one of
+two places, switched to by the first stage that asks :func:`compiled`, for the rest of the
+process, in every ``retrofit`` module:
 
-``RETROFIT_NO_NUMBA=1`` keeps Python kernels; ``RETROFIT_NUMBA=always`` compiles from the start.
+* the ahead-of-time module ``retrofit kernels`` builds (:mod:`retrofit.motion._aot`), taken
+  whenever it is current, at any size of work: it loads in milliseconds;
+* else Numba's just-in-time kernels, once a stage has ``COMPILE_ABOVE`` steps or frames of work:
+  loading Numba costs about 0.15 s of CPU, more than a small program's whole run, and each
+  kernel then loads its machine code from Numba's cache on disk at its first call (compiled
+  there once per machine), so a run pays only for the kernels it calls.
+
+A call the ahead-of-time module has no exact match for hands every kernel to Numba from then on.
+``RETROFIT_NO_NUMBA=1`` keeps Python kernels; ``RETROFIT_NO_AOT=1`` never takes the
+ahead-of-time module; ``RETROFIT_NUMBA=always`` compiles from the start.
 """
 
 from __future__ import annotations
@@ -27,15 +32,22 @@ HAVE_NUMBA = (not os.environ.get("RETROFIT_NO_NUMBA")
 COMPILE_ABOVE = 100_000
 
 _kernels: dict[int, object] = {}     # id(python function) -> python function
-_active = False
+_current: dict[int, object] = {}     # id(python function) -> what modules call now
+_active = False                      # kernels run compiled (ahead of time or by Numba's JIT)
+_jit = False                         # Numba's just-in-time kernels loaded
+_library = None                      # the ahead-of-time module (retrofit.motion._aot); False: none
 
 
 def kernel(func):
-    """Register ``func`` as a kernel: Python until :func:`compiled` switches to Numba."""
-    if _active:
-        return _njit(func)
+    """Register ``func`` as a kernel: Python until :func:`compiled` switches to compiled code."""
     _kernels[id(func)] = func
-    return func
+    if _jit:
+        _current[id(func)] = _njit(func)
+    elif _active and _library:
+        _current[id(func)] = _library.guard(func, _missed)
+    else:
+        _current[id(func)] = func
+    return _current[id(func)]
 
 
 def _start_numba() -> None:
@@ -124,24 +136,61 @@ def _njit(func):
 
 
 def compiled(work: int | None = None) -> bool:
-    """True when kernels run compiled; switches to them now if ``work`` (None: any) is large enough."""
-    global _active
+    """True when kernels run compiled; switches to them now if ``work`` (None: any) is large enough.
+
+    The switch takes the ahead-of-time module built by ``retrofit kernels`` where it is current
+    (``RETROFIT_NO_AOT=1``: never), at any size of work since it loads in milliseconds; else
+    Numba's just-in-time kernels, from ``COMPILE_ABOVE`` steps or frames of work.
+    """
+    global _active, _library
     if _active or not HAVE_NUMBA:
         return _active
-    if work is not None and work < COMPILE_ABOVE:
+    if _library is None:
+        _library = _load_library()
+    if _library:
+        _install({key: _library.guard(func, _missed) for key, func in _kernels.items()})
+        _active = True
+    elif work is None or work >= COMPILE_ABOVE:
+        to_jit()
+    return _active
+
+
+def _load_library():
+    """The current ahead-of-time module, or False (looked for once a process)."""
+    if os.environ.get("RETROFIT_NO_AOT"):
         return False
+    from . import _aot
+    return _aot.load() or False
+
+
+def to_jit() -> None:
+    """Hand every kernel to Numba's just-in-time compiler (loading from its cache) from now on."""
+    global _active, _jit
+    if _jit:
+        return
     _start_numba()
-    table = {key: _njit(func) for key, func in _kernels.items()}
+    _install({key: _njit(func) for key, func in _kernels.items()})
+    _active = _jit = True
+
+
+def _missed(func):
+    """A call the ahead-of-time module cannot take: Numba's kernels from now on; ``func``'s own."""
+    to_jit()
+    return _current[id(func)]
+
+
+def _install(table: dict) -> None:
+    """Every ``retrofit`` module's name for a kernel now names ``table[id(python function)]``."""
+    swap = {id(_current[key]): new for key, new in table.items()}
+    old = {id(_current[key]): _current[key] for key in table}
     for name, module in list(sys.modules.items()):
         if not (name == "retrofit" or name.startswith("retrofit.")) or module is None:
             continue
         for attr, value in list(vars(module).items()):
-            if id(value) in table and _kernels[id(value)] is value:
-                setattr(module, attr, table[id(value)])
-    _active = True
-    return True
+            if id(value) in swap and old[id(value)] is value:
+                setattr(module, attr, swap[id(value)])
+    _current.update(table)
 
 
 if HAVE_NUMBA and os.environ.get("RETROFIT_NUMBA") == "always":     # pragma: no cover
-    _start_numba()
-    _active = True
+    compiled()
