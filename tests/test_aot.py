@@ -129,6 +129,7 @@ def run(args: list[str], env: dict, cwd: Path) -> str:
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(1200)                    # the build compiles every kernel twice on a cold cache
 @needs_numba
 def test_runs_with_the_built_module_match_numba_and_python_without_loading_numba(tmp_path):
     env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path / "xdg"), RETROFIT_NUMBA="")

@@ -35,6 +35,15 @@ def version() -> str:
         return "unknown"
 
 
+class _Version(argparse.Action):
+    """``--version``: the installed version, looked up only when asked (importlib.metadata is slow
+    to import, and every other command would pay for it)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"retrofit {version()}")
+        parser.exit()
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit code.
 
@@ -80,7 +89,7 @@ def _command(argv: list[str] | None) -> int:
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="retrofit", description="CNC retrofit toolkit: controller, simulator, outputs.")
-    p.add_argument("--version", action="version", version=f"retrofit {version()}")
+    p.add_argument("--version", action=_Version, nargs=0, help="show the version and exit")
     sub = p.add_subparsers(metavar="COMMAND")
     for module in command_modules():
         import_module(module).add_commands(sub)
