@@ -1,17 +1,17 @@
 """Kernels compiled ahead of time: one extension module a run loads without Numba.
 
-``retrofit kernels`` (:func:`build`) has Numba compile every kernel, for every argument type
-its cache on disk holds, into one extension module in the user's cache folder, next to a table
-of what it holds. A compiled run then loads that module (a fraction of a millisecond) instead of
-Numba and its cached kernels (a quarter of a second); the machine code comes from the same
-compiler on the same Python source, without fast-math, so the numbers are the same.
+``retrofit kernels`` (:mod:`retrofit.motion._aot_build`) has Numba compile every kernel, for
+every argument type its cache on disk holds, into one extension module in the user's cache
+folder, next to a table of what it holds. A compiled run then loads that module (milliseconds)
+instead of Numba and its cached kernels (0.2 s of CPU); the machine code comes from the same
+compiler, for the same CPU, on the same Python source, without fast-math, so the numbers are
+the same. (Unlike Numba's kernels, these hold the GIL while they run.)
 
-The module is used only while it is current: built by this Python, NumPy and Numba, from kernel
-modules whose source is unchanged (each checked against its hash in the table). Each kernel
-becomes a guard that calls the compiled function whose argument types are exactly those of the
-call (dtype, dimensions, layout, writability, as Numba would type them); any other call, like
-any kernel the module lacks, hands the whole process over to Numba's just-in-time kernels.
-"""
+The module is used only while it is current: built by this Python, NumPy and Numba, on this CPU,
+from kernel modules whose source is unchanged (each checked against its hash in the table). Each
+kernel becomes a guard that calls the compiled function whose argument types are exactly those
+of the call (dtype, dimensions, layout, writability, as Numba would type them); any other call,
+like any kernel the module lacks, hands the whole process over to Numba's just-in-time kernels."""
 
 from __future__ import annotations
 

@@ -10,14 +10,13 @@ table beside the module says which, and the hash of every kernel module's source
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import importlib
 import importlib.machinery
 import io
 import json
 import os
-import pkgutil
 import tempfile
-import time
 import warnings
 from pathlib import Path
 
@@ -30,14 +29,13 @@ WARM_UP = (("lathe-profile.ngc", "chivu-lathe", ["--controller"]),
 
 
 def kernel_modules() -> list[str]:
-    """Every ``retrofit`` module that defines kernels (its source holds ``@kernel``)."""
-    import retrofit
+    """Every ``retrofit`` module that defines kernels (a line of its source is ``@kernel``)."""
+    root = Path(_aot.__file__).parents[1]
     names = []
-    for info in pkgutil.walk_packages(retrofit.__path__, "retrofit."):
-        spec = importlib.util.find_spec(info.name)
-        if spec and spec.origin and spec.origin.endswith(".py") and not info.name.endswith("._jit"):
-            if "\n@kernel\n" in Path(spec.origin).read_text(encoding="utf-8"):
-                names.append(info.name)
+    for path in sorted(root.rglob("*.py")):
+        if path.name != "_jit.py" and "\n@kernel\n" in path.read_text(encoding="utf-8"):
+            parts = path.relative_to(root.parent).with_suffix("").parts
+            names.append(".".join(parts[:-1] if parts[-1] == "__init__" else parts))
     return names
 
 
@@ -76,13 +74,34 @@ def build(progress=print) -> Path:
 def _compile(scratch: Path) -> Path:
     import llvmlite.binding as llvm
     from numba.pycc import CC
-    stamp = f"{NAME_PREFIX}{time.time_ns():x}"
     cc = CC(_aot.NAME)
     cc.output_dir = str(scratch)
     cc.target_cpu = llvm.get_host_cpu_name()          # as Numba's JIT does: this machine's CPU
-    cc.output_file = stamp + importlib.machinery.EXTENSION_SUFFIXES[0]
+    kernels = _exports(cc)
+    modules = sorted({func.__module__ for func in _jit._kernels.values()})
+    table = {"cpu": _aot.cpu_identity(), "modules": {m: _aot.module_hash(m) for m in modules}, "kernels": kernels}
+    stamp = "kernels-" + hashlib.sha256(json.dumps(table, sort_keys=True).encode()).hexdigest()[:16]
+    cc.output_file = table["file"] = stamp + importlib.machinery.EXTENSION_SUFFIXES[0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")                # pycc's pending deprecation
+        cc.compile()
+    folder = _aot.folder()
+    folder.mkdir(parents=True, exist_ok=True)
+    os.replace(scratch / cc.output_file, folder / cc.output_file)
+    tmp = folder / f"{_aot.TABLE}.{stamp}"
+    tmp.write_text(json.dumps(table, indent=1))
+    os.replace(tmp, folder / _aot.TABLE)
+    for old in folder.glob("kernels-*"):             # modules of earlier builds
+        if old.name != cc.output_file:
+            old.unlink(missing_ok=True)
+    return folder
+
+
+def _exports(cc) -> dict[str, dict[str, str]]:
+    """Mark every (kernel, argument types) for export; the table: kernel -> types -> export name."""
     kernels: dict[str, dict[str, str]] = {}
-    for n, (key, func) in enumerate(sorted(_jit._kernels.items(), key=lambda kv: _aot.kernel_name(kv[1]))):
+    ordered = sorted(_jit._kernels.items(), key=lambda item: _aot.kernel_name(item[1]))
+    for n, (key, func) in enumerate(ordered):
         dispatcher = _jit._current[key]
         for m, sig in enumerate(signatures(dispatcher)):
             described = [_aot.describe_type(t) for t in sig]
@@ -92,21 +111,4 @@ def _compile(scratch: Path) -> Path:
             export = f"k{n}_{m}"
             cc.export(export, dispatcher.overloads[sig].signature)(func)
             kernels.setdefault(_aot.kernel_name(func), {})["|".join(described)] = export
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        cc.compile()
-    folder = _aot.folder()
-    folder.mkdir(parents=True, exist_ok=True)
-    os.replace(scratch / cc.output_file, folder / cc.output_file)
-    modules = sorted({func.__module__ for func in _jit._kernels.values()})
-    table = {"file": cc.output_file, "cpu": _aot.cpu_identity(), "modules": {m: _aot.module_hash(m) for m in modules}, "kernels": kernels}
-    tmp = folder / f"{_aot.TABLE}.{stamp}"
-    tmp.write_text(json.dumps(table, indent=1))
-    os.replace(tmp, folder / _aot.TABLE)
-    for old in folder.glob(f"{NAME_PREFIX}*"):
-        if old.name != cc.output_file:
-            old.unlink(missing_ok=True)
-    return folder
-
-
-NAME_PREFIX = "kernels-"
+    return kernels
