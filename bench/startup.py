@@ -108,7 +108,8 @@ def ensure_module() -> None:
 
 
 STAGES = (("python", "Python itself (interpreter, site)"), ("numpy", "import numpy"),
-          ("retrofit", "import retrofit's command and run path"), ("numba", "compiled(): the ahead-of-time module, or Numba"))
+          ("retrofit", "import retrofit's command and run path"),
+          ("numba", "compiled(): the ahead-of-time module, or Numba"))
 
 
 MODES = {"Numba's JIT kernels": {"RETROFIT_NO_AOT": "1"}, "ahead-of-time module": {"RETROFIT_NO_AOT": ""}}
