@@ -66,7 +66,8 @@ def test_the_guard_calls_the_export_of_the_exact_types_and_hands_any_other_call_
     ro.flags.writeable = False
     for args in [(a[::2], 2), (a.astype(np.float64), 2), (a, 2.0), (ro, 2), (a.astype(np.int32), 2)]:
         assert guard(*args) == args[0][0] + args[1]           # the Python function answered
-    assert missed == [add] * 5
+    assert guard(a, n=2) == 2                                # by name: the Python function
+    assert missed == [add] * 6
 
 
 SWITCH = '''

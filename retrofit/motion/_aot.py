@@ -126,10 +126,10 @@ class Library:
         exports = {tuple(key.split("|")) if key else (): getattr(self.module, name)
                    for key, name in self.kernels.get(kernel_name(func), {}).items()}
 
-        def call(*args):
-            compiled = exports.get(tuple(map(describe, args)))
+        def call(*args, **named):
+            compiled = None if named else exports.get(tuple(map(describe, args)))
             if compiled is None:
-                return on_miss(func)(*args)
+                return on_miss(func)(*args, **named)
             return compiled(*args)
         call.__name__, call.__qualname__, call.__doc__ = func.__name__, func.__qualname__, func.__doc__
         call.__module__, call.__wrapped__, call.py_func = func.__module__, func, func   # py_func: as Numba's
