@@ -10,14 +10,19 @@ from __future__ import annotations
 
 import bisect
 import math
+import types
 
 from ..motion import profile as prof
 
 
 def _python(kernel):
     """A profile kernel as plain Python: called once per step from Python, the compiled kernel's
-    call overhead would dominate; the arithmetic, hence every float, is the same."""
-    return getattr(kernel, "py_func", kernel)
+    call overhead would dominate; the arithmetic, hence every float, is the same. A function
+    object of its own, so the switch to compiled kernels (which swaps the kernel's own function
+    wherever a module names it) leaves it Python."""
+    func = getattr(kernel, "py_func", kernel)
+    return types.FunctionType(func.__code__, func.__globals__, func.__name__, func.__defaults__,
+                              func.__closure__)
 
 
 _trapezoid_time = _python(prof._trapezoid_time)
