@@ -30,6 +30,11 @@ def cmd_kernels(args) -> int:
         where = _aot.folder()
         print(f"kernels compiled ahead of time: {'current' if library else 'none current'} in {where}")
         return 0 if library else 1
+    import importlib.util
+    if importlib.util.find_spec("numba.pycc") is None:
+        print("kernels: this Numba has no ahead-of-time compiler (numba.pycc); runs keep Numba's "
+              "just-in-time kernels, with the same numbers", file=sys.stderr)
+        return 0
     from ..motion._aot_build import build
     print("running the shipped examples with Numba's kernels, then compiling (a minute or two)",
           file=sys.stderr, flush=True)

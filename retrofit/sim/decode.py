@@ -64,7 +64,7 @@ def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray, cha
     params, side, trip, hysteresis = _constants(sim, i)
     sw = (side, trip, hysteresis, np.array([int(s.closed) for s in switches], dtype=np.int64))
     buffers = _buffers(sim, min(len(frames.ticks), SUB_CHUNK))
-    w_out = np.zeros((2, len(watch)), np.float64)
+    w_out = np.zeros((len(watch), 2), np.float64)      # rows stay contiguous when sliced
     lo, hi = sim._travel[i]
     done_watch = 0
     for start in range(0, max(len(frames.ticks), 1), SUB_CHUNK):
@@ -72,7 +72,7 @@ def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray, cha
         end = int(frames.ticks[stop]) if stop < len(frames.ticks) else frames.end_tick
         args = (frames.ticks[start:stop], frames.values[start:stop], params, ds, ms, gap, float(screw.width),
                 float(axis.steps_per_mm), float(lo), float(hi), *sw,
-                watch[done_watch:], w_out[:, done_watch:], np.int64(end))
+                watch[done_watch:], w_out[done_watch:], np.int64(end))
         counts, strided = _decode(sim, sim.traces[axis.name], args, buffers)
         done_watch += counts[3]
         _events(sim, i, switches, (lo, hi), buffers, counts, strided)
@@ -84,7 +84,7 @@ def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray, cha
     for k, s in enumerate(switches):
         s.closed = bool(sw[3][k])
     if len(watch):
-        watch_out[:, i, :] = w_out.T
+        watch_out[:, i, :] = w_out
 
 
 def _constants(sim, i: int) -> tuple:

@@ -57,7 +57,7 @@ def decode_axis(ticks, values, par, ds, ms, gap, width, spm, lo, hi,
     watched, steps).
 
     ``watch`` is a sorted array of ticks whose (motor, carriage) at the end of the tick are
-    written to ``watch_out`` (rows: motor, carriage) for those below ``end_tick``.
+    written to ``watch_out`` (a row per watched tick: motor, carriage) for those below ``end_tick``.
     Output buffers must hold one row per frame (violations: four per frame plus one per frame).
     """
     logical_mask = par[P_INVERT]
@@ -108,8 +108,8 @@ def decode_axis(ticks, values, par, ds, ms, gap, width, spm, lo, hi,
         if not rise:
             continue
         while w < watch.shape[0] and watch[w] < tick:          # the state before this step
-            watch_out[0, w] = motor
-            watch_out[1, w] = (motor - g) / spm
+            watch_out[w, 0] = motor
+            watch_out[w, 1] = (motor - g) / spm
             w += 1
         if last_dir != 0 and d != last_dir:
             reversals += 1
@@ -142,8 +142,8 @@ def decode_axis(ticks, values, par, ds, ms, gap, width, spm, lo, hi,
                 sw_state[n_sw] = now
                 n_sw += 1
     while w < watch.shape[0] and watch[w] < end_tick:
-        watch_out[0, w] = motor
-        watch_out[1, w] = (motor - g) / spm
+        watch_out[w, 0] = motor
+        watch_out[w, 1] = (motor - g) / spm
         w += 1
     ds[D_STEP], ds[D_DIR], ds[D_RISE], ds[D_FALL], ds[D_TURN] = step, direction, last_rise, last_fall, last_turn
     ms[M_MOTOR], ms[M_LAST_DIR], ms[M_REVERSALS], ms[M_OUT] = motor, last_dir, reversals, out
