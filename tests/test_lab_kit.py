@@ -285,13 +285,14 @@ def test_grade_a_class_of_thirty_on_lab_10(part, tmp_path):
     write_grades(grades, lab, tmp_path / "grades.csv", tmp_path / "grades.json")
     rows = {r["student"]: r for r in csv.DictReader((tmp_path / "grades.csv").open(encoding="utf-8"))}
     assert sorted(rows) == sorted(kinds) and len(rows) == 6
-    full = sum(c["max_points"] for c in json.loads((tmp_path / "grades.json").read_text())["students"][0]["checks"])
+    data = json.loads((tmp_path / "grades.json").read_text(encoding="utf-8"))
+    full = sum(c["max_points"] for c in data["students"][0]["checks"])
     for name, kind in kinds.items():
         row, points = rows[name], int(rows[name]["points"])
         assert int(row["max_points"]) == full, row
         if kind == "right":
             assert (points, row["failed"], row["note"]) == (full, "", ""), json.dumps(
-                [c for c in json.loads((tmp_path / "grades.json").read_text())["students"] if c["student"] == name])
+                [c for c in data["students"] if c["student"] == name])
         elif kind == "syntax":
             assert points == 0 and row["failed"] == "TODO 1 TODO 2 TODO 3 TODO 4", row
         elif kind == "endless":                  # only the checks of interpret() hang
@@ -300,11 +301,10 @@ def test_grade_a_class_of_thirty_on_lab_10(part, tmp_path):
             todo = re.search(r"TODO (\d)", (lab.path / "wrong" / f"{kind[6:]}.py").read_text())[0]
             assert todo in row["failed"].split(" TODO ") or todo in row["failed"], (kind, row)
             assert points < full, row
-    data = json.loads((tmp_path / "grades.json").read_text(encoding="utf-8"))
     hung = [c for s in data["students"] if kinds[s["student"]] == "endless" for c in s["checks"]
             if c["status"] == "failed"]
-    assert all(f"did not finish within {CLASS_CHECK_SECONDS:g} s" in c["message"] and "in interpret" in c["message"]
-               for c in hung)
+    within = f"did not finish within {CLASS_CHECK_SECONDS:g} s"
+    assert all(within in c["message"] and "in interpret" in c["message"] for c in hung)
     assert ("endless" in kinds.values()) == bool(hung)
 
 
