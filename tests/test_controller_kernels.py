@@ -14,7 +14,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, given, seed, settings, strategies as st
 
 from retrofit.commands import CStp, Dely, FMov, IStp, PFdr, PMov, Spin, ZMov
 from retrofit.config import load_machine
@@ -129,13 +129,19 @@ def test_random_jobs_give_the_same_frames_carriages_and_violations(data):
     check_compiled_equals_reference(data)
 
 
+SHARDS = 20                 # 20 x 10 programs, each shard from its own fixed seed: no test over ~15 s
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(not HAVE_NUMBA, reason="compares the compiled loop; without Numba it is the same Python")
-@pytest.mark.parametrize("shard", range(4))               # 4 x 50 programs: no test over a minute
-@settings(max_examples=50, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(data=st.data())
-def test_random_jobs_give_the_same_frames_carriages_and_violations_200_programs(shard, data):
-    check_compiled_equals_reference(data)
+@pytest.mark.parametrize("shard", range(SHARDS))
+def test_random_jobs_give_the_same_frames_carriages_and_violations_200_programs(shard):
+    @seed(20_000 + shard)
+    @settings(max_examples=200 // SHARDS, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+    @given(data=st.data())
+    def programs_of_the_shard(data):
+        check_compiled_equals_reference(data)
+    programs_of_the_shard()
 
 
 def test_a_thread_runs_almost_entirely_compiled_and_cuts_the_same_helix():

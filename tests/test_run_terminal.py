@@ -88,27 +88,41 @@ def _run(tmp_path: Path, interrupt_after_s: float | None = None) -> subprocess.C
     return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
 
 
-@pytest.mark.slow
-def test_ctrl_c_at_random_moments_leaves_every_file_complete_or_absent(tmp_path):
-    whole = tmp_path / "whole"
-    whole.mkdir()
+@pytest.fixture(scope="module")
+def whole_run(tmp_path_factory):
+    """The run not interrupted: how long it took here, and the three files it wrote."""
+    whole = tmp_path_factory.mktemp("whole")
     started = time.monotonic()
     done = _run(whole)
-    # the interruptions are spread over the run as long as it took here (only to pick moments)
     run_s = time.monotonic() - started
     assert done.returncode == 0, done.stderr
-    reference = {name: (whole / name).read_bytes() for name in ("x.vcd", "r.json", "p.png")}
+    return run_s, {name: (whole / name).read_bytes() for name in ("x.vcd", "r.json", "p.png")}
+
+
+CTRL_C_PARTS = 4            # 20 interruptions, 5 a test, each test's spread from early to late in the run
+
+
+def _moments(part: int) -> list[float]:
+    """This part's share of 20 random moments (fractions of the run): every 4th of them in order."""
     rng = random.Random(12)
+    return sorted(rng.uniform(0.05, 1.1) for _ in range(20))[part::CTRL_C_PARTS]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("part", range(CTRL_C_PARTS))
+def test_ctrl_c_at_random_moments_leaves_every_file_complete_or_absent(part, whole_run, tmp_path):
+    # the interruptions are spread over the run as long as it took here (only to pick moments)
+    run_s, reference = whole_run
     seen = set()
-    for attempt in range(20):
+    for attempt, moment in enumerate(_moments(part)):
         folder = tmp_path / f"try{attempt}"
         folder.mkdir()
-        result = _run(folder, rng.uniform(0.05, 1.1) * run_s)
+        result = _run(folder, moment * run_s)
         assert result.returncode in (0, 130), result.stderr
         assert "Traceback" not in result.stderr
         for name, data in reference.items():
             path = folder / name
-            assert not path.exists() or path.read_bytes() == data, (attempt, name)
+            assert not path.exists() or path.read_bytes() == data, (moment, name)
         assert {p.name for p in folder.iterdir()} <= set(reference)      # no temporary file left
         if result.returncode == 130:
             missing = [n for n in reference if not (folder / n).exists()]
@@ -119,4 +133,4 @@ def test_ctrl_c_at_random_moments_leaves_every_file_complete_or_absent(tmp_path)
                 assert result.stderr.startswith("retrofit: interrupted; not written: ")
                 assert all(n in result.stderr for n in missing), result.stderr
         seen.add(tuple(sorted(p.name for p in folder.iterdir())))
-    assert len(seen) >= 2                  # the interruptions fell at different moments of the run
+    assert len(seen) >= 2, seen            # the interruptions fell at different moments of the run
