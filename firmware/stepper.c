@@ -34,10 +34,9 @@ uint8_t st_seg_flags, st_seg_level, st_bres_axes, st_always_axes;
 uint16_t st_ticks_left, st_period, st_tick_at, st_tick_next;
 int32_t st_counter[N_AXES];                  /* Bresenham's error term minus the base */
 uint32_t st_inc[N_AXES], st_base, st_enc_left;
-/* The event of the next tick, and when its pins rise and fall (read by the interrupt's entry). */
+/* The event of the next tick (read by the interrupt's entry). */
 volatile uint8_t st_ev_bits;
 uint8_t st_ev_neg, st_ev_count, st_ev_last;
-uint16_t st_fall_at;
 uint8_t st_pin_dirs;                          /* bit i set: axis i's pin says negative */
 volatile uint8_t st_dir_pending, st_dir_next;
 volatile uint8_t st_busy, st_missed;             /* tick_body runs; a match came meanwhile */

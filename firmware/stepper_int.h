@@ -47,10 +47,9 @@ extern uint8_t st_seg_flags, st_seg_level, st_bres_axes, st_always_axes;
 extern uint16_t st_ticks_left, st_period, st_tick_at, st_tick_next;
 extern int32_t st_counter[N_AXES];                  /* Bresenham's error term minus the base */
 extern uint32_t st_inc[N_AXES], st_base, st_enc_left;
-/* The event of the next tick, and when its pins rise and fall (read by the interrupt's entry). */
+/* The event of the next tick (read by the interrupt's entry). */
 extern volatile uint8_t st_ev_bits;
 extern uint8_t st_ev_neg, st_ev_count, st_ev_last;
-extern uint16_t st_fall_at;
 extern uint8_t st_pin_dirs;                          /* bit i set: axis i's pin says negative */
 extern volatile uint8_t st_dir_pending, st_dir_next;
 extern volatile uint8_t st_busy, st_missed;             /* tick_body runs; a match came meanwhile */
@@ -96,15 +95,12 @@ static inline void write_directions(uint8_t dirs)
     FOR_EACH_AXIS(DIR_SET)
 }
 
-/* The next match at count t, and when its pins rise (compare C) and fall (fall_at).
+/* The next match at count t (its pins rise at t + SLOT_COUNTS, their fall is set from there).
  * schedule() puts it one period after this one, never at a count the counter has passed. */
 static inline __attribute__((always_inline)) void set_next(uint16_t t)
 {
     OCR1A = t;
     st_tick_next = t;
-    OCR1C = t + SLOT_COUNTS;                   /* its flag marks when the pins rise */
-    TIFR1 = _BV(OCF1C);
-    st_fall_at = t + (uint16_t)(SLOT_COUNTS + PULSE_COUNTS - FALL_LEAD_COUNTS);
 }
 
 static inline __attribute__((always_inline)) void schedule(void)
