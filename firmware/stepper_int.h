@@ -16,18 +16,19 @@
 #define PIN_OF(slot, what) PASTE(RAMPS_, slot, what)
 
 #define PULSE_COUNTS US_TO_COUNTS(PULSE_HIGH_US)
-/* The pins rise this many counts after the match: the interrupt's entry and register saves
- * (about 60 cycles) plus the longest time another interrupt or an interrupts-off stretch may
- * hold it off. */
+/* The pins rise when the counter reaches the match plus this many counts: the interrupt's
+ * entry and register saves (about 45 cycles) plus the time another interrupt or an
+ * interrupts-off stretch may hold it off (about 25 cycles). */
 #ifndef SLOT_COUNTS
 #define SLOT_COUNTS 9
 #endif
 /* From a wake-up (the first segment, or the end of an ISTP line) to the first tick. */
 #define WAKE_COUNTS (PULSE_COUNTS + SLOT_COUNTS + 40)
-/* The pulse's end is set this many counts early: the end's interrupt lowers the pins about as
- * much later after its match as the entry raised them after the slot. */
+/* Compare B's interrupt ends a pulse: its flag comes as the counter leaves the compare value,
+ * and the pins fall about 10 cycles later, so a pulse ends 0.5-1 us after its width (never
+ * earlier) when compare B is set this many counts before the rise's count plus the width. */
 #ifndef FALL_LEAD_COUNTS
-#define FALL_LEAD_COUNTS (-1)
+#define FALL_LEAD_COUNTS 0
 #endif
 
 
