@@ -105,9 +105,9 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
     FOR_EACH_AXIS(RISE_ASM)
 #if FALL_IN_TICK
     __asm__ __volatile__(
-        "add r20, r21\n\t"                    /* the count they rose at, plus the pulse */
-        "subi r20, lo8(-(%[pulse]))\n\t"
-        ::[pulse] "n"(PULSE_COUNTS));
+        "add r20, r21\n\t"                    /* the count they rose in, plus the pulse and */
+        "subi r20, lo8(-(%[pulse]))\n\t"      /* one: they rose 4-11 cycles into that count */
+        ::[pulse] "n"(PULSE_COUNTS + 1));
 #else
     __asm__ __volatile__(
         "sts %[high], r24\n\t"

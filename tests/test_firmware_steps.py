@@ -10,6 +10,7 @@ the machine file's acceleration limit.
 from __future__ import annotations
 
 import math
+import re
 import shutil
 
 import numpy as np
@@ -94,19 +95,28 @@ def test_bresenham_axes_step_on_the_base_axis_edges_with_exact_pulses_at_40_khz(
         assert np.abs(cruise - every * S / rate).max() <= 16
 
 
-def test_a_pulse_ended_by_its_own_interrupt_is_exact_at_50_khz(tmp_path):
-    """A 5 us pulse is too long to wait for inside the tick: compare B's interrupt ends it,
-    0.5-1 us late at most, never early; the intervals stay within +-1 us at 50 kHz."""
-    text = BENCH.read_text().replace("pulse_high_ticks = 2", "pulse_high_ticks = 5")
-    (tmp_path / "steprate5.toml").write_text(text.replace('name = "steprate"', 'name = "steprate5"'))
-    machine = load_machine(tmp_path / "steprate5.toml")
-    elf = fs.build_copy(machine, tmp_path / "build")
-    rate = 50_000
+def bench_variant(tmp_path, name: str, pulse_ticks: int = 2, axes: str = "xyza"):
+    """The bench machine with another pulse width or fewer axes, built in a copy."""
+    sections = re.split(r"(?m)^(?=\[)", BENCH.read_text())
+    text = "".join(p for p in sections if not p.startswith("[axis.") or p[6] in axes)
+    text = text.replace("pulse_high_ticks = 2", f"pulse_high_ticks = {pulse_ticks}")
+    (tmp_path / f"{name}.toml").write_text(text.replace('name = "steprate"', f'name = "{name}"'))
+    machine = load_machine(tmp_path / f"{name}.toml")
+    return machine, fs.build_copy(machine, tmp_path / "build")
+
+
+@pytest.mark.parametrize("name, pulse_ticks, axes, rate", [
+    ("steprate1", 2, "x", 60_000),    # one axis: the shortest tick ends its pulse itself
+    ("steprate5", 5, "xyza", 50_000),  # too long to wait for: compare B's interrupt ends it
+])
+def test_a_pulse_is_never_shorter_than_configured_and_at_most_1_us_longer(
+        tmp_path, name, pulse_ticks, axes, rate):
+    machine, elf = bench_variant(tmp_path, name, pulse_ticks, axes)
     log, steps = cruise_move(machine, elf, "X", rate)
     rises, falls, _ = fs.step_times(log, machine, "X")
     assert len(rises) == len(falls) == steps
     width_us = (falls - rises) / 16
-    assert width_us.min() >= 5.0 and width_us.max() <= 6.0
+    assert width_us.min() >= pulse_ticks and width_us.max() <= pulse_ticks + 1.0
     cruise = np.diff(rises)[steps // 4: 3 * steps // 4]
     assert np.abs(cruise - S / rate).max() <= 16
 
