@@ -1,7 +1,8 @@
 /* tick_asm.c - the step interrupt's entry, its common tick and the pulse's end, in assembly:
- * the pins must rise and fall a fixed number of cycles after their compares, and a tick must
- * cost few enough cycles for 45 kHz. Only r18-r25, r30, r31 and SREG are used, saved by hand;
- * anything else goes on in tick_body (tick.c). See stepper.c for the design. */
+ * the pins must rise and fall a fixed number of counts after their match, and the common tick
+ * must cost few enough cycles for 60 kHz (about 185 with a short pulse's end; a period is 267).
+ * Only r18-r25, r30, r31 and SREG are used, saved by hand; anything else goes on in tick_body
+ * (tick.c). See stepper.c for the design. */
 #include <stddef.h>
 
 #include "stepper_int.h"
