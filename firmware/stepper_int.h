@@ -28,7 +28,7 @@
  * and the pins fall about 10 cycles later, so a pulse ends 0.5-1 us after its width (never
  * earlier) when compare B is set this many counts before the rise's count plus the width. */
 #ifndef FALL_LEAD_COUNTS
-#define FALL_LEAD_COUNTS 0
+#define FALL_LEAD_COUNTS (-1)
 #endif
 
 

@@ -57,6 +57,10 @@
 #define FALL_IN_TICK (PULSE_HIGH_US * (F_CPU / 8000000UL) <= FALL_IN_TICK_MAX_COUNTS)
 /* The waits poll the counter's low byte (5 cycles a turn, so no count of 8 cycles is missed):
  * no compare flag is cleared by hand. (simavr 1.6 clears every flag of TIFR1 at any write.) */
+/* A pulse ended by compare B's interrupt rises this much after the slot is seen: its end
+ * comes 10-22 cycles after the compare's count, and the pulse is then 0-1 us longer than
+ * configured (never shorter), as the one ended inside the tick. */
+#define COMPARE_END_DELAY "rjmp .+0\n\trjmp .+0\n\t"
 #define ENTRY_OPERANDS                                                                       \
     [bits] "i"(&st_ev_bits), [next] "i"(&st_tick_next), [high] "i"(&st_pulse_high),            \
     [ocrbh] "n"(_SFR_MEM_ADDR(OCR1BH)), [ocrbl] "n"(_SFR_MEM_ADDR(OCR1BL)),                    \
@@ -102,6 +106,9 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "31: lds r21, %[tcntl]\n\t"           /* the slot (at once if it has passed) */
         "sub r21, r20\n\t"
         "brmi 31b\n\t"
+#if !FALL_IN_TICK
+        COMPARE_END_DELAY
+#endif
         ::ENTRY_OPERANDS, [fast] "i"(&st_fast));
     FOR_EACH_AXIS(RISE_ASM)
 #if FALL_IN_TICK
@@ -201,10 +208,12 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "pop r30\n\t"
         "40:\n\t"
 #if !FALL_IN_TICK
-        "cli\n\t"
+        "clr r24\n\t"                        /* done: a match may nest from here on (and no */
+        "sts %[busy], r24\n\t"               /* interrupts-off tail delays compare B's) */
         "lds r24, %[missed]\n\t"           /* a match came meanwhile: take it at once */
         "tst r24\n\t"
         "breq 41f\n\t"
+        "cli\n\t"
         "clr r24\n\t"
         "sts %[missed], r24\n\t"
         "lds r18, %[tcntl]\n\t"
@@ -215,8 +224,7 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "sts %[ocral], r18\n\t"
         "sts %[next]+1, r19\n\t"
         "sts %[next], r18\n\t"
-        "41: clr r24\n\t"
-        "sts %[busy], r24\n\t"
+        "41:\n\t"
 #endif
         "pop r21\n\t"
         "pop r20\n\t"
@@ -265,6 +273,7 @@ void slow_entry(void)
         "set\n\t"
         "2: lds r24, %[bits]\n\t"
         "sts %[high], r24\n\t"
+        COMPARE_END_DELAY
         ::ENTRY_OPERANDS, [fallofs] "n"(SLOT_COUNTS + PULSE_COUNTS - FALL_LEAD_COUNTS));
     FOR_EACH_AXIS(RISE_ASM)
     __asm__ __volatile__(
