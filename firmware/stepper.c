@@ -78,7 +78,7 @@ ISR(INT0_vect)
     if (b) {
         uint8_t bits = b, neg = st_ln->dir_bits;
         FOR_EACH_AXIS(STEP_HIGH)
-        OCR1B = TCNT1 + PULSE_COUNTS + 1;         /* +1: the count read may be about to turn */
+        OCR1B = TCNT1 + FALL_AFTER_RISE_COUNTS;   /* (the pins rose in this count or before) */
         st_pulse_high = 1;
         FOR_EACH_AXIS(COUNT)
     }

@@ -24,12 +24,12 @@
 #endif
 /* From a wake-up (the first segment, or the end of an ISTP line) to the first tick. */
 #define WAKE_COUNTS (PULSE_COUNTS + SLOT_COUNTS + 40)
-/* Compare B's interrupt ends a pulse: its flag comes as the counter leaves the compare value,
- * and the pins fall about 10 cycles later, so a pulse ends 0.5-1 us after its width (never
- * earlier) when compare B is set this many counts before the rise's count plus the width. */
-#ifndef FALL_LEAD_COUNTS
-#define FALL_LEAD_COUNTS (-1)
-#endif
+/* Compare B's interrupt ends a pulse: it comes FALL_EARLY_COUNTS before the count the pulse
+ * ends at and waits for that count itself, so its entry's delay (10-20 cycles, whatever it
+ * waited for) does not lengthen the pulse. A pulse that rose in count c ends at the start of
+ * c + PULSE_COUNTS + 1: 0.2-0.8 us longer than configured, never shorter. */
+#define FALL_EARLY_COUNTS (PULSE_COUNTS >= 4 ? 3 : 1)
+#define FALL_AFTER_RISE_COUNTS (PULSE_COUNTS + 1 - FALL_EARLY_COUNTS)   /* compare B - c */
 
 
 extern segment_t st_ring[SEGMENTS];

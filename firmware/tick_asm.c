@@ -57,10 +57,6 @@
 #define FALL_IN_TICK (PULSE_HIGH_US * (F_CPU / 8000000UL) <= FALL_IN_TICK_MAX_COUNTS)
 /* The waits poll the counter's low byte (5 cycles a turn, so no count of 8 cycles is missed):
  * no compare flag is cleared by hand. (simavr 1.6 clears every flag of TIFR1 at any write.) */
-/* A pulse ended by compare B's interrupt rises this much after the slot is seen: its end
- * comes 10-22 cycles after the compare's count, and the pulse is then 0-1 us longer than
- * configured (never shorter), as the one ended inside the tick. */
-#define COMPARE_END_DELAY "rjmp .+0\n\trjmp .+0\n\t"
 #define ENTRY_OPERANDS                                                                       \
     [bits] "i"(&st_ev_bits), [next] "i"(&st_tick_next), [high] "i"(&st_pulse_high),            \
     [ocrbh] "n"(_SFR_MEM_ADDR(OCR1BH)), [ocrbl] "n"(_SFR_MEM_ADDR(OCR1BL)),                    \
@@ -103,11 +99,19 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "set\n\t"
         "mov r20, r18\n\t"
         "subi r20, lo8(-(%[slot]))\n\t"
+#if !FALL_IN_TICK
+        "lds r21, %[tcntl]\n\t"               /* the slot come at the first look (T stays */
+        "sub r21, r20\n\t"                    /* set): when in its count is unknown, compare */
+        "brpl 32f\n\t"                        /* B is set from the count after the rise */
+        "clt\n\t"
+        "31: lds r21, %[tcntl]\n\t"
+        "sub r21, r20\n\t"
+        "brmi 31b\n\t"
+        "32:\n\t"
+#else
         "31: lds r21, %[tcntl]\n\t"           /* the slot (at once if it has passed) */
         "sub r21, r20\n\t"
         "brmi 31b\n\t"
-#if !FALL_IN_TICK
-        COMPARE_END_DELAY
 #endif
         ::ENTRY_OPERANDS, [fast] "i"(&st_fast));
     FOR_EACH_AXIS(RISE_ASM)
@@ -119,15 +123,22 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
 #else
     __asm__ __volatile__(
         "sts %[high], r24\n\t"
+        "brts 27f\n\t"
         "movw r24, r18\n\t"                   /* compare B's interrupt ends the pulse */
         "subi r24, lo8(-(%[fallofs]))\n\t"
         "sbci r25, hi8(-(%[fallofs]))\n\t"
         "add r24, r21\n\t"
         "brcc 28f\n\t"
         "inc r25\n\t"
+        "rjmp 28f\n\t"
+        "27: lds r24, %[tcntl]\n\t"
+        "lds r25, %[tcnth]\n\t"
+        "subi r24, lo8(-(%[after]))\n\t"
+        "sbci r25, hi8(-(%[after]))\n\t"
         "28: sts %[ocrbh], r25\n\t"
         "sts %[ocrbl], r24\n\t"
-        ::ENTRY_OPERANDS, [fallofs] "n"(SLOT_COUNTS + PULSE_COUNTS - FALL_LEAD_COUNTS));
+        ::ENTRY_OPERANDS, [fallofs] "n"(SLOT_COUNTS + FALL_AFTER_RISE_COUNTS),
+          [after] "n"(FALL_AFTER_RISE_COUNTS));
 #endif
     __asm__ __volatile__(
         "34: lds r24, %[period]\n\t"         /* the next match, one period on, never passed */
@@ -257,33 +268,61 @@ void slow_entry(void)
         "tst r24\n\t"
         "brne 7f\n\t"
         "rjmp 3f\n\t"
-        "7: lds r24, %[next]\n\t"            /* on time: the pulse ends a fixed count after */
-        "lds r25, %[next]+1\n\t"             /* the match (a late entry sets it from now) */
+        "7:\n\t"
+#if !FALL_IN_TICK
+        "lds r24, %[next]\n\t"               /* on time: the pulse ends a fixed count after */
+        "lds r25, %[next]+1\n\t"             /* the match (a late entry sets it again) */
         "subi r24, lo8(-(%[fallofs]))\n\t"
         "sbci r25, hi8(-(%[fallofs]))\n\t"
         "sts %[ocrbh], r25\n\t"
         "sts %[ocrbl], r24\n\t"
-        "clt\n\t"                             /* T: the slot had passed (a late entry) */
-        "lds r25, %[next]\n\t"
+#endif
+        "push r23\n\t"
+        "set\n\t"                             /* T: the slot had come at the first look */
+        "lds r25, %[next]\n\t"                /* (late, or when in its count unknown) */
         "subi r25, lo8(-(%[slot]))\n\t"
-        "1: lds r24, %[tcntl]\n\t"
-        "sub r24, r25\n\t"
+        "lds r24, %[bits]\n\t"
+        "lds r23, %[tcntl]\n\t"
+        "sub r23, r25\n\t"
+        "brpl 2f\n\t"
+        "clt\n\t"
+        "1: lds r23, %[tcntl]\n\t"             /* the pins rise as soon as in the common tick */
+        "sub r23, r25\n\t"
         "brmi 1b\n\t"
-        "breq 2f\n\t"
-        "set\n\t"
-        "2: lds r24, %[bits]\n\t"
-        "sts %[high], r24\n\t"
-        COMPARE_END_DELAY
-        ::ENTRY_OPERANDS, [fallofs] "n"(SLOT_COUNTS + PULSE_COUNTS - FALL_LEAD_COUNTS));
+        "2:\n\t"
+#if FALL_IN_TICK
+        "add r23, r25\n\t"                    /* the count they rise in */
+#endif
+        ::ENTRY_OPERANDS, [fallofs] "n"(SLOT_COUNTS + FALL_AFTER_RISE_COUNTS));
     FOR_EACH_AXIS(RISE_ASM)
+#if FALL_IN_TICK
     __asm__ __volatile__(
-        "brtc 3f\n\t"                         /* late: the pulse ends PULSE_COUNTS from now */
-        "lds r24, %[tcntl]\n\t"
-        "lds r25, %[tcnth]\n\t"
-        "subi r24, lo8(-(%[pulse]))\n\t"
-        "sbci r25, hi8(-(%[pulse]))\n\t"
-        "sts %[ocrbh], r25\n\t"
+        "subi r23, lo8(-(%[pulse1]))\n\t"     /* a short pulse ends here too, as in the */
+        "4: lds r25, %[tcntl]\n\t"            /* common tick */
+        "sub r25, r23\n\t"
+        "brmi 4b\n\t"
+        ::ENTRY_OPERANDS, [pulse1] "n"(PULSE_COUNTS + 1));
+    FOR_EACH_AXIS(FALL_ASM)
+    __asm__ __volatile__(
+        "pop r23\n\t"
+        ::ENTRY_OPERANDS);
+#else
+    __asm__ __volatile__(
+        "sts %[high], r24\n\t"
+        "brtc 4f\n\t"                         /* late: the pulse ends from the count seen */
+        "lds r24, %[next]\n\t"
+        "lds r25, %[next]+1\n\t"
+        "subi r24, lo8(-(%[fallofs]))\n\t"
+        "sbci r25, hi8(-(%[fallofs]))\n\t"
+        "add r24, r23\n\t"
+        "brcc 5f\n\t"
+        "inc r25\n\t"
+        "5: sts %[ocrbh], r25\n\t"
         "sts %[ocrbl], r24\n\t"
+        "4: pop r23\n\t"
+        ::ENTRY_OPERANDS, [fallofs] "n"(SLOT_COUNTS + FALL_AFTER_RISE_COUNTS));
+#endif
+    __asm__ __volatile__(
         "3: ldi r24, 1\n\t"
         "sts %[busy], r24\n\t"
         "pop r25\n\t"
@@ -297,7 +336,7 @@ void slow_entry(void)
         "out __SREG__, r24\n\t"
         "pop r24\n\t"
         "reti\n\t"
-        ::ENTRY_OPERANDS, [missed] "i"(&st_missed), [pulse] "n"(PULSE_COUNTS + 1));
+        ::ENTRY_OPERANDS, [missed] "i"(&st_missed));
 }
 
 /* The common tick's segment is used up (called from its assembly, r20, r21 and r30 free): the
@@ -366,16 +405,33 @@ void seg_boundary_asm(void)
           [nseg] "M"(SEGMENTS), [fast] "i"(&st_fast), [last] "i"(&st_ev_last));
 }
 
-/* The pulse's end: a few cycles after its match, in assembly (r24 and SREG only); a direction
- * change waiting for it goes on in dir_body. */
+/* The pulse's end: compare B comes FALL_EARLY_COUNTS early, the pins fall when the counter
+ * reaches the end's count (at once if it has passed, or if this is no pulse's compare at all);
+ * r24, r25 and SREG only. A direction change waiting for it goes on in dir_body. */
 ISR(TIMER1_COMPB_vect, ISR_NAKED)
 {
     __asm__ __volatile__(
         "push r24\n\t"
         "in r24, __SREG__\n\t"
-        "push r24\n\t");
+        "push r24\n\t"
+        "push r25\n\t"
+        "lds r25, %[ocrbl]\n\t"
+        "subi r25, lo8(-(%[early]))\n\t"
+        "lds r24, %[tcntl]\n\t"
+        "sub r24, r25\n\t"
+        "cpi r24, lo8(-(%[early]))\n\t"      /* not within the counts before the end: now */
+        "brlo 2f\n\t"
+        "1: lds r24, %[tcntl]\n\t"            /* else wait for the end's count */
+        "sub r24, r25\n\t"
+        "brmi 1b\n\t"
+        "rjmp .+0\n\t"                        /* (4 cycles: a Z pin falls 3-10 cycles after */
+        "rjmp .+0\n\t"                        /* the width, X 5-13) */
+        "2:\n\t"
+        ::[ocrbl] "n"(_SFR_MEM_ADDR(OCR1BL)), [tcntl] "n"(_SFR_MEM_ADDR(TCNT1L)),
+          [early] "n"(FALL_EARLY_COUNTS));
     FOR_EACH_AXIS(FALL_ASM)
     __asm__ __volatile__(
+        "pop r25\n\t"
         "clr r24\n\t"
         "sts %[high], r24\n\t"
         "lds r24, %[pending]\n\t"
