@@ -20,7 +20,7 @@
  * entry and register saves (about 45 cycles) plus the time another interrupt or an
  * interrupts-off stretch may hold it off (about 25 cycles). */
 #ifndef SLOT_COUNTS
-#define SLOT_COUNTS 9
+#define SLOT_COUNTS 10
 #endif
 /* From a wake-up (the first segment, or the end of an ISTP line) to the first tick. */
 #define WAKE_COUNTS (PULSE_COUNTS + SLOT_COUNTS + 40)
