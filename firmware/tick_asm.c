@@ -298,9 +298,11 @@ void slow_entry(void)
 #if FALL_IN_TICK
     __asm__ __volatile__(
         "subi r23, lo8(-(%[pulse1]))\n\t"     /* a short pulse ends here too, as in the */
-        "4: lds r25, %[tcntl]\n\t"            /* common tick */
-        "sub r25, r23\n\t"
-        "brmi 4b\n\t"
+        "4: lds r25, %[tcntl]\n\t"            /* common tick (and 4 cycles more: the last */
+        "sub r25, r23\n\t"                    /* axis's pin falls 3 cycles nearer its rise */
+        "brmi 4b\n\t"                         /* than the first's) */
+        "rjmp .+0\n\t"
+        "rjmp .+0\n\t"
         ::ENTRY_OPERANDS, [pulse1] "n"(PULSE_COUNTS + 1));
     FOR_EACH_AXIS(FALL_ASM)
     __asm__ __volatile__(
