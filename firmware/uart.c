@@ -24,7 +24,9 @@ void uart_init(void)
 }
 
 /* Both interrupts are in assembly and allow interrupts again after a dozen cycles: the step
- * interrupt's entry waits for no more than that. */
+ * interrupt's entry waits for no more than that. They save r24 (with SREG), r25, r30, r31. */
+#define UART_ISR_EXIT                                                                      \
+    "pop r31\n\tpop r30\n\tpop r25\n\tpop r24\n\tout __SREG__, r24\n\tpop r24\n\treti\n\t"
 ISR(USART0_RX_vect, ISR_NAKED)
 {
     __asm__ __volatile__(
@@ -48,13 +50,8 @@ ISR(USART0_RX_vect, ISR_NAKED)
         "sbci r31, hi8(-(%[buf]))\n\t"
         "st Z, r25\n\t"
         "sts %[head], r24\n\t"
-        "1: pop r31\n\t"
-        "pop r30\n\t"
-        "pop r25\n\t"
-        "pop r24\n\t"
-        "out __SREG__, r24\n\t"
-        "pop r24\n\t"
-        "reti\n\t"
+        "1:\n\t"
+        UART_ISR_EXIT
         ::[udr] "n"(_SFR_MEM_ADDR(UDR0)), [head] "i"(&rx_head), [tail] "i"(&rx_tail),
           [buf] "i"(rx_buf), [mask] "M"(RX_SIZE - 1));
 }
@@ -91,13 +88,8 @@ ISR(USART0_UDRE_vect, ISR_NAKED)
         "lds r24, %[ucsrb]\n\t"
         "ori r24, %[on]\n\t"
         "sts %[ucsrb], r24\n\t"
-        "1: pop r31\n\t"
-        "pop r30\n\t"
-        "pop r25\n\t"
-        "pop r24\n\t"
-        "out __SREG__, r24\n\t"
-        "pop r24\n\t"
-        "reti\n\t"
+        "1:\n\t"
+        UART_ISR_EXIT
         ::[udr] "n"(_SFR_MEM_ADDR(UDR0)), [ucsrb] "n"(_SFR_MEM_ADDR(UCSR0B)),
           [off] "M"(0xFF & ~_BV(UDRIE0)), [on] "M"(_BV(UDRIE0)), [head] "i"(&tx_head),
           [tail] "i"(&tx_tail), [buf] "i"(tx_buf), [mask] "M"(TX_SIZE - 1));
