@@ -1,4 +1,4 @@
-/* stepper_int.h - what the step generator's files (stepper.c, tick.c, tick_asm.c) share: the
+/* stepper_int.h - what the step generator's files (stepper.c, tick*.c) share: the
  * interrupt's state, the pins of the RAMPS sockets and the timing constants. Not for others. */
 #ifndef STEPPER_INT_H
 #define STEPPER_INT_H
