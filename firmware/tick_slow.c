@@ -5,9 +5,10 @@
 
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmisspelled-isr"
-/* Any other tick (a new segment, line or AMASS level, switches to watch, the end): the pins
- * rise at the slot as above, then tick_body (tick.c) runs with interrupts on and compare B's
- * interrupt ends the pulse. A match that comes while tick_body still runs is marked missed. */
+/* Any other tick (a new line or AMASS level, switches to watch, the end): the pins rise at the
+ * slot as in the common tick, a short pulse ends here too (a longer one by compare B's
+ * interrupt), then tick_body (tick.c) runs with interrupts on. A match that comes while
+ * tick_body still runs is marked missed. */
 void slow_entry(void) __attribute__((naked, used));
 void slow_entry(void)
 {
