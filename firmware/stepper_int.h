@@ -16,9 +16,10 @@
 #define PIN_OF(slot, what) PASTE(RAMPS_, slot, what)
 
 #define PULSE_COUNTS US_TO_COUNTS(PULSE_HIGH_US)
-/* The pins rise when the counter reaches the match plus this many counts: the interrupt's
- * entry and register saves (about 45 cycles) plus the time another interrupt or an
- * interrupts-off stretch may hold it off (about 25 cycles). */
+/* The pins rise when the counter reaches the match plus this many counts (80 cycles): the
+ * interrupt's entry and register saves (about 42 cycles) plus the time another interrupt or an
+ * interrupts-off stretch may hold it off (the 1 ms clock's and the serial interrupts' first
+ * cycles, 10-20). */
 #ifndef SLOT_COUNTS
 #define SLOT_COUNTS 10
 #endif
