@@ -4,10 +4,11 @@ of an earlier commit (default: the one before the segment buffer) built the same
 1. For 1, 2, 3 and 4 moving axes, the highest cruise rate at which every step interval of the
    cruise is within +-1 us of the planned period, every pulse within +-1 us of the configured
    width, every moving axis steps on the same edge, and no compare waited for a timer wrap
-   (no interval longer than twice the period).
-2. At those rates and at 5 kHz on three axes: the CPU share of the interrupts, the longest
-   interrupt and the longest interrupts-off stretch (in the main loop and in an interrupt: the
-   worst latency another interrupt can see).
+   (no interval longer than twice the period); the same for one axis with a 5 us pulse (too
+   long to be ended inside the tick: compare B's interrupt ends it).
+2. At those rates and at 5 kHz on three axes: the CPU share of the interrupts and their cycles
+   per step, the longest interrupt and the longest interrupts-off stretch (in the main loop and
+   in an interrupt: the worst latency another interrupt can see).
 3. The 474-segment circle (3 R10 circles at F1200 on tul-mill, through the link): the time from
    the first step to the last beside the host plan's, and each axis's acceleration over 20 ms
    windows beside its limit (plus the quantisation of counting whole steps).
@@ -15,7 +16,7 @@ of an earlier commit (default: the one before the segment buffer) built the same
    far any step moved from the quiet run's.
 5. Flash and RAM of each shipped machine.
 
-    python bench/firmware_steprate.py [--base COMMIT] [--quick]
+    python bench/firmware_steprate.py [--base COMMIT[,COMMIT...]] [--quick]
 """
 
 from __future__ import annotations
@@ -41,7 +42,6 @@ from retrofit.link import (IMMEDIATE, QUEUED, FrameDecoder, decode_reply, encode
 
 MACHINE = ROOT / "bench" / "steprate.toml"
 S = fs.F_CPU
-PULSE_US = 2.0
 
 
 def frames(machine, texts: list[tuple[int, str]]) -> list[tuple[int, bytes]]:
@@ -71,6 +71,7 @@ def run_move(elf: Path, machine, axes: str, rate: float, stats: bool = False):
 
 def clean(log, machine, axes: str, rate: float, steps: int) -> bool:
     """Every cruise interval and pulse within +-1 us of the plan, all axes on the same edges."""
+    pulse_us = machine.axis(axes[0]).pulse_high_ticks * machine.tick_us
     rises, falls, _ = fs.step_times(log, machine, axes[0])
     if len(rises) != steps or len(falls) != steps:
         return False
@@ -82,7 +83,7 @@ def clean(log, machine, axes: str, rate: float, steps: int) -> bool:
     period = 1e6 / rate
     cruise = np.diff(rises)[steps // 4: 3 * steps // 4] / 16.0
     no_wrap = np.diff(rises).max() / 16.0 < 2 * max(period, 1e6 / 14000.0)
-    return (np.abs(widths - PULSE_US).max() <= 1.0 and np.abs(cruise - period).max() <= 1.0
+    return (np.abs(widths - pulse_us).max() <= 1.0 and np.abs(cruise - period).max() <= 1.0
             and no_wrap)
 
 
@@ -109,7 +110,8 @@ def interrupts(elf: Path, machine, axes: str, rate: float, idle: float) -> str:
     rises, _, _ = fs.step_times(log, machine, axes[0])
     span = int(rises[-1] - rises[0])
     share = (st["isr_cycles"] - idle * (st["cycles"] - span)) / span
-    return (f"interrupts {100 * share:5.1f} % of the CPU while it moves, longest time in an ISR "
+    return (f"interrupts {100 * share:5.1f} % of the CPU while it moves ({share * span / (len(rises) - 1):.0f} "
+            f"cycles a step), longest time in an ISR "
             f"{st['isr_longest'] / 16:6.1f} us (interrupts on after the pins), interrupts off at "
             f"most {st['off_main_longest'] / 16:4.1f} us in the main loop, "
             f"{st['off_isr_longest'] / 16:4.1f} us in an ISR")
@@ -182,36 +184,62 @@ def sizes() -> None:
               f"RAM {data + bss} B ({100 * (data + bss) / 8192:.1f} % of 8 KiB) before the stack")
 
 
+def long_pulse(machine_path: Path, tmp: Path):
+    """The bench machine with a 5 us pulse (ended by compare B's interrupt, not in the tick)."""
+    text = machine_path.read_text().replace("pulse_high_ticks = 2", "pulse_high_ticks = 5")
+    path = tmp / "steprate5.toml"
+    path.write_text(text.replace('name = "steprate"', 'name = "steprate5"'))
+    return load_machine(path)
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--base", default="6f10b11", help="the commit whose firmware runs beside")
+    ap.add_argument("--base", default="6f10b11,d4e08f1",
+                    help="the commits whose firmware runs beside (default: before the segment "
+                         "buffer, before the common tick ran whole)")
     ap.add_argument("--quick", action="store_true", help="a coarser sweep")
     args = ap.parse_args()
     machine = load_machine(MACHINE)
     step = 5000 if args.quick else 2500
     rates = [float(r) for r in range(5000, 90001, step)]
     with tempfile.TemporaryDirectory() as tmp:
-        subprocess.run(f"git -C {ROOT} archive {args.base} firmware | tar -x -C {tmp}",
-                       shell=True, check=True)
-        elves = {f"base {args.base}": fs.build_copy(machine, Path(tmp) / "base", Path(tmp) / "firmware"),
-                 "this tree": fs.build_copy(machine, Path(tmp) / "tree")}
+        tmp = Path(tmp)
+        sources = {}
+        for base in args.base.split(","):
+            subprocess.run(f"mkdir -p {tmp / base} && git -C {ROOT} archive {base} firmware | "
+                           f"tar -x -C {tmp / base}", shell=True, check=True)
+            sources[f"base {base}"] = tmp / base / "firmware"
+        sources["this tree"] = fs.FIRMWARE
+        m5 = long_pulse(MACHINE, tmp)
+        elves, elves5 = {}, {}
+        for name, src in sources.items():
+            key = name.replace(" ", "_")
+            elves[name] = fs.build_copy(machine, tmp / "build" / key, src)
+            elves5[name] = fs.build_copy(m5, tmp / "build5" / key, src)
         print("highest clean step rate (steps/s of each axis; +-1 us intervals and pulse width, "
               "no wrap):")
-        print(f"  {'axes':<6}" + "".join(f"{name:>18}" for name in elves))
+        print(f"  {'axes':<16}" + "".join(f"{name:>18}" for name in elves))
         best = {}
         for n in range(1, 5):
             axes = "XYZA"[:n]
             row = [highest(elf, machine, axes, rates) for elf in elves.values()]
             best[axes] = row[-1]
-            print(f"  {n:<6}" + "".join(f"{r:>18.0f}" for r in row))
+            print(f"  {n:<16}" + "".join(f"{r:>18.0f}" for r in row))
+        row = [highest(elf, m5, "X", rates) for elf in elves5.values()]
+        print(f"  {'1, 5 us pulse':<16}" + "".join(f"{r:>18.0f}" for r in row))
         print("interrupts (cycles at 16 MHz, measured by the harness):")
         idle = {name: idle_isr(elf, machine) for name, elf in elves.items()}
         for name, elf in elves.items():
             print(f"  {name:<16} 3 axes at 5 kHz: {interrupts(elf, machine, 'XYZ', 5000.0, idle[name])}")
+        for name, elf in elves.items():
+            if name != "this tree":
+                print(f"  {name:<16} 1 axis at 40 kHz: {interrupts(elf, machine, 'X', 40000.0, idle[name])}")
         for axes, rate in best.items():
             if rate:
                 print(f"  {'this tree':<16} {len(axes)} axes at {rate / 1000:g} kHz: "
                       f"{interrupts(elves['this tree'], machine, axes, rate, idle['this tree'])}")
+        print(f"  {'this tree':<16} 1 axis at 60 kHz: "
+              f"{interrupts(elves['this tree'], machine, 'X', 60000.0, idle['this tree'])}")
     circle()
     garbage()
     sizes()

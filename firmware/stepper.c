@@ -2,20 +2,22 @@
  *
  * Timer1 counts freely at 2 MHz (normal mode: no compare value ever resets the counter). Each
  * compare match on OCR1A is one tick. The tick's event - which axes step - was computed in the
- * tick before, so the interrupt raises those step pins first thing, at a fixed count after the
- * match (SLOT_COUNTS: whatever delayed its entry is absorbed, and the period from rise to rise
- * is exact to a count). The compare OCR1B, PULSE_COUNTS after the rise, ends the pulse in an
- * interrupt of its own ('dunu'), and the same compare changes the direction pins when the next
- * event belongs to a line going another way, so each direction change comes after a pulse's end
- * and one step period minus the pulse before the next rise. The next match is scheduled at the
- * previous one plus the segment's period, never at a count the counter has passed: a late
- * interrupt stretches one tick and nothing waits for the 16-bit wrap.
+ * tick before, so the interrupt raises those step pins first thing, when the counter reaches the
+ * match plus SLOT_COUNTS (whatever delayed its entry is absorbed, and the period from rise to
+ * rise is exact to a few cycles). The pulse ('dunu') ends PULSE_COUNTS after the rise: inside the
+ * common tick for a short pulse, else by the compare OCR1B in an interrupt of its own, which also
+ * changes the direction pins when the next event belongs to a line going another way, so each
+ * direction change comes after a pulse's end and one step period minus the pulse before the next
+ * rise. The next match is scheduled at the previous one plus the segment's period, never at a
+ * count the counter has passed: a late interrupt stretches one tick and nothing waits for the
+ * 16-bit wrap.
  *
- * After the rise the interrupt runs with interrupts on: it counts the positions and prepares
- * the next event (Bresenham over the line's steps at the segment's AMASS level), taking the next
- * segment from the ring when the current one is used up. Under ISTP the spindle encoder's clock
- * (ICLK, INT0) performs the events of the line instead, from the next indexer start pulse (SIND,
- * INT1) on, so a thread pass always starts at the same spindle angle. */
+ * The common tick (tick_asm.c) runs whole with interrupts off; any other tick runs its rest in
+ * tick_body (tick.c) with interrupts on: it counts the positions and prepares the next event
+ * (Bresenham over the line's steps at the segment's AMASS level), taking the next segment from
+ * the ring when the current one is used up. Under ISTP the spindle encoder's clock (ICLK, INT0)
+ * performs the events of the line instead, from the next indexer start pulse (SIND, INT1) on, so
+ * a thread pass always starts at the same spindle angle. */
 #include "stepper_int.h"
 
 line_t stepper_lines[LINES];
@@ -34,10 +36,9 @@ uint8_t st_seg_flags, st_seg_level, st_bres_axes, st_always_axes;
 uint16_t st_ticks_left, st_period, st_tick_at, st_tick_next;
 int32_t st_counter[N_AXES];                  /* Bresenham's error term minus the base */
 uint32_t st_inc[N_AXES], st_base, st_enc_left;
-/* The event of the next tick, and when its pins rise and fall (read by the interrupt's entry). */
+/* The event of the next tick (read by the interrupt's entry). */
 volatile uint8_t st_ev_bits;
 uint8_t st_ev_neg, st_ev_count, st_ev_last;
-uint16_t st_fall_at;
 uint8_t st_pin_dirs;                          /* bit i set: axis i's pin says negative */
 volatile uint8_t st_dir_pending, st_dir_next;
 volatile uint8_t st_busy, st_missed;             /* tick_body runs; a match came meanwhile */
@@ -77,7 +78,7 @@ ISR(INT0_vect)
     if (b) {
         uint8_t bits = b, neg = st_ln->dir_bits;
         FOR_EACH_AXIS(STEP_HIGH)
-        OCR1B = TCNT1 + PULSE_COUNTS + 1;         /* +1: the count read may be about to turn */
+        OCR1B = TCNT1 + FALL_AFTER_RISE_COUNTS;   /* (the pins rose in this count or before) */
         st_pulse_high = 1;
         FOR_EACH_AXIS(COUNT)
     }

@@ -1,4 +1,4 @@
-/* stepper_int.h - what the step generator's files (stepper.c, tick.c, tick_asm.c) share: the
+/* stepper_int.h - what the step generator's files (stepper.c, tick*.c) share: the
  * interrupt's state, the pins of the RAMPS sockets and the timing constants. Not for others. */
 #ifndef STEPPER_INT_H
 #define STEPPER_INT_H
@@ -16,19 +16,21 @@
 #define PIN_OF(slot, what) PASTE(RAMPS_, slot, what)
 
 #define PULSE_COUNTS US_TO_COUNTS(PULSE_HIGH_US)
-/* The pins rise this many counts after the match: the interrupt's entry and register saves
- * (about 60 cycles) plus the longest time another interrupt or an interrupts-off stretch may
- * hold it off. */
+/* The pins rise when the counter reaches the match plus this many counts (80 cycles): the
+ * interrupt's entry and register saves (about 42 cycles) plus the time another interrupt or an
+ * interrupts-off stretch may hold it off (the 1 ms clock's and the serial interrupts' first
+ * cycles, 10-20). */
 #ifndef SLOT_COUNTS
-#define SLOT_COUNTS 9
+#define SLOT_COUNTS 10
 #endif
 /* From a wake-up (the first segment, or the end of an ISTP line) to the first tick. */
 #define WAKE_COUNTS (PULSE_COUNTS + SLOT_COUNTS + 40)
-/* The pulse's end is set this many counts early: the end's interrupt lowers the pins about as
- * much later after its match as the entry raised them after the slot. */
-#ifndef FALL_LEAD_COUNTS
-#define FALL_LEAD_COUNTS (-1)
-#endif
+/* Compare B's interrupt ends a pulse: it comes FALL_EARLY_COUNTS before the count the pulse
+ * ends at and waits for that count itself, so its entry's delay (10-20 cycles, whatever it
+ * waited for) does not lengthen the pulse. A pulse that rose in count c ends at the start of
+ * c + PULSE_COUNTS + 1: 0.2-0.8 us longer than configured, never shorter. */
+#define FALL_EARLY_COUNTS (PULSE_COUNTS >= 4 ? 3 : 1)
+#define FALL_AFTER_RISE_COUNTS (PULSE_COUNTS + 1 - FALL_EARLY_COUNTS)   /* compare B - c */
 
 
 extern segment_t st_ring[SEGMENTS];
@@ -47,10 +49,9 @@ extern uint8_t st_seg_flags, st_seg_level, st_bres_axes, st_always_axes;
 extern uint16_t st_ticks_left, st_period, st_tick_at, st_tick_next;
 extern int32_t st_counter[N_AXES];                  /* Bresenham's error term minus the base */
 extern uint32_t st_inc[N_AXES], st_base, st_enc_left;
-/* The event of the next tick, and when its pins rise and fall (read by the interrupt's entry). */
+/* The event of the next tick (read by the interrupt's entry). */
 extern volatile uint8_t st_ev_bits;
 extern uint8_t st_ev_neg, st_ev_count, st_ev_last;
-extern uint16_t st_fall_at;
 extern uint8_t st_pin_dirs;                          /* bit i set: axis i's pin says negative */
 extern volatile uint8_t st_dir_pending, st_dir_next;
 extern volatile uint8_t st_busy, st_missed;             /* tick_body runs; a match came meanwhile */
@@ -96,15 +97,12 @@ static inline void write_directions(uint8_t dirs)
     FOR_EACH_AXIS(DIR_SET)
 }
 
-/* The next match at count t, and when its pins rise (compare C) and fall (fall_at).
+/* The next match at count t (its pins rise at t + SLOT_COUNTS, their fall is set from there).
  * schedule() puts it one period after this one, never at a count the counter has passed. */
 static inline __attribute__((always_inline)) void set_next(uint16_t t)
 {
     OCR1A = t;
     st_tick_next = t;
-    OCR1C = t + SLOT_COUNTS;                   /* its flag marks when the pins rise */
-    TIFR1 = _BV(OCF1C);
-    st_fall_at = t + (uint16_t)(SLOT_COUNTS + PULSE_COUNTS - FALL_LEAD_COUNTS);
 }
 
 static inline __attribute__((always_inline)) void schedule(void)

@@ -20,8 +20,9 @@ void set_directions(uint8_t dirs)
 }
 
 
-/* The end of a tick's rest: a match that came meanwhile is taken at once. */
-static inline __attribute__((always_inline)) void finish_tick(void)
+/* The end of a tick's rest: a match that came meanwhile is taken at once. The next tick may
+ * take the common path (it never nests in this one) only from here on. */
+static inline __attribute__((always_inline)) void finish_tick(uint8_t fast)
 {
     cli();
     if (st_missed) {
@@ -29,6 +30,7 @@ static inline __attribute__((always_inline)) void finish_tick(void)
         set_next(TCNT1 + 3);
     }
     st_busy = 0;
+    st_fast = fast;
     sei();
 }
 
@@ -160,12 +162,12 @@ void tick_body(void)
         st_events |= EV_DONE;
     }
     prepare();
-    st_fast = st_plain && st_ticks_left && !st_ev_last;
+    uint8_t fast = st_plain && st_ticks_left && !st_ev_last;
     cli();
     if (st_state != TICKING)
         TIMSK1 = _BV(OCIE1B);
     sei();
     schedule();                                /* the next segment's period is known now */
-    finish_tick();
+    finish_tick(fast);
 }
 #pragma GCC diagnostic pop

@@ -23,26 +23,76 @@ void uart_init(void)
     UCSR0B = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0);
 }
 
-ISR(USART0_RX_vect)
+/* Both interrupts are in assembly and allow interrupts again after a dozen cycles: the step
+ * interrupt's entry waits for no more than that. They save r24 (with SREG), r25, r30, r31. */
+#define UART_ISR_EXIT                                                                      \
+    "pop r31\n\tpop r30\n\tpop r25\n\tpop r24\n\tout __SREG__, r24\n\tpop r24\n\treti\n\t"
+ISR(USART0_RX_vect, ISR_NAKED)
 {
-    uint8_t byte = UDR0;
-    sei();                           /* read: the step interrupt need not wait for the rest */
-    uint8_t next = (rx_head + 1) & (RX_SIZE - 1);
-    if (next != rx_tail) {           /* a full buffer drops the byte: the CRC will catch it */
-        rx_buf[rx_head] = byte;
-        rx_head = next;
-    }
+    __asm__ __volatile__(
+        "push r24\n\t"
+        "in r24, __SREG__\n\t"
+        "push r24\n\t"
+        "push r25\n\t"
+        "lds r25, %[udr]\n\t"                /* read: this request is over */
+        "sei\n\t"
+        "push r30\n\t"
+        "push r31\n\t"
+        "lds r30, %[head]\n\t"
+        "mov r24, r30\n\t"
+        "inc r24\n\t"
+        "andi r24, %[mask]\n\t"
+        "lds r31, %[tail]\n\t"
+        "cp r24, r31\n\t"
+        "breq 1f\n\t"                        /* a full buffer drops the byte: the CRC catches it */
+        "ldi r31, 0\n\t"
+        "subi r30, lo8(-(%[buf]))\n\t"
+        "sbci r31, hi8(-(%[buf]))\n\t"
+        "st Z, r25\n\t"
+        "sts %[head], r24\n\t"
+        "1:\n\t"
+        UART_ISR_EXIT
+        ::[udr] "n"(_SFR_MEM_ADDR(UDR0)), [head] "i"(&rx_head), [tail] "i"(&rx_tail),
+          [buf] "i"(rx_buf), [mask] "M"(RX_SIZE - 1));
 }
 
-ISR(USART0_UDRE_vect)
+/* The data register is empty: the next byte, if any. The request is switched off while this
+ * runs with interrupts on, and on again after a byte is sent. */
+ISR(USART0_UDRE_vect, ISR_NAKED)
 {
-    if (tx_head == tx_tail) {
-        UCSR0B &= (uint8_t)~_BV(UDRIE0);                /* nothing left: stop asking */
-        return;
-    }
-    UDR0 = tx_buf[tx_tail];
-    tx_tail = (tx_tail + 1) & (TX_SIZE - 1);
-    sei();                           /* sent: the step interrupt need not wait for the rest */
+    __asm__ __volatile__(
+        "push r24\n\t"
+        "in r24, __SREG__\n\t"
+        "push r24\n\t"
+        "lds r24, %[ucsrb]\n\t"
+        "andi r24, %[off]\n\t"
+        "sts %[ucsrb], r24\n\t"
+        "sei\n\t"
+        "push r25\n\t"
+        "push r30\n\t"
+        "push r31\n\t"
+        "lds r30, %[tail]\n\t"
+        "lds r25, %[head]\n\t"
+        "cp r30, r25\n\t"
+        "breq 1f\n\t"                        /* nothing left: the request stays off */
+        "mov r25, r30\n\t"
+        "ldi r31, 0\n\t"
+        "subi r30, lo8(-(%[buf]))\n\t"
+        "sbci r31, hi8(-(%[buf]))\n\t"
+        "ld r24, Z\n\t"
+        "sts %[udr], r24\n\t"
+        "inc r25\n\t"
+        "andi r25, %[mask]\n\t"
+        "sts %[tail], r25\n\t"
+        "cli\n\t"
+        "lds r24, %[ucsrb]\n\t"
+        "ori r24, %[on]\n\t"
+        "sts %[ucsrb], r24\n\t"
+        "1:\n\t"
+        UART_ISR_EXIT
+        ::[udr] "n"(_SFR_MEM_ADDR(UDR0)), [ucsrb] "n"(_SFR_MEM_ADDR(UCSR0B)),
+          [off] "M"(0xFF & ~_BV(UDRIE0)), [on] "M"(_BV(UDRIE0)), [head] "i"(&tx_head),
+          [tail] "i"(&tx_tail), [buf] "i"(tx_buf), [mask] "M"(TX_SIZE - 1));
 }
 
 int16_t uart_getc(void)

@@ -10,6 +10,7 @@ the machine file's acceleration limit.
 from __future__ import annotations
 
 import math
+import re
 import shutil
 
 import numpy as np
@@ -55,7 +56,7 @@ def cruise_move(machine, elf, axes: str, rate: float):
     return log, steps
 
 
-@pytest.mark.parametrize("axes, rate", [("X", 40_000), ("XYZ", 30_000), ("XYZA", 30_000)])
+@pytest.mark.parametrize("axes, rate", [("X", 60_000), ("XYZ", 60_000), ("XYZA", 60_000)])
 def test_every_pulse_and_interval_is_exact_at_the_top_rate(bench, axes, rate):
     machine, elf = bench
     log, steps = cruise_move(machine, elf, axes, rate)
@@ -69,6 +70,55 @@ def test_every_pulse_and_interval_is_exact_at_the_top_rate(bench, axes, rate):
         r, f, _ = fs.step_times(log, machine, other)
         assert len(r) == steps and np.abs(r - rises).max() <= 16
         assert ((f - r) / 16).min() >= 2.0
+
+
+def test_bresenham_axes_step_on_the_base_axis_edges_with_exact_pulses_at_40_khz(bench):
+    """X 4 mm, Y 2, Z 1 at 40 kHz on X: Y steps at every second X step, Z at every fourth."""
+    machine, elf = bench
+    rate, steps = 40_000, 1600
+    feed = rate * math.sqrt(1 + 0.25 + 0.0625) * 60 / 1000
+    script = Script(machine).at(2_000_000, f"FFDR F{feed:.4f}").at(2_200_000, "FMOV X1.6 Y0.8 Z0.4")
+    log = fs.Harness(elf, machine, script=script.items,
+                     cycles=2_400_000 + int(steps / rate * S * 1.3) + 800_000).run()
+    rx, fx, _ = fs.step_times(log, machine, "X")
+    assert len(rx) == steps
+    assert np.abs(np.diff(rx)[steps // 4: 3 * steps // 4] - S / rate).max() <= 16
+    for axis, every in (("Y", 2), ("Z", 4)):
+        r, f, _ = fs.step_times(log, machine, axis)
+        assert len(r) == steps // every
+        width_us = (f - r) / 16
+        assert width_us.min() >= 2.0 and width_us.max() <= 3.0
+        # each of its steps on an X step's edge (Bresenham from the mid-point: no drift)
+        nearest = np.abs(r[:, None] - rx[None, :]).min(axis=1)
+        assert nearest.max() <= 16
+        cruise = np.diff(r)[len(r) // 4: 3 * len(r) // 4]
+        assert np.abs(cruise - every * S / rate).max() <= 16
+
+
+def bench_variant(tmp_path, name: str, pulse_ticks: int = 2, axes: str = "xyza"):
+    """The bench machine with another pulse width or fewer axes, built in a copy."""
+    sections = re.split(r"(?m)^(?=\[)", BENCH.read_text())
+    text = "".join(p for p in sections if not p.startswith("[axis.") or p[6] in axes)
+    text = text.replace("pulse_high_ticks = 2", f"pulse_high_ticks = {pulse_ticks}")
+    (tmp_path / f"{name}.toml").write_text(text.replace('name = "steprate"', f'name = "{name}"'))
+    machine = load_machine(tmp_path / f"{name}.toml")
+    return machine, fs.build_copy(machine, tmp_path / "build")
+
+
+@pytest.mark.parametrize("name, pulse_ticks, axes, rate", [
+    ("steprate1", 2, "x", 60_000),    # one axis: the shortest tick ends its pulse itself
+    ("steprate5", 5, "xyza", 40_000),  # too long to wait for: compare B's interrupt ends it
+])
+def test_a_pulse_is_never_shorter_than_configured_and_at_most_1_us_longer(
+        tmp_path, name, pulse_ticks, axes, rate):
+    machine, elf = bench_variant(tmp_path, name, pulse_ticks, axes)
+    log, steps = cruise_move(machine, elf, "X", rate)
+    rises, falls, _ = fs.step_times(log, machine, "X")
+    assert len(rises) == len(falls) == steps
+    width_us = (falls - rises) / 16
+    assert width_us.min() >= pulse_ticks and width_us.max() <= pulse_ticks + 1.0
+    cruise = np.diff(rises)[steps // 4: 3 * steps // 4]
+    assert np.abs(cruise - S / rate).max() <= 16
 
 
 def corner(machine, elf, turn_deg: float):

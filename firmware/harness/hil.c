@@ -13,7 +13,8 @@
  * switches (--switch PIN,AXIS,<|>,STEPS,ACTIVE_LEVEL) open and close at a step count within the
  * same cycle, and drives the spindle encoder (--spindle RPM,COUNTS_PER_REV: ICLK on PD0, SIND on
  * PD1). --stats prints interrupt figures at the end: the longest stretch with interrupts off
- * outside and inside ISRs, and the cycles spent in ISRs. --vcd FILE writes the step ports as VCD.
+ * outside and inside ISRs (with the program counter where the longest one outside began), and
+ * the cycles spent in ISRs. The end line names the program counter the run stopped at. --vcd FILE writes the step ports as VCD.
  * The simulated time runs at most --speed times wall time (0: unpaced; default 1 with --listen).
  * It stops after --cycles N, at SIGTERM / SIGINT, or when a --listen client hangs up (--once).
  * --boot-ms N plays the Mega's bootloader after a DTR reset: for N ms the CPU spins outside the
@@ -377,7 +378,7 @@ static void events(void)
 
 static int want_stats;
 static unsigned long long off_start, off_longest_main, off_longest_isr, isr_cycles, isr_start;
-static unsigned long long isr_longest;
+static unsigned long long isr_longest, off_pc, off_main_pc;
 static int was_off, was_isr;
 
 static void account(void)
@@ -401,12 +402,15 @@ static void account(void)
         }
     }
     if (off != was_off) {
-        if (off)
+        if (off) {
             off_start = now;
-        else if (was_isr || in_isr) {
+            off_pc = avr->pc;
+        } else if (was_isr || in_isr) {
             if (now - off_start > off_longest_isr) off_longest_isr = now - off_start;
-        } else if (now - off_start > off_longest_main)
+        } else if (now - off_start > off_longest_main) {
             off_longest_main = now - off_start;
+            off_main_pc = off_pc;
+        }
     }
     was_off = off;
     was_isr = in_isr;
@@ -568,11 +572,11 @@ int main(int argc, char **argv)
         avr_vcd_stop(&vcd);
     if (want_stats)
         printf("stats cycles=%llu isr_cycles=%llu isr_longest=%llu off_main_longest=%llu "
-               "off_isr_longest=%llu\n", (unsigned long long)avr->cycle, isr_cycles, isr_longest,
-               off_longest_main, off_longest_isr);
+               "off_isr_longest=%llu off_main_pc=%llu\n", (unsigned long long)avr->cycle, isr_cycles,
+               isr_longest, off_longest_main, off_longest_isr, off_main_pc);
     for (int i = 0; i < n_axes; i++)
         printf("axis %d steps=%ld\n", i, axes[i].steps);
-    printf("end cycles=%llu state=%d\n", (unsigned long long)avr->cycle, state);
+    printf("end cycles=%llu state=%d pc=%x\n", (unsigned long long)avr->cycle, state, avr->pc);
     if (log_file)
         fclose(log_file);
     return state == cpu_Crashed ? 3 : 0;
