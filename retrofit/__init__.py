@@ -1,9 +1,27 @@
-"""retrofit: turn an old lathe or mill with stepper motors into a numerically controlled machine."""
+"""retrofit: turn an old lathe or mill with stepper motors into a numerically controlled machine.
 
-from .config import Axis, Machine, list_machines, load_machine
-from .errors import ConfigError, GcodeError, LinkError, MotionError, OutputError, RetrofitError
+The names below load on first use, so ``python3 -m retrofit.cli`` reaches its Ctrl-C handling
+before any module of the toolkit is read.
+"""
+
+from importlib import import_module
 
 __version__ = "0.1.0"
 
-__all__ = ["Axis", "Machine", "list_machines", "load_machine", "ConfigError", "GcodeError",
-           "LinkError", "MotionError", "OutputError", "RetrofitError", "__version__"]
+_HOMES = {"Axis": "config", "Machine": "config", "list_machines": "config", "load_machine": "config",
+          "ConfigError": "errors", "GcodeError": "errors", "LinkError": "errors", "MotionError": "errors",
+          "OutputError": "errors", "RetrofitError": "errors"}
+
+__all__ = [*_HOMES, "__version__"]
+
+
+def __getattr__(name: str):
+    if name in _HOMES:
+        value = getattr(import_module(f".{_HOMES[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'retrofit' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_HOMES))
