@@ -85,8 +85,18 @@ def test_o_word_errors_talk_about_o_words():
 def test_an_endless_loop_is_refused_with_its_line_not_run_for_ever(monkeypatch):
     from retrofit.gcode import program  # noqa: PLC0415
     monkeypatch.setattr(program, "MAX_STEPS", 3000)
-    with pytest.raises(GcodeError, match=r"^p.ngc:[13]: the program runs more than 3000 lines"):
+    with pytest.raises(GcodeError, match=r"^p.ngc:[13]: the program runs more than 3003 lines, 3000 more than it has"):
         compile_program("o1 while [1]\n#1=[#1+1]\no1 endwhile\n", MILL, "p.ngc")
+
+
+def test_a_program_longer_than_the_loop_limit_runs_whole(monkeypatch):
+    """The limit counts lines run beyond the program's own: a long CAM program is not a loop."""
+    from retrofit.gcode import program  # noqa: PLC0415
+    monkeypatch.setattr(program, "MAX_STEPS", 3000)
+    text = "G21 G90 F600\n" + "".join(f"G1 X{1 + i % 50}\n" for i in range(5000)) + "M2\n"
+    compiled = compile_program(text, MILL, "long.ngc")
+    assert len(compiled.commands) >= 4900
+    assert max(compiled.lines) >= 5001           # the last G1 (line 5001) was compiled
 
 
 def test_messages_are_kept_with_their_line_and_parameters():

@@ -25,7 +25,8 @@ from .ocode import Source, scan
 from .state import ModalState
 from .translate import Translator
 
-#: the most lines one run may execute: a loop that never ends is refused, not run for ever
+#: the most lines one run may execute beyond the lines of its main program (a long program from
+#: CAM runs whole): a loop that never ends is refused, not run for ever
 MAX_STEPS = 500_000
 #: the deepest nesting of subroutine calls
 MAX_CALL_DEPTH = 50
@@ -72,6 +73,7 @@ class Interpreter:
     def run(self, main: Source) -> None:
         """Run ``main`` from its first line; RuleErrors carry ``.file`` and ``.line``."""
         src, pc, calls, repeats = main, 0, [], {}
+        most = len(main.lines) + MAX_STEPS
         closing_percent = bool(main.lines) and main.lines[0].percent
         if closing_percent:
             pc = 1
@@ -81,9 +83,9 @@ class Interpreter:
             if not self.steps & 4095 and self.on_progress is not None and src is main:
                 self.on_progress(pc / len(main.lines))
             try:
-                if self.steps > MAX_STEPS:
-                    raise RuleError(f"the program runs more than {MAX_STEPS} lines (a loop that "
-                                    f"never ends?)")
+                if self.steps > most:
+                    raise RuleError(f"the program runs more than {most} lines, {MAX_STEPS} more than "
+                                    f"it has (a loop that never ends?)")
                 if line.error:
                     raise RuleError(line.error)
                 if line.percent:
