@@ -14,17 +14,16 @@ G90/G91, G98/G99, then G10/G28/G30/G92 or the motion, then M0/M1/M2/M30/M60.
 
 from __future__ import annotations
 
-import itertools
 import math
 
 from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, ZMov
 from ..config import Machine
 from ..motion.arcs import arc_columns, arc_extent
 from . import coords, cycles, iowords, modalsave, pathcontrol, polar, probing, radiuscomp, spindle, splines, tools
-from .arcwords import arc_center, plane_axes
+from .arcwords import arc_center, chord_moves, plane_axes
 from .blocks import Block
 from .errors import RuleError
-from .state import DECIMALS, ModalState, clean_mm, clean_mm_list
+from .state import DECIMALS, ModalState, clean_mm
 from .threading import g33, g76, leave
 from .validate import check_arc, check_feed, check_soft_limits, check_word_use
 
@@ -391,11 +390,3 @@ class Translator:
         self.lines.append(self._line)
         self.files.append(self._file)
 
-
-def chord_moves(words: list[tuple[str, float]], moving: list[tuple[int, str]], chords) -> list[PMov]:
-    """One PMOV per row of ``chords`` ([chord, axis] mm): the axes in ``moving`` (index, name)
-    take the row's value rounded as ``clean_mm``, the others keep their word in ``words``."""
-    columns = [itertools.repeat(word) for word in words]
-    for i, n in moving:
-        columns[i] = zip(itertools.repeat(n), clean_mm_list(chords[:, i]))
-    return list(map(PMov, zip(*columns)))
