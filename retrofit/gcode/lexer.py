@@ -38,6 +38,7 @@ _PLAIN = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+))")
 _PLAIN_LINE = re.compile(r"\s*(?:[Nn]\s*\d+\s*)?((?:[A-MP-Za-mp-z]\s*[-+]?\s*(?:\d+\.?\d*|\.\d+)\s*)+)")
 _LINE_NUMBER = re.compile(r"N\d*\.?\d*")
 _OWORD = re.compile(r"O(<[^>]*>|\d+)([A-Z]+)")
+_LABEL = re.compile(r"O(\d+)")
 #: O-word keywords and whether they take a bracketed argument (None: no, 1: one, "*": any number)
 KEYWORDS = {"SUB": None, "ENDSUB": 1, "CALL": "*", "RETURN": 1, "IF": 1, "ELSEIF": 1, "ELSE": None,
             "ENDIF": None, "WHILE": 1, "ENDWHILE": None, "DO": None, "REPEAT": 1, "ENDREPEAT": None,
@@ -196,6 +197,9 @@ def _words(code: str, pos: int, line: Line) -> None:
 
 
 def _oword(code: str, pos: int) -> tuple:
+    label = _LABEL.fullmatch(code, pos)
+    if label:                                  # O1000 alone: where a Fanuc-style M98 P1000 goes
+        return str(int(label.group(1))), "LABEL", []
     match = _OWORD.match(code, pos)
     if match is None:
         raise RuleError(f"bad O-word {code[pos:pos + 12]!r}: expected o<name> or o<number> and a "

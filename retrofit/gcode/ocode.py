@@ -9,6 +9,10 @@ structure is refused, with its line, before anything moves::
       G0 X#1              #1 = [#1 + 1]                 G91 G1 X1
     o100 endsub         o<loop> endwhile              o1 endrepeat
     o100 call [5]
+
+Fanuc-style subprograms are read too: ``M98 P1000 L2`` runs the lines from ``O1000`` (alone on
+its line, in the same file) to ``M99`` twice, sharing the caller's parameters
+(:mod:`retrofit.gcode.fanuc`).
 """
 
 from __future__ import annotations
@@ -31,6 +35,8 @@ class Source:
     branches: dict[int, list[int]] = field(default_factory=dict)     # if index -> branch indexes
     end: dict[int, int] = field(default_factory=dict)                # opening index -> closing
     start: dict[int, int] = field(default_factory=dict)              # closing/break -> opening
+    labels: dict[str, int] = field(default_factory=dict)             # O1000 alone -> its index
+    fanuc: set[int] = field(default_factory=set)                     # indexes of M98 and M99 lines
 
     def where(self, index: int) -> int:
         return self.lines[index].number
@@ -47,8 +53,16 @@ def scan(source: Source) -> Source:
     stack: list[tuple[str, str, int]] = []        # (KEYWORD, name, index)
     for i, line in enumerate(source.lines):
         if line.oword is None:
+            if any(letter == "M" and value in (98.0, 99.0) for letter, value in line.words):
+                source.fanuc.add(i)
             continue
         name, kw, _ = line.oword
+        if kw == "LABEL":
+            if name in source.labels:
+                raise _err(line, f"O{name} marks two places (lines {source.where(source.labels[name])} "
+                                 f"and {line.number}); M98 P{name} must know where to go")
+            source.labels[name] = i
+            continue
         top = stack[-1] if stack else None
         if kw in ("SUB", "IF", "DO", "REPEAT") or (kw == "WHILE" and not _closes_do(top, name)):
             if kw == "SUB" and any(k == "SUB" for k, _, _ in stack):

@@ -20,7 +20,7 @@ from .dialect import run_dollar
 from .errors import RuleError
 from .expressions import evaluate
 from .lexer import lex_lines
-from . import lathecycles, modalsave
+from . import fanuc, lathecycles, modalsave
 from .ocode import Source, scan
 from .state import ModalState
 from .translate import Translator
@@ -96,6 +96,12 @@ class Interpreter:
                 if line.oword is not None:
                     src, pc = self._oword(src, pc, line, calls, repeats)
                     continue
+                if pc in src.fanuc:
+                    nxt = fanuc.run_line(self, src, pc, line, calls)
+                    if nxt is None:
+                        return
+                    src, pc = nxt
+                    continue
                 if self._line(src, line):
                     return
             except RuleError as exc:
@@ -156,6 +162,8 @@ class Interpreter:
     # -- O-words -------------------------------------------------------------------------------
     def _oword(self, src: Source, pc: int, line, calls: list, repeats: dict):
         name, kw, args = line.oword
+        if kw == "LABEL":                                # O1000 alone: M98's target, run through
+            return src, pc + 1
         if kw == "SUB":
             return src, src.end[pc] + 1
         if kw == "CALL":
@@ -166,6 +174,9 @@ class Interpreter:
                 self.params.globals["_value_returned"] = 1.0
             if not calls:
                 raise RuleError(f"o{name} {kw.lower()} reached outside a call")
+            if isinstance(calls[-1], fanuc.Call):
+                raise RuleError(f"o{name} {kw.lower()} inside a subprogram called with M98 (it ends "
+                                f"with M99)")
             self.params.leave()
             modalsave.leaving(self.tr, line.number)
             return calls.pop()
