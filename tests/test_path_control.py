@@ -89,8 +89,7 @@ def test_g61_does_not_stop_between_the_chords_of_one_arc():
     assert isinstance(program.commands[-1], PMov) and isinstance(program.commands[-2], Dely)
 
 
-@pytest.mark.parametrize("words, rule", [("G64 P0.1 Q0.05", "test.ngc:2: G64 Q0.05: merging nearly "
-                                          "collinear moves"),
+@pytest.mark.parametrize("words, rule", [("G64 P0.1 Q-0.05", "test.ngc:2: Q-0.05: G64's naive-CAM tolerance Q"),
                                          ("G64 P-1", "test.ngc:2: P-1: G64's path tolerance P")])
 def test_g64_refusals(words, rule):
     with pytest.raises(GcodeError) as err:
@@ -100,3 +99,12 @@ def test_g64_refusals(words, rule):
 
 def test_g64_q0_is_accepted():
     compile_program("G21 G90 G17\nG64 P0.1 Q0\nG1 X1 F100\nM2\n", MILL)
+
+
+def test_g64_q_runs_every_programmed_move():
+    """Nearly collinear moves are not merged: the path keeps every programmed point (within any Q)."""
+    body = "G1 X1 Y0.001 F100\nG1 X2 Y0\nG1 X3 Y0.001\nG1 X4 Y0\nM2\n"
+    with_q = compile_program("G21 G90 G17\nG64 P0.05 Q0.02\n" + body, MILL)
+    without = compile_program("G21 G90 G17\nG64 P0.05\n" + body, MILL)
+    assert [str(c) for c in with_q.commands] == [str(c) for c in without.commands]
+    assert sum(1 for c in with_q.commands if str(c).startswith("PMOV")) == 4

@@ -9,8 +9,9 @@ machine's ``junction_deviation_mm`` rule). So:
 * ``G61`` (exact path) and ``G61.1`` (exact stop): the tool stops at the end of every block --
   a ``DELY P0`` between blocks, which every planner honours as a stop. Chords of one arc or spline,
   one canned cycle and a synchronised thread chain are not split.
-* ``G64 Q<mm>`` (LinuxCNC's naive-CAM merging of nearly collinear moves) with Q > 0 is refused:
-  retrofit runs every move as programmed.
+* ``G64 Q<mm>``: LinuxCNC's motion controller may merge nearly collinear moves into one as long
+  as the path stays within Q of them (its naive-CAM detector); retrofit runs every move as
+  programmed, a path within any Q >= 0 (as LinuxCNC's interpreter prints it: Q changes no move).
 """
 
 from __future__ import annotations
@@ -27,10 +28,8 @@ def set_mode(tr, block) -> None:
         return
     if "P" in v and not v["P"] >= 0.0:
         raise RuleError(f"{block.texts['P']}: G64's path tolerance P must be >= 0")
-    if v.get("Q", 0.0) != 0.0:
-        raise RuleError(f"G64 {block.texts['Q']}: merging nearly collinear moves (naive CAM "
-                        f"tolerance Q) is not supported; every move runs as programmed (Q0 or "
-                        f"no Q)")
+    if "Q" in v and not v["Q"] >= 0.0:
+        raise RuleError(f"{block.texts['Q']}: G64's naive-CAM tolerance Q must be >= 0")
     tr.state.exact_stop = False
 
 
