@@ -58,7 +58,7 @@ def test_under_tmux_at_80_columns_only_the_summary_stays_on_the_screen(tmp_path)
 @pytest.mark.slow
 @pytest.mark.skipif(not shutil.which("script"), reason="script (util-linux) is not installed")
 def test_under_script_the_eta_is_right_within_a_factor_of_two_after_the_first_tenth(tmp_path):
-    program = spiral(tmp_path / "spiral.ngc", segments=800_000)    # long enough to take seconds
+    program = spiral(tmp_path / "spiral.ngc", segments=1_000_000)    # long enough to take seconds
     typescript = tmp_path / "typescript"
     subprocess.run(["script", "-qec", f"stty cols 80 rows 24; {ENV} python3 -m retrofit.cli run {program}",
                     str(typescript)], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, timeout=280, check=True)
