@@ -123,6 +123,10 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "35: sts %[ocrah], r19\n\t"
         "sts %[ocral], r18\n\t"
 #if FALL_IN_TICK
+        "ldi r24, %[t1tail]\n\t"            /* neither the next match nor the 1 ms clock (it */
+        "sts %[timsk1], r24\n\t"            /* would lengthen this tick past the period) may */
+        "clr r24\n\t"                       /* nest in the rest of this tick: they wait for */
+        "sts %[timsk3], r24\n\t"            /* its end; the serial interrupts do not */
         "brtc 37f\n\t"
         "36: lds r21, %[tcntl]\n\t"           /* the pulse's end */
         "sub r21, r20\n\t"
@@ -133,10 +137,13 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "sei\n\t"
 #endif
         ::ENTRY_OPERANDS, [period] "i"(&st_period), [ocrah] "n"(_SFR_MEM_ADDR(OCR1AH)),
-          [ocral] "n"(_SFR_MEM_ADDR(OCR1AL)));
+          [ocral] "n"(_SFR_MEM_ADDR(OCR1AL)), [t1tail] "M"(_BV(OCIE1B)),
+          [timsk1] "n"(_SFR_MEM_ADDR(TIMSK1)), [timsk3] "n"(_SFR_MEM_ADDR(TIMSK3)));
 #if FALL_IN_TICK
     FOR_EACH_AXIS(FALL_ASM)
-    __asm__ __volatile__("37:\n\t");
+    __asm__ __volatile__(
+        "37: sei\n\t"                        /* the pins are done: the rest with interrupts on */
+        ::);
 #endif
     __asm__ __volatile__(
         "sts %[next]+1, r19\n\t"
@@ -184,7 +191,13 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "call seg_boundary_asm\n\t"         /* the segment is used up: what comes next */
         "pop r30\n\t"
         "40:\n\t"
-#if !FALL_IN_TICK
+#if FALL_IN_TICK
+        "cli\n\t"                           /* the match and the clock again */
+        "ldi r24, %[t1]\n\t"
+        "sts %[timsk1], r24\n\t"
+        "ldi r24, %[t3]\n\t"
+        "sts %[timsk3], r24\n\t"
+#else
         "clr r24\n\t"                        /* done: a match may nest from here on (and no */
         "sts %[busy], r24\n\t"               /* interrupts-off tail delays compare B's) */
         "lds r24, %[missed]\n\t"           /* a match came meanwhile: take it at once */
@@ -213,7 +226,9 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "pop r24\n\t"
         "reti\n\t"
         ::ENTRY_OPERANDS, [left] "i"(&st_ticks_left), [missed] "i"(&st_missed),
-          [ocrah] "n"(_SFR_MEM_ADDR(OCR1AH)), [ocral] "n"(_SFR_MEM_ADDR(OCR1AL)));
+          [ocrah] "n"(_SFR_MEM_ADDR(OCR1AH)), [ocral] "n"(_SFR_MEM_ADDR(OCR1AL)),
+          [t1] "M"(_BV(OCIE1A) | _BV(OCIE1B)), [t3] "M"(_BV(OCIE3A)),
+          [timsk1] "n"(_SFR_MEM_ADDR(TIMSK1)), [timsk3] "n"(_SFR_MEM_ADDR(TIMSK3)));
 }
 
 #pragma GCC diagnostic push

@@ -51,6 +51,8 @@ void slow_entry(void)
     FOR_EACH_AXIS(RISE_ASM)
 #if FALL_IN_TICK
     __asm__ __volatile__(
+        "ldi r24, 1\n\t"                      /* (while the pulse is high) */
+        "sts %[busy], r24\n\t"
         "subi r23, lo8(-(%[pulse1]))\n\t"     /* a short pulse ends here too, as in the */
         "4: lds r25, %[tcntl]\n\t"            /* common tick (and 4 cycles more: the last */
         "sub r25, r23\n\t"                    /* axis's pin falls 3 cycles nearer its rise */
@@ -60,7 +62,9 @@ void slow_entry(void)
         ::ENTRY_OPERANDS, [pulse1] "n"(PULSE_COUNTS + 1));
     FOR_EACH_AXIS(FALL_ASM)
     __asm__ __volatile__(
+        "sei\n\t"                            /* the pins are done: interrupts on at once */
         "pop r23\n\t"
+        "rjmp 10f\n\t"
         ::ENTRY_OPERANDS);
 #else
     __asm__ __volatile__(
@@ -81,11 +85,11 @@ void slow_entry(void)
     __asm__ __volatile__(
         "3: ldi r24, 1\n\t"
         "sts %[busy], r24\n\t"
-        "pop r25\n\t"
+        "10: pop r25\n\t"
         "pop r24\n\t"
+        "ori r24, 0x80\n\t"                 /* the pulse's end may come now */
         "out __SREG__, r24\n\t"
         "pop r24\n\t"
-        "sei\n\t"                             /* the pulse's end may come now */
         "jmp tick_body\n\t"
         "9: sts %[missed], r24\n\t"
         "pop r24\n\t"

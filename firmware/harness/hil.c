@@ -378,7 +378,7 @@ static void events(void)
 
 static int want_stats;
 static unsigned long long off_start, off_longest_main, off_longest_isr, isr_cycles, isr_start;
-static unsigned long long isr_longest, off_pc, off_main_pc;
+static unsigned long long isr_longest, off_pc, off_main_pc, off_isr_pc, off_isr_end;
 static int was_off, was_isr;
 
 static void account(void)
@@ -406,7 +406,11 @@ static void account(void)
             off_start = now;
             off_pc = avr->pc;
         } else if (was_isr || in_isr) {
-            if (now - off_start > off_longest_isr) off_longest_isr = now - off_start;
+            if (now - off_start > off_longest_isr) {
+                off_longest_isr = now - off_start;
+                off_isr_pc = off_pc;
+                off_isr_end = avr->pc;
+            }
         } else if (now - off_start > off_longest_main) {
             off_longest_main = now - off_start;
             off_main_pc = off_pc;
@@ -572,8 +576,8 @@ int main(int argc, char **argv)
         avr_vcd_stop(&vcd);
     if (want_stats)
         printf("stats cycles=%llu isr_cycles=%llu isr_longest=%llu off_main_longest=%llu "
-               "off_isr_longest=%llu off_main_pc=%llu\n", (unsigned long long)avr->cycle, isr_cycles,
-               isr_longest, off_longest_main, off_longest_isr, off_main_pc);
+               "off_isr_longest=%llu off_main_pc=%llu off_isr_pc=%llu off_isr_end=%llu\n", (unsigned long long)avr->cycle,
+               isr_cycles, isr_longest, off_longest_main, off_longest_isr, off_main_pc, off_isr_pc, off_isr_end);
     for (int i = 0; i < n_axes; i++)
         printf("axis %d steps=%ld\n", i, axes[i].steps);
     printf("end cycles=%llu state=%d pc=%x\n", (unsigned long long)avr->cycle, state, avr->pc);
