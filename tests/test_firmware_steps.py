@@ -45,13 +45,13 @@ def bench(tmp_path_factory):
     return machine, fs.build_copy(machine, tmp_path_factory.mktemp("steprate"))
 
 
-def cruise_move(machine, elf, axes: str, rate: float):
+def cruise_move(machine, elf, axes: str, rate: float, stats: bool = False):
     """A move of ``axes`` (equal distances) cruising at ``rate`` steps/s for ~40 ms; the log."""
     steps = int(rate * 0.04)
     feed = rate * math.sqrt(len(axes)) * 60 / machine.axis(axes[0]).steps_per_mm
     move = "FMOV " + " ".join(f"{a}{steps / machine.axis(a).steps_per_mm:g}" for a in axes)
     script = Script(machine).at(2_000_000, f"FFDR F{feed:.4f}").at(2_200_000, move)
-    log = fs.Harness(elf, machine, script=script.items,
+    log = fs.Harness(elf, machine, script=script.items, stats=stats,
                      cycles=2_400_000 + int(steps / rate * S * 1.3) + 800_000).run()
     return log, steps
 
@@ -72,14 +72,20 @@ def test_every_pulse_and_interval_is_exact_at_the_top_rate(bench, axes, rate):
         assert ((f - r) / 16).min() >= 2.0
 
 
+def bresenham_move(machine, elf, stats: bool = False):
+    """X 1.6 mm, Y 0.8, Z 0.4 cruising at 40 kHz on X; the log."""
+    rate, steps = 40_000, 1600
+    feed = rate * math.sqrt(1 + 0.25 + 0.0625) * 60 / 1000
+    script = Script(machine).at(2_000_000, f"FFDR F{feed:.4f}").at(2_200_000, "FMOV X1.6 Y0.8 Z0.4")
+    return fs.Harness(elf, machine, script=script.items, stats=stats,
+                      cycles=2_400_000 + int(steps / rate * S * 1.3) + 800_000).run()
+
+
 def test_bresenham_axes_step_on_the_base_axis_edges_with_exact_pulses_at_40_khz(bench):
     """X 4 mm, Y 2, Z 1 at 40 kHz on X: Y steps at every second X step, Z at every fourth."""
     machine, elf = bench
     rate, steps = 40_000, 1600
-    feed = rate * math.sqrt(1 + 0.25 + 0.0625) * 60 / 1000
-    script = Script(machine).at(2_000_000, f"FFDR F{feed:.4f}").at(2_200_000, "FMOV X1.6 Y0.8 Z0.4")
-    log = fs.Harness(elf, machine, script=script.items,
-                     cycles=2_400_000 + int(steps / rate * S * 1.3) + 800_000).run()
+    log = bresenham_move(machine, elf)
     rx, fx, _ = fs.step_times(log, machine, "X")
     assert len(rx) == steps
     assert np.abs(np.diff(rx)[steps // 4: 3 * steps // 4] - S / rate).max() <= 16
@@ -107,6 +113,7 @@ def bench_variant(tmp_path, name: str, pulse_ticks: int = 2, axes: str = "xyza")
 
 @pytest.mark.parametrize("name, pulse_ticks, axes, rate", [
     ("steprate1", 2, "x", 60_000),    # one axis: the shortest tick ends its pulse itself
+    ("steprate3", 3, "xyza", 40_000),  # the longest pulse the tick still ends itself
     ("steprate5", 5, "xyza", 40_000),  # too long to wait for: compare B's interrupt ends it
 ])
 def test_a_pulse_is_never_shorter_than_configured_and_at_most_1_us_longer(
@@ -119,6 +126,33 @@ def test_a_pulse_is_never_shorter_than_configured_and_at_most_1_us_longer(
     assert width_us.min() >= pulse_ticks and width_us.max() <= pulse_ticks + 1.0
     cruise = np.diff(rises)[steps // 4: 3 * steps // 4]
     assert np.abs(cruise - S / rate).max() <= 16
+
+
+# 10 us at 16 MHz: the longest another interrupt (a received byte) may wait for the CPU.
+OFF_LIMIT_CYCLES = 160
+
+
+@pytest.mark.parametrize("axes, rate", [("X", 60_000), ("XYZ", 40_000), ("bresenham", 40_000)])
+def test_interrupts_are_never_off_longer_than_10_us_at_the_top_rate(bench, axes, rate):
+    machine, elf = bench
+    if axes == "bresenham":                                          # Y, Z minor axes
+        log, steps = bresenham_move(machine, elf, stats=True), 1600
+    else:
+        log, steps = cruise_move(machine, elf, axes, rate, stats=True)
+    rises, _, _ = fs.step_times(log, machine, "X")
+    assert len(rises) == steps
+    assert np.abs(np.diff(rises)[steps // 4: 3 * steps // 4] - S / rate).max() <= 16
+    assert 0 < log.stats["off_isr_longest"] <= OFF_LIMIT_CYCLES
+    assert log.stats["off_main_longest"] <= OFF_LIMIT_CYCLES
+
+
+@pytest.mark.parametrize("pulse_ticks", [3, 5])
+def test_a_longer_pulse_keeps_interrupts_off_at_most_10_us(tmp_path, pulse_ticks):
+    """3 us: the longest pulse that ends inside the tick; 5 us: compare B's interrupt ends it."""
+    machine, elf = bench_variant(tmp_path, f"steprate{pulse_ticks}", pulse_ticks, "xyz")
+    log, steps = cruise_move(machine, elf, "XYZ", 40_000, stats=True)
+    assert len(fs.step_times(log, machine, "Z")[0]) == steps
+    assert 0 < log.stats["off_isr_longest"] <= OFF_LIMIT_CYCLES
 
 
 def corner(machine, elf, turn_deg: float):
