@@ -7,6 +7,10 @@
 
 #include "tick_asm.h"
 
+#define STRINGIFY(x) #x
+#define EXPAND_STRINGIFY(x) STRINGIFY(x)
+#define CLOCK_VECTOR EXPAND_STRINGIFY(TIMER3_COMPA_vect)   /* the 1 ms clock's interrupt (io.c) */
+
 /* The common tick in assembly: count the event raised (moved[i] += or -= 1, r24 the bits,
  * r23 the negative directions), one Bresenham event of axis i (r22 the axes that need it, r25
  * the bits of the next event), and the next match at r19:r18 with its slot and pulse end. */
@@ -56,7 +60,7 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "push r19\n\t"
         "push r20\n\t"
         "push r21\n\t"
-        "clt\n\t"                             /* T: pins are high */
+        "46: clt\n\t"                         /* T: pins are high */
         "lds r18, %[next]\n\t"               /* this match */
         "lds r19, %[next]+1\n\t"
         "lds r24, %[bits]\n\t"
@@ -123,10 +127,10 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "35: sts %[ocrah], r19\n\t"
         "sts %[ocral], r18\n\t"
 #if FALL_IN_TICK
-        "ldi r24, %[t1tail]\n\t"            /* neither the next match nor the 1 ms clock (it */
-        "sts %[timsk1], r24\n\t"            /* would lengthen this tick past the period) may */
-        "clr r24\n\t"                       /* nest in the rest of this tick: they wait for */
-        "sts %[timsk3], r24\n\t"            /* its end; the serial interrupts do not */
+        "ldi r24, %[t1tail]\n\t"            /* the rest of this tick runs with interrupts */
+        "sts %[timsk1], r24\n\t"            /* on, but the next match and the 1 ms clock */
+        "clr r24\n\t"                       /* (it would lengthen this tick past the period) */
+        "sts %[timsk3], r24\n\t"            /* wait for its end */
         "brtc 37f\n\t"
         "36: lds r21, %[tcntl]\n\t"           /* the pulse's end */
         "sub r21, r20\n\t"
@@ -137,8 +141,8 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "sei\n\t"
 #endif
         ::ENTRY_OPERANDS, [period] "i"(&st_period), [ocrah] "n"(_SFR_MEM_ADDR(OCR1AH)),
-          [ocral] "n"(_SFR_MEM_ADDR(OCR1AL)), [t1tail] "M"(_BV(OCIE1B)),
-          [timsk1] "n"(_SFR_MEM_ADDR(TIMSK1)), [timsk3] "n"(_SFR_MEM_ADDR(TIMSK3)));
+          [ocral] "n"(_SFR_MEM_ADDR(OCR1AL)), [timsk3] "n"(_SFR_MEM_ADDR(TIMSK3)),
+          [t1tail] "M"(_BV(OCIE1B)), [timsk1] "n"(_SFR_MEM_ADDR(TIMSK1)));
 #if FALL_IN_TICK
     FOR_EACH_AXIS(FALL_ASM)
     __asm__ __volatile__(
@@ -197,7 +201,12 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "sts %[timsk1], r24\n\t"
         "ldi r24, %[t3]\n\t"
         "sts %[timsk3], r24\n\t"
-#else
+        "sbis %[tifr1], %[ocf1a]\n\t"       /* the next match came meanwhile: served now */
+        "rjmp 47f\n\t"                      /* from its match (its slot may not have */
+        "sbi %[tifr1], %[ocf1a]\n\t"        /* passed yet), as its interrupt would */
+        "rjmp 46b\n\t"
+        "47:\n\t"
+#endif
         "clr r24\n\t"                        /* done: a match may nest from here on (and no */
         "sts %[busy], r24\n\t"               /* interrupts-off tail delays compare B's) */
         "lds r24, %[missed]\n\t"           /* a match came meanwhile: take it at once */
@@ -215,7 +224,6 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "sts %[next]+1, r19\n\t"
         "sts %[next], r18\n\t"
         "41:\n\t"
-#endif
         "pop r21\n\t"
         "pop r20\n\t"
         "pop r19\n\t"
@@ -224,11 +232,20 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "pop r24\n\t"
         "out __SREG__, r24\n\t"
         "pop r24\n\t"
+#if FALL_IN_TICK
+        "sbic %[tifr3], %[ocf3a]\n\t"       /* the clock came while masked: its interrupt */
+        "rjmp 44f\n\t"                      /* now, as the CPU would take it after reti */
+#endif
         "reti\n\t"
+#if FALL_IN_TICK
+        "44: sbi %[tifr3], %[ocf3a]\n\t"    /* (simavr 1.6 would never take it: it does */
+        "jmp " CLOCK_VECTOR "\n\t"          /* not look at a flag raised while masked) */
+#endif
         ::ENTRY_OPERANDS, [left] "i"(&st_ticks_left), [missed] "i"(&st_missed),
+          [tifr3] "I"(_SFR_IO_ADDR(TIFR3)), [ocf3a] "n"(OCF3A), [tifr1] "I"(_SFR_IO_ADDR(TIFR1)),
+          [ocf1a] "n"(OCF1A), [t1] "M"(_BV(OCIE1A) | _BV(OCIE1B)), [timsk1] "n"(_SFR_MEM_ADDR(TIMSK1)),
           [ocrah] "n"(_SFR_MEM_ADDR(OCR1AH)), [ocral] "n"(_SFR_MEM_ADDR(OCR1AL)),
-          [t1] "M"(_BV(OCIE1A) | _BV(OCIE1B)), [t3] "M"(_BV(OCIE3A)),
-          [timsk1] "n"(_SFR_MEM_ADDR(TIMSK1)), [timsk3] "n"(_SFR_MEM_ADDR(TIMSK3)));
+          [t3] "M"(_BV(OCIE3A)), [timsk3] "n"(_SFR_MEM_ADDR(TIMSK3)));
 }
 
 #pragma GCC diagnostic push
