@@ -12,7 +12,8 @@
  * count the counter has passed: a late interrupt stretches one tick and nothing waits for the
  * 16-bit wrap.
  *
- * The common tick (tick_asm.c) runs whole with interrupts off; any other tick runs its rest in
+ * The common tick (tick_asm.c) keeps interrupts off up to the pins' fall, then runs its rest
+ * with its own match and the 1 ms clock masked; any other tick runs its rest in
  * tick_body (tick.c) with interrupts on: it counts the positions and prepares the next event
  * (Bresenham over the line's steps at the segment's AMASS level), taking the next segment from
  * the ring when the current one is used up. Under ISTP the spindle encoder's clock (ICLK, INT0)

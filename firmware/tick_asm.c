@@ -1,6 +1,6 @@
 /* tick_asm.c - the step interrupt's entry and its common tick, in assembly: the pins must rise
  * and fall a fixed number of counts after their match, and the common tick must cost few enough
- * cycles for 60 kHz (about 195 with a short pulse's end; a period is 267). Only r18-r25, r30,
+ * cycles for 60 kHz (about 215 with a short pulse's end; a period is 267). Only r18-r25, r30,
  * r31 and SREG are used, saved by hand; any other tick goes on in tick_slow.c and tick_body
  * (tick.c). See stepper.c for the design. */
 #include <stddef.h>
@@ -35,9 +35,9 @@
                            [mask] "n"(1 << (i)));
 /* The tick's entry. The common tick (st_fast: the next event within a segment of a plain line)
  * runs here whole: it waits for the slot, raises the prepared event's pins, sets the next
- * match, and (short pulses) lowers the pins PULSE_COUNTS after they rose, all with interrupts
- * off, so nothing nests in it and it nests in nothing of its own; then it counts the event and
- * prepares the next one. Anything else goes to slow_entry. */
+ * match, and (short pulses) lowers the pins PULSE_COUNTS after they rose, with interrupts off
+ * (at most 10 us); then, with interrupts on but its own next match and the 1 ms clock masked,
+ * it counts the event and prepares the next one. Anything else goes to slow_entry. */
 ISR(TIMER1_COMPA_vect, ISR_NAKED)
 {
     __asm__ __volatile__(

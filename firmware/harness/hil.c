@@ -13,7 +13,8 @@
  * switches (--switch PIN,AXIS,<|>,STEPS,ACTIVE_LEVEL) open and close at a step count within the
  * same cycle, and drives the spindle encoder (--spindle RPM,COUNTS_PER_REV: ICLK on PD0, SIND on
  * PD1). --stats prints interrupt figures at the end: the longest stretch with interrupts off
- * outside and inside ISRs (with the program counter where the longest one outside began), and
+ * outside and inside ISRs (with the program counter where the longest one outside began, and
+ * where the longest one inside began and ended), and
  * the cycles spent in ISRs. The end line names the program counter the run stopped at. --vcd FILE writes the step ports as VCD.
  * The simulated time runs at most --speed times wall time (0: unpaced; default 1 with --listen).
  * It stops after --cycles N, at SIGTERM / SIGINT, or when a --listen client hangs up (--once).
