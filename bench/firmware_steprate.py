@@ -14,7 +14,9 @@ of an earlier commit (default: the one before the segment buffer) built the same
    windows beside its limit (plus the quantisation of counting whole steps).
 4. 0.6 s of damaged frames during FMOV X30 on tul-mill: NAKs answered, the end position, and how
    far any step moved from the quiet run's.
-5. Flash and RAM of each shipped machine.
+5. A thread pass on mitic-lathe (ISTP, 0.5 mm a turn, 80 Z steps) at 300 and 1 200 rpm: the
+   delay from each encoder count to its step's rise and the longest interrupts-off stretch.
+6. Flash and RAM of each shipped machine.
 
     python bench/firmware_steprate.py [--base COMMIT[,COMMIT...]] [--quick]
 """
@@ -117,6 +119,30 @@ def interrupts(elf: Path, machine, axes: str, rate: float, idle: float) -> str:
             f"{st['off_isr_longest'] / 16:4.1f} us in an ISR")
 
 
+def thread(sources: dict[str, Path], tmp: Path) -> None:
+    """A thread pass clocked by the encoder on mitic-lathe, for each firmware."""
+    lathe = load_machine("mitic-lathe")
+    print("thread pass on mitic-lathe (ISTP, PFDR F0.5, PMOV Z-1: 80 steps on encoder counts):")
+    for name, src in sources.items():
+        elf = fs.build_copy(lathe, tmp / "thread" / name.replace(" ", "_"), src)
+        for rpm in (300, 1200):
+            script = frames(lathe, [(3_200_000, "ISTP"), (3_300_000, "PFDR F0.5"),
+                                    (3_400_000, "PMOV Z-1")])
+            log = fs.Harness(elf, lathe, script=script, cycles=int((0.3 + 180 / rpm) * S),
+                             spindle_rpm=rpm, stats=True).run()
+            rises, _, _ = fs.step_times(log, lathe, "Z")
+            if not len(rises):
+                print(f"  {name:<16} {rpm:>5} rpm: no step (the frames were not understood)")
+                continue
+            iclk = np.array([c for c, port, bit, level in log.inputs
+                             if (port, bit, level) == ("D", 0, 1)])
+            delay = (rises - iclk[np.searchsorted(iclk, rises) - 1]) / 16
+            print(f"  {name:<16} {rpm:>5} rpm: {len(rises)} steps, each {delay.min():.1f}-"
+                  f"{delay.max():.1f} us after its count; interrupts off at most "
+                  f"{log.stats['off_isr_longest'] / 16:4.1f} us in an ISR, "
+                  f"{log.stats['off_main_longest'] / 16:4.1f} us in the main loop")
+
+
 def circle() -> None:
     """The 474-segment circle through the link, its time beside the host plan's."""
     from retrofit.gcode import compile_program
@@ -194,9 +220,10 @@ def long_pulse(machine_path: Path, tmp: Path):
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--base", default="6f10b11,d4e08f1",
+    ap.add_argument("--base", default="6f10b11,d4e08f1,5ebf24e",
                     help="the commits whose firmware runs beside (default: before the segment "
-                         "buffer, before the common tick ran whole)")
+                         "buffer, before the common tick ran whole, before the encoder's "
+                         "interrupt let interrupts in)")
     ap.add_argument("--quick", action="store_true", help="a coarser sweep")
     args = ap.parse_args()
     machine = load_machine(MACHINE)
@@ -240,6 +267,7 @@ def main() -> int:
                       f"{interrupts(elves['this tree'], machine, axes, rate, idle['this tree'])}")
         print(f"  {'this tree':<16} 1 axis at 60 kHz: "
               f"{interrupts(elves['this tree'], machine, 'X', 60000.0, idle['this tree'])}")
+        thread(sources, tmp)
     circle()
     garbage()
     sizes()

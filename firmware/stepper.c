@@ -38,7 +38,7 @@ uint16_t st_ticks_left, st_period, st_tick_at, st_tick_next;
 int32_t st_counter[N_AXES];                  /* Bresenham's error term minus the base */
 uint32_t st_inc[N_AXES], st_base, st_enc_left;
 /* The event of the next tick (read by the interrupt's entry). */
-volatile uint8_t st_ev_bits;
+volatile uint8_t st_ev_bits, st_enc_bits;
 uint8_t st_ev_neg, st_ev_count, st_ev_last;
 uint8_t st_pin_dirs;                          /* bit i set: axis i's pin says negative */
 volatile uint8_t st_dir_pending, st_dir_next;
@@ -61,32 +61,66 @@ void wake(void)
     TIMSK1 = _BV(OCIE1A) | _BV(OCIE1B);
 }
 
-/* ICLK: one encoder count of the spindle is one Bresenham event of an ISTP line. */
-ISR(INT0_vect)
+/* The event of the next encoder count into st_enc_bits, computed ahead so the count's
+ * interrupt raises its pins first thing: Bresenham with the encoder counts as the base (every
+ * axis, so the timer's always-stepping shortcut is not used), and the limit switches of the axes
+ * that would step. 0 when a limit stops the line (halted). Runs with INT0 masked or before the
+ * line's state is ENCODER. */
+uint8_t enc_prepare(void)
 {
-    if (st_state != ENCODER || st_index_wait)
-        return;
-    if (st_pulse_high) {                          /* steps this close: end the last pulse early */
-        FOR_EACH_AXIS(STEP_LOW)
-        st_pulse_high = 0;
-    }
     uint8_t b = 0, bres = st_bres_axes | st_always_axes;
     FOR_EACH_AXIS(BRESENHAM)
     if ((b & LIMIT_AXES) && switch_blocks(b, st_ln->dir_bits)) {
         halt(EV_LIMIT);
+        return 0;
+    }
+    st_enc_bits = b;
+    return 1;
+}
+
+/* ICLK: one encoder count of the spindle is one Bresenham event of an ISTP line. With
+ * interrupts off only its pins change (the event was prepared at the count before); the
+ * counting and the next event run with interrupts on and INT0 masked, and a count that came
+ * meanwhile is served at the end, in the same interrupt (its flag is cleared by hand: simavr
+ * does not take a flag raised while its interrupt was masked; the CPU would). */
+ISR(INT0_vect)
+{
+    if (st_state != ENCODER || st_index_wait)
         return;
-    }
-    if (b) {
-        uint8_t bits = b, neg = st_ln->dir_bits;
-        FOR_EACH_AXIS(STEP_HIGH)
-        OCR1B = TCNT1 + FALL_AFTER_RISE_COUNTS;   /* (the pins rose in this count or before) */
-        st_pulse_high = 1;
+    for (;;) {
+        if (st_pulse_high) {                      /* counts this close: the last pulse ends now */
+            FOR_EACH_AXIS(STEP_LOW)
+            st_pulse_high = 0;
+            if (st_dir_pending) {
+                write_directions(st_dir_next);
+                st_dir_pending = 0;
+            }
+        }
+        uint8_t bits = st_enc_bits;
+        if (bits) {
+            FOR_EACH_AXIS(STEP_HIGH)
+            OCR1B = TCNT1 + FALL_AFTER_RISE_COUNTS;   /* (the pins rose in this count) */
+            TIFR1 = _BV(OCF1B);                   /* an earlier pulse's compare ends none now */
+            st_pulse_high = 1;
+        }
+        EIMSK &= (uint8_t)~_BV(INT0);
+        sei();
+        uint8_t neg = st_ln->dir_bits;
         FOR_EACH_AXIS(COUNT)
-    }
-    if (--st_enc_left == 0) {
-        st_events |= EV_DONE;
-        st_state = IDLE;
-        wake();                                /* the next segments, on the timer again */
+        uint8_t more = --st_enc_left != 0 && enc_prepare();
+        cli();
+        EIMSK |= _BV(INT0);
+        if (st_state != ENCODER)                  /* a limit halted the line */
+            return;
+        if (!more) {
+            st_events |= EV_DONE;
+            st_state = IDLE;
+            wake();                            /* the next segments, on the timer again */
+            return;
+        }
+        if (!(EIFR & _BV(INTF0)))
+            return;
+        EIFR = _BV(INTF0);                        /* a count came meanwhile: it is served here */
     }
 }
 

@@ -50,7 +50,7 @@ extern uint16_t st_ticks_left, st_period, st_tick_at, st_tick_next;
 extern int32_t st_counter[N_AXES];                  /* Bresenham's error term minus the base */
 extern uint32_t st_inc[N_AXES], st_base, st_enc_left;
 /* The event of the next tick (read by the interrupt's entry). */
-extern volatile uint8_t st_ev_bits;
+extern volatile uint8_t st_ev_bits, st_enc_bits;   /* (the next encoder count's) */
 extern uint8_t st_ev_neg, st_ev_count, st_ev_last;
 extern uint8_t st_pin_dirs;                          /* bit i set: axis i's pin says negative */
 extern volatile uint8_t st_dir_pending, st_dir_next;
@@ -117,5 +117,6 @@ void set_directions(uint8_t dirs);
 void halt(uint8_t why);
 void fold_fired(void);
 void wake(void);
+uint8_t enc_prepare(void);
 
 #endif

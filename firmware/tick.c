@@ -109,10 +109,11 @@ static uint8_t next_segment(void)
     if (level != st_seg_level)
         set_level(level);
     if (st_seg_flags & SEG_INDEXER) {
-        st_state = ENCODER;                       /* the encoder's clock takes over */
         st_enc_left = st_base;
         st_index_wait = !st_ln->chained;             /* a thread pass waits for SIND */
         st_ev_bits = 0;
+        if (enc_prepare())                        /* its first event (a limit may halt it) */
+            st_state = ENCODER;                   /* the encoder's clock takes over, last */
         return 0;
     }
     st_ticks_left = ticks;

@@ -146,6 +146,59 @@ def test_a_thread_pass_waits_for_the_index_pulse_then_cuts_the_pitch_at_any_spee
     assert np.searchsorted(iclk, rises[0]) - first_count <= counts // 40
 
 
+# 10 us at 16 MHz: the longest another interrupt (a received byte) may wait for the CPU.
+OFF_LIMIT_CYCLES = 160
+
+
+def counts_and_rises(log, machine, axis="Z"):
+    """The encoder's counts (ICLK rising) and the axis's step rises, in cycles."""
+    rises, falls, dirs = fs.step_times(log, machine, axis)
+    iclk = np.array([c for c, port, bit, level in log.inputs if (port, bit, level) == ("D", 0, 1)])
+    return iclk, rises, falls, dirs
+
+
+@pytest.mark.parametrize("rpm", [300, 1200])
+def test_in_a_thread_each_step_rises_at_the_same_delay_after_its_count_and_interrupts_stay_on(
+        lathe, rpm):
+    """The encoder's interrupt raises the pins it prepared at the count before, first thing: each
+    Z step within 10 us of its encoder count, all at the same delay to 1 us (the same spindle
+    angle), and interrupts never off longer than 10 us (the counting and the next event run
+    with them on)."""
+    machine, elf = lathe
+    script = (Script(machine).at(3_200_000, "ISTP").at(3_300_000, "PFDR F0.5")
+              .at(3_400_000, "PMOV Z-1"))
+    log = fs.Harness(elf, machine, script=script.items, cycles=int((0.3 + 3 * 60 / rpm) * S),
+                     spindle_rpm=rpm, stats=True).run()
+    iclk, rises, falls, _ = counts_and_rises(log, machine)
+    assert len(rises) == 80
+    delay = rises - iclk[np.searchsorted(iclk, rises) - 1]
+    assert delay.max() <= 10 * CYCLES_PER_US
+    assert delay.max() - delay.min() <= CYCLES_PER_US
+    assert ((falls - rises) / CYCLES_PER_US).min() >= 100              # the lathe's 100 us pulse
+    assert 0 < log.stats["off_isr_longest"] <= OFF_LIMIT_CYCLES
+    assert log.stats["off_main_longest"] <= OFF_LIMIT_CYCLES
+
+
+def test_a_limit_switch_stops_a_thread_pass_within_a_step_of_its_trip_point(lathe):
+    """PLSZ trips at Z 20.5 mm (1 640 steps); the carriage starts 10 steps short of it and the
+    thread pass runs 80 steps towards it: the steps stop at the switch, the firmware reports
+    ERROR and accepts no more motion."""
+    machine, elf = lathe
+    rpm, start = 600, 1630
+    script = (Script(machine).at(3_200_000, "ISTP").at(3_300_000, "PFDR F0.5")
+              .at(3_400_000, "PMOV Z1").at(int(0.55 * S), "RDST"))
+    log = fs.Harness(elf, machine, script=script.items, cycles=int(0.6 * S), spindle_rpm=rpm,
+                     start_steps={"Z": start}).run()
+    status = replies(log, machine)[-1]
+    assert status.flags & StatusFlags.ERROR
+    iclk, rises, _, dirs = counts_and_rises(log, machine)
+    assert dirs.all()                                          # towards +Z
+    trip = round(20.5 * machine.axis("Z").steps_per_mm) - start
+    # the switch is read once a millisecond and debounced over three readings: at 600 rpm
+    # (40 Z steps a turn, 400 steps/s) at most two steps more
+    assert trip <= len(rises) <= trip + 2
+
+
 @pytest.fixture(scope="module")
 def mill():
     machine = load_machine("tul-mill")
