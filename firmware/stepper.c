@@ -175,24 +175,27 @@ uint8_t stepper_busy(void)
     return st_state != IDLE || st_ring_head != st_ring_tail;
 }
 
+/* Everything stops: with interrupts off only the step timer's interrupts are masked, the
+ * encoder's made idle and the pins lowered; none of them can run after that, so the rest is
+ * put in order with interrupts on (the main loop resumes only when every interrupt returned). */
 void stepper_stop(void)
 {
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
         TIMSK1 = 0;
-        fold_fired();
-        FOR_EACH_AXIS(STEP_LOW)
-        if (st_dir_pending)
-            write_directions(st_dir_next);
-        st_dir_pending = 0;
         st_state = IDLE;
-        st_halted = 0;
-        st_ring_head = st_ring_tail = 0;
-        st_ticks_left = 0;
-        st_pulse_high = 0;
-        st_ev_bits = st_ev_last = st_fast = 0;
-        st_busy = st_missed = 0;
-        st_events = 0;
+        FOR_EACH_AXIS(STEP_LOW)
     }
+    fold_fired();
+    if (st_dir_pending)
+        write_directions(st_dir_next);
+    st_dir_pending = 0;
+    st_halted = 0;
+    st_ring_head = st_ring_tail = 0;
+    st_ticks_left = 0;
+    st_pulse_high = 0;
+    st_ev_bits = st_ev_last = st_fast = 0;
+    st_busy = st_missed = 0;
+    st_events = 0;
 }
 
 uint8_t stepper_take_events(void)

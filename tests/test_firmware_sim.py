@@ -181,16 +181,18 @@ def test_in_a_thread_each_step_rises_at_the_same_delay_after_its_count_and_inter
 
 def test_a_limit_switch_stops_a_thread_pass_within_a_step_of_its_trip_point(lathe):
     """PLSZ trips at Z 20.5 mm (1 640 steps); the carriage starts 10 steps short of it and the
-    thread pass runs 80 steps towards it: the steps stop at the switch, the firmware reports
-    ERROR and accepts no more motion."""
+    thread pass runs 80 steps towards it: the steps stop at the switch and the firmware reports
+    ERROR, with interrupts never off longer than 10 us on the way."""
     machine, elf = lathe
     rpm, start = 600, 1630
     script = (Script(machine).at(3_200_000, "ISTP").at(3_300_000, "PFDR F0.5")
               .at(3_400_000, "PMOV Z1").at(int(0.55 * S), "RDST"))
     log = fs.Harness(elf, machine, script=script.items, cycles=int(0.6 * S), spindle_rpm=rpm,
-                     start_steps={"Z": start}).run()
+                     start_steps={"Z": start}, stats=True).run()
     status = replies(log, machine)[-1]
     assert status.flags & StatusFlags.ERROR
+    assert log.stats["off_main_longest"] <= OFF_LIMIT_CYCLES        # the stop, too
+    assert log.stats["off_isr_longest"] <= OFF_LIMIT_CYCLES
     iclk, rises, _, dirs = counts_and_rises(log, machine)
     assert dirs.all()                                          # towards +Z
     trip = round(20.5 * machine.axis("Z").steps_per_mm) - start
@@ -206,10 +208,15 @@ def mill():
 
 
 def test_homing_z_alone_latches_within_one_step_of_its_switch(mill):
+    """Z seeks its switch, backs off and latches within one step of it; stopping on the switch
+    (the rest of the seek dropped) keeps interrupts off at most 10 us, like the stepping."""
     machine, elf = mill
     end = int(5.5 * S)                   # seek at 50 mm/s, back off and latch at 0.5 mm/s
     script = Script(machine).at(3_200_000, "ZMOV Z").at(end - 100_000, "RDPS")
-    log = fs.Harness(elf, machine, script=script.items, cycles=end, start_steps={"Z": -2000}).run()
+    log = fs.Harness(elf, machine, script=script.items, cycles=end, start_steps={"Z": -2000},
+                     stats=True).run()
+    assert log.stats["off_main_longest"] <= OFF_LIMIT_CYCLES
+    assert log.stats["off_isr_longest"] <= OFF_LIMIT_CYCLES
     steps = dict(zip([a.name for a in fs.firmware_axes(machine)], log.steps))
     assert steps["Z"] in (0, 1) and steps["X"] == steps["Y"] == 0       # Z homes up, to its top switch
     assert dict(replies(log, machine)[-1].steps)["Z"] == 0
