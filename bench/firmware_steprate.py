@@ -122,13 +122,13 @@ def interrupts(elf: Path, machine, axes: str, rate: float, idle: float) -> str:
 def thread(sources: dict[str, Path], tmp: Path) -> None:
     """A thread pass clocked by the encoder on mitic-lathe, for each firmware."""
     lathe = load_machine("mitic-lathe")
-    print("thread pass on mitic-lathe (ISTP, PFDR F0.5, PMOV Z-1: 80 steps on encoder counts):")
+    print("thread pass on mitic-lathe (SPIN, ISTP, PFDR F0.5, PMOV Z-1: 80 steps on encoder counts):")
     for name, src in sources.items():
         elf = fs.build_copy(lathe, tmp / "thread" / name.replace(" ", "_"), src)
         for rpm in (300, 1200):
-            script = frames(lathe, [(3_200_000, "ISTP"), (3_300_000, "PFDR F0.5"),
-                                    (3_400_000, "PMOV Z-1")])
-            log = fs.Harness(elf, lathe, script=script, cycles=int((0.3 + 180 / rpm) * S),
+            script = frames(lathe, [(3_100_000, f"SPIN S{rpm} D1"), (3_200_000, "ISTP"),
+                                    (3_300_000, "PFDR F0.5"), (3_400_000, "PMOV Z-1")])
+            log = fs.Harness(elf, lathe, script=script, cycles=int((0.3 + 240 / rpm) * S),
                              spindle_rpm=rpm, stats=True).run()
             rises, _, _ = fs.step_times(log, lathe, "Z")
             if not len(rises):

@@ -261,11 +261,11 @@ static void fetch_motion(const command_t *c)
     uint8_t synchronised = !fast && indexer;
     if (plan_line(&m, planned, target, fast ? FEED_FAST : FEED_MACHINING,
                   fast ? fast_feed : machining_feed, synchronised)) {
-        if (!plan_thread_ok(&m, spindle_rpm)) {
+        m.chained = synchronised && thread_chain;      /* the next pass of the same thread */
+        if (!plan_thread(&m, spindle_rpm)) {
             fault();                                   /* refused before any motion */
             return;
         }
-        m.chained = synchronised && thread_chain;      /* the next pass of the same thread */
         thread_chain = synchronised;
         planner_submit(&m);
         for (uint8_t i = 0; i < N_AXES; i++)

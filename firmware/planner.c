@@ -119,26 +119,46 @@ uint8_t plan_line(move_t *m, const int32_t *from, const int32_t *to, uint8_t fee
     m->feed = feed;
     m->chained = 0;
     limits(m);
-    if (indexer && feed > 0.0f) {              /* ISTP: the encoder counts of the line; at */
-        float counts = m->mm / feed * (float)ENCODER_COUNTS_PER_REV;   /* most one step each */
-        if (counts > (float)most)
-            m->events = counts < 1e9f ? (uint32_t)(counts + 0.5f) : 1000000000UL;
+    if (indexer && feed > 0.0f) {              /* ISTP: the encoder counts of the line (at */
+        float counts = m->mm / feed * (float)ENCODER_COUNTS_PER_REV;   /* most one step each: */
+        m->events = counts < 1e9f ? (uint32_t)(counts + 0.5f) : 1000000000UL;   /* checked by */
+        if (!m->events)                                                          /* plan_thread) */
+            m->events = 1;
     }
     return 1;
 }
 
-uint8_t plan_thread_ok(const move_t *m, float rpm)
+/* The lead-in (retrofit/motion/indexer.py, the host's rule): an axis at rest cannot jump to
+ * thread speed, so it starts L counts before the reference index and follows a parabola in the
+ * count that meets the line, with its slope, L counts after it; at the fastest the spindle may
+ * turn, that takes SYNC_ACCEL_SHARE of the path's acceleration: L = C f r^2 / (2 a), f the feed
+ * in mm a revolution, r revolutions a second. */
+#define LEAD_MAX 30000U                /* (2 L)^2 must fit 32 bits in the encoder's interrupt */
+
+uint8_t plan_thread(move_t *m, float rpm)
 {
+    m->lead = 0;
     if (!m->indexer)
         return 1;
+    if (rpm <= 0.0f)
+        return 0;                              /* no spindle to follow */
+    float revs = rpm * (1.0f + SPINDLE_SPEED_TOLERANCE) / 60.0f;
     float counts = (float)m->events;           /* the encoder counts of the line */
     for (uint8_t i = 0; i < N_AXES; i++) {
         if (m->delta[i] > m->events)
             return 0;                          /* more steps than counts: the pitch would be cut */
-        float rate = (float)m->delta[i] / counts * (float)ENCODER_COUNTS_PER_REV * rpm / 60.0f;
+        float rate = (float)m->delta[i] / counts * (float)ENCODER_COUNTS_PER_REV * revs;
         if (rate > max_rate[i])
             return 0;                          /* the axis cannot follow the spindle */
     }
+    if (m->chained)
+        return 1;                              /* it goes on from the pass before: no lead-in */
+    float lead = (float)ENCODER_COUNTS_PER_REV * m->feed * revs * revs /
+                 (2.0f * m->accel * SYNC_ACCEL_SHARE);
+    lead = ceilf(lead - 1e-3f);                /* (rounded up: the acceleration stays within) */
+    if (lead > counts || lead > (float)LEAD_MAX)
+        return 0;                              /* the lead-in would be longer than the line */
+    m->lead = (uint16_t)lead;
     return 1;
 }
 
@@ -153,6 +173,7 @@ void plan_home(move_t *m, uint8_t axis, int8_t dir, uint32_t steps, uint8_t kind
     m->kind = kind;
     m->feed_kind = feed_kind;
     m->indexer = m->chained = 0;
+    m->lead = 0;
     m->watch = watch;
     m->delta[axis] = steps;
     m->takeup[axis] = takeup(axis, dir);

@@ -26,6 +26,7 @@ typedef struct {
     uint8_t feed_kind;             /* which feed governs its speed (FFDR / MFDR may change it) */
     uint8_t indexer;               /* 1: the spindle encoder clocks it (ISTP), 0: the timer */
     uint8_t chained;               /* ISTP: continues the pass before it (no wait for SIND) */
+    uint16_t lead;                 /* ISTP: encoder counts of lead-in on each side of the index */
     uint8_t dir_bits;              /* bit i: axis i moves towards negative */
     uint8_t watch;                 /* the switch a homing move watches */
     uint32_t delta[N_AXES];        /* steps of each axis */
@@ -57,9 +58,11 @@ void planner_resync(void);
  * revolution when `indexer` is set. Returns 0 for a line of no length (nothing to do). */
 uint8_t plan_line(move_t *m, const int32_t *from, const int32_t *to, uint8_t feed_kind,
                   float feed, uint8_t indexer);
-/* An ISTP line at `rpm`: 0 if an axis would need more steps than encoder counts, or a step rate
- * above its limit (the host controller refuses the same threads). */
-uint8_t plan_thread_ok(const move_t *m, float rpm);
+/* An ISTP line at `rpm` (the last SPIN), by the host controller's rules: 0 (refused) when the
+ * spindle is stopped, an axis would need more steps than encoder counts, an axis would step
+ * above its limit with the spindle up to SPINDLE_SPEED_TOLERANCE faster, or (a pass that is not
+ * chained) its lead-in would be longer than the line; else the lead-in's counts go in m->lead. */
+uint8_t plan_thread(move_t *m, float rpm);
 /* Prepare a homing move of `axis`: up to `steps` steps in `dir` (+1 / -1); a SEEK or RELEASE
  * move ends early when switch `watch` closes or opens. */
 void plan_home(move_t *m, uint8_t axis, int8_t dir, uint32_t steps, uint8_t kind, uint8_t watch,

@@ -135,7 +135,17 @@ static uint8_t start(move_t *m)
         if (!s)
             return 0;
         s->line = new_line(m);
-        s->ticks = s->period = 0;
+        /* the lead-in: `period` counts each side of the reference index, which is the first
+         * index after the pass synchronises when that leaves room for them, else a later one;
+         * `ticks` counts to wait from the synchronising index to the lead-in's start */
+#if ENCODER_COUNTS_PER_REV
+        uint16_t lead = m->lead;
+        uint16_t revs = (uint16_t)((lead + ENCODER_COUNTS_PER_REV - 1) / ENCODER_COUNTS_PER_REV);
+        s->ticks = (uint16_t)(revs * ENCODER_COUNTS_PER_REV - lead);
+        s->period = lead;
+#else
+        s->ticks = s->period = 0;                 /* (no encoder: ISTP is refused) */
+#endif
         s->level = 0;
         s->flags = SEG_FIRST | SEG_LAST | SEG_INDEXER;
         stepper_push();

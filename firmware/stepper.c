@@ -39,6 +39,9 @@ int32_t st_counter[N_AXES];                  /* Bresenham's error term minus the
 uint32_t st_inc[N_AXES], st_base, st_enc_left;
 /* The event of the next tick (read by the interrupt's entry). */
 volatile uint8_t st_ev_bits, st_enc_bits;
+uint8_t st_enc_ev;
+uint16_t st_enc_wait, st_enc_lead;
+uint32_t st_lead_q, st_lead_odd, st_lead_next, st_lead_4l;
 uint8_t st_ev_neg, st_ev_count, st_ev_last;
 uint8_t st_pin_dirs;                          /* bit i set: axis i's pin says negative */
 volatile uint8_t st_dir_pending, st_dir_next;
@@ -58,24 +61,65 @@ void wake(void)
     st_period = WAKE_COUNTS;                      /* the first tick takes the first segment */
     schedule();
     TIFR1 = _BV(OCF1A);
-    TIMSK1 = _BV(OCIE1A) | _BV(OCIE1B);
+    TIMSK1 = TICK_TIMSK | (st_pulse_high ? _BV(OCIE1B) : 0);   /* (an encoder's pulse) */
 }
 
-/* The event of the next encoder count into st_enc_bits, computed ahead so the count's
- * interrupt raises its pins first thing: Bresenham with the encoder counts as the base (every
- * axis, so the timer's always-stepping shortcut is not used), and the limit switches of the axes
- * that would step. 0 when a limit stops the line (halted). Runs with INT0 masked or before the
- * line's state is ENCODER. */
+/* Whether the next encoder count is an event of the line (the host's IndexerTrack). After the
+ * synchronising index it waits st_enc_wait counts; then, over the lead-in's 2 L counts, the
+ * events follow the parabola round(k^2 / 4 L) of the lead-in's count k (at most one a count:
+ * its slope k / 2 L reaches 1 at its end, where it meets the line: L events in 2 L counts);
+ * then every count is one. */
+static inline uint8_t enc_gate(void)
+{
+    if (st_enc_wait) {
+        st_enc_wait--;
+        return 0;
+    }
+    if (!st_enc_lead)
+        return 1;
+    st_enc_lead--;
+    st_lead_q += st_lead_odd;                    /* k^2, for the next k */
+    st_lead_odd += 2;
+    if (st_lead_q < st_lead_next)                /* not yet past the next half event */
+        return 0;
+    st_lead_next += st_lead_4l;
+    return 1;
+}
+
+/* The event of the next encoder count into st_enc_bits (st_enc_ev: it is one), computed ahead
+ * so the count's interrupt raises its pins first thing: Bresenham with the line's encoder
+ * counts as the base (every axis, so the timer's always-stepping shortcut is not used), and
+ * the limit switches of the axes that would step. 0 when a limit stops the line (halted). Runs
+ * with INT0 masked or before the line's state is ENCODER. */
 uint8_t enc_prepare(void)
 {
     uint8_t b = 0, bres = st_bres_axes | st_always_axes;
-    FOR_EACH_AXIS(BRESENHAM)
-    if ((b & LIMIT_AXES) && switch_blocks(b, st_ln->dir_bits)) {
-        halt(EV_LIMIT);
-        return 0;
+    st_enc_ev = enc_gate();
+    if (st_enc_ev) {
+        FOR_EACH_AXIS(BRESENHAM)
+        if ((b & LIMIT_AXES) && switch_blocks(b, st_ln->dir_bits)) {
+            halt(EV_LIMIT);
+            return 0;
+        }
     }
     st_enc_bits = b;
     return 1;
+}
+
+/* An ISTP line begins (its segment's ticks and period: the counts to wait after the index and
+ * the lead-in's counts); its first event. Not inlined: the step tick's common path keeps its
+ * registers few. */
+__attribute__((noinline)) uint8_t enc_begin(uint16_t wait, uint16_t lead)
+{
+    st_enc_left = st_base;
+    st_index_wait = !st_ln->chained;             /* a thread pass waits for SIND */
+    st_enc_wait = wait;
+    st_enc_lead = (uint16_t)(2 * lead);
+    st_lead_q = 0;
+    st_lead_odd = 1;
+    st_lead_next = 2 * (uint32_t)lead;
+    st_lead_4l = 4 * (uint32_t)lead;
+    return enc_prepare();
 }
 
 /* ICLK: one encoder count of the spindle is one Bresenham event of an ISTP line. With
@@ -101,13 +145,14 @@ ISR(INT0_vect)
             FOR_EACH_AXIS(STEP_HIGH)
             OCR1B = TCNT1 + FALL_AFTER_RISE_COUNTS;   /* (the pins rose in this count) */
             TIFR1 = _BV(OCF1B);                   /* an earlier pulse's compare ends none now */
+            TIMSK1 |= _BV(OCIE1B);
             st_pulse_high = 1;
         }
         EIMSK &= (uint8_t)~_BV(INT0);
         sei();
         uint8_t neg = st_ln->dir_bits;
         FOR_EACH_AXIS(COUNT)
-        uint8_t more = --st_enc_left != 0 && enc_prepare();
+        uint8_t more = (!st_enc_ev || --st_enc_left != 0) && enc_prepare();
         cli();
         EIMSK |= _BV(INT0);
         if (st_state != ENCODER)                  /* a limit halted the line */

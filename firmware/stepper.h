@@ -26,7 +26,9 @@ typedef struct {
 
 #define SEG_FIRST    0x01          /* the first segment of its line: counters and directions */
 #define SEG_LAST     0x02          /* its last: the line ends with it */
-#define SEG_INDEXER  0x04          /* the whole line, clocked by the spindle encoder */
+#define SEG_INDEXER  0x04          /* the whole line, clocked by the spindle encoder; its ticks
+                                      are the counts to wait after the index, its period the
+                                      lead-in's counts (each side of the reference index) */
 
 typedef struct {
     uint16_t ticks;                /* timer ticks (events << level) */

@@ -31,6 +31,18 @@
  * c + PULSE_COUNTS + 1: 0.2-0.8 us longer than configured, never shorter. */
 #define FALL_EARLY_COUNTS (PULSE_COUNTS >= 4 ? 3 : 1)
 #define FALL_AFTER_RISE_COUNTS (PULSE_COUNTS + 1 - FALL_EARLY_COUNTS)   /* compare B - c */
+/* A pulse this short (the bench's 2 us) ends inside the common tick, after a wait that the
+ * tick's own work fills; a longer one ends in compare B's interrupt. */
+#ifndef FALL_IN_TICK_MAX_COUNTS
+#define FALL_IN_TICK_MAX_COUNTS 6
+#endif
+#define FALL_IN_TICK (PULSE_HIGH_US * (F_CPU / 8000000UL) <= FALL_IN_TICK_MAX_COUNTS)
+/* Compare B's interrupt is on only while it may have a pulse to end: always while the timer
+ * ticks when the pulses end there, else only for the encoder's pulses (then it turns itself
+ * off). A compare left on with nothing to end would come at every wrap of the free-running
+ * counter, every 32.8 ms, and could hold a tick's entry back by its 57 cycles. */
+#define TICK_TIMSK (_BV(OCIE1A) | (FALL_IN_TICK ? 0 : _BV(OCIE1B)))
+#define IDLE_TIMSK (FALL_IN_TICK ? 0 : _BV(OCIE1B))     /* (the last tick's pulse) */
 
 
 extern segment_t st_ring[SEGMENTS];
@@ -51,6 +63,11 @@ extern int32_t st_counter[N_AXES];                  /* Bresenham's error term mi
 extern uint32_t st_inc[N_AXES], st_base, st_enc_left;
 /* The event of the next tick (read by the interrupt's entry). */
 extern volatile uint8_t st_ev_bits, st_enc_bits;   /* (the next encoder count's) */
+/* ISTP: the next count is an event; counts to wait after the index, counts of lead-in left;
+ * the lead-in's k^2, 2k + 1, the k^2 of its next event (4 L e + 2 L), 4 L */
+extern uint8_t st_enc_ev;
+extern uint16_t st_enc_wait, st_enc_lead;
+extern uint32_t st_lead_q, st_lead_odd, st_lead_next, st_lead_4l;
 extern uint8_t st_ev_neg, st_ev_count, st_ev_last;
 extern uint8_t st_pin_dirs;                          /* bit i set: axis i's pin says negative */
 extern volatile uint8_t st_dir_pending, st_dir_next;
@@ -118,5 +135,6 @@ void halt(uint8_t why);
 void fold_fired(void);
 void wake(void);
 uint8_t enc_prepare(void);
+uint8_t enc_begin(uint16_t wait, uint16_t lead);
 
 #endif

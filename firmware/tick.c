@@ -109,10 +109,8 @@ static uint8_t next_segment(void)
     if (level != st_seg_level)
         set_level(level);
     if (st_seg_flags & SEG_INDEXER) {
-        st_enc_left = st_base;
-        st_index_wait = !st_ln->chained;             /* a thread pass waits for SIND */
         st_ev_bits = 0;
-        if (enc_prepare())                        /* its first event (a limit may halt it) */
+        if (enc_begin(ticks, p))                  /* its first event (a limit may halt it) */
             st_state = ENCODER;                   /* the encoder's clock takes over, last */
         return 0;
     }
@@ -166,7 +164,7 @@ void tick_body(void)
     uint8_t fast = st_plain && st_ticks_left && !st_ev_last;
     cli();
     if (st_state != TICKING)
-        TIMSK1 = _BV(OCIE1B);
+        TIMSK1 = IDLE_TIMSK;
     sei();
     schedule();                                /* the next segment's period is known now */
     finish_tick(fast);

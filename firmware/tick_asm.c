@@ -142,7 +142,7 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
 #endif
         ::ENTRY_OPERANDS, [period] "i"(&st_period), [ocrah] "n"(_SFR_MEM_ADDR(OCR1AH)),
           [ocral] "n"(_SFR_MEM_ADDR(OCR1AL)), [timsk3] "n"(_SFR_MEM_ADDR(TIMSK3)),
-          [t1tail] "M"(_BV(OCIE1B)), [timsk1] "n"(_SFR_MEM_ADDR(TIMSK1)));
+          [t1tail] "M"(TICK_TIMSK & ~_BV(OCIE1A)), [timsk1] "n"(_SFR_MEM_ADDR(TIMSK1)));
 #if FALL_IN_TICK
     FOR_EACH_AXIS(FALL_ASM)
     __asm__ __volatile__(
@@ -243,7 +243,7 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
 #endif
         ::ENTRY_OPERANDS, [left] "i"(&st_ticks_left), [missed] "i"(&st_missed),
           [tifr3] "I"(_SFR_IO_ADDR(TIFR3)), [ocf3a] "n"(OCF3A), [tifr1] "I"(_SFR_IO_ADDR(TIFR1)),
-          [ocf1a] "n"(OCF1A), [t1] "M"(_BV(OCIE1A) | _BV(OCIE1B)), [timsk1] "n"(_SFR_MEM_ADDR(TIMSK1)),
+          [ocf1a] "n"(OCF1A), [t1] "M"(TICK_TIMSK), [timsk1] "n"(_SFR_MEM_ADDR(TIMSK1)),
           [ocrah] "n"(_SFR_MEM_ADDR(OCR1AH)), [ocral] "n"(_SFR_MEM_ADDR(OCR1AL)),
           [t3] "M"(_BV(OCIE3A)), [timsk3] "n"(_SFR_MEM_ADDR(TIMSK3)));
 }

@@ -25,12 +25,6 @@
                              ::"n"(_SFR_MEM_ADDR(PIN_OF(slot, _STEP_PORT))),                \
                              "n"(0xFF & ~_BV(PIN_OF(slot, _STEP_BIT))));
 
-/* A pulse this short (the bench's 2 us) ends inside the common tick, after a wait that the
- * tick's own work fills; a longer one ends in compare B's interrupt. */
-#ifndef FALL_IN_TICK_MAX_COUNTS
-#define FALL_IN_TICK_MAX_COUNTS 6
-#endif
-#define FALL_IN_TICK (PULSE_HIGH_US * (F_CPU / 8000000UL) <= FALL_IN_TICK_MAX_COUNTS)
 /* The waits poll the counter's low byte (5 cycles a turn, so no count of 8 cycles is missed):
  * no compare flag is cleared by hand. (simavr 1.6 clears every flag of TIFR1 at any write.) */
 #define ENTRY_OPERANDS                                                                       \

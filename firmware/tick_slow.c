@@ -124,6 +124,13 @@ ISR(TIMER1_COMPB_vect, ISR_NAKED)
         ::[ocrbl] "n"(_SFR_MEM_ADDR(OCR1BL)), [tcntl] "n"(_SFR_MEM_ADDR(TCNT1L)),
           [early] "n"(FALL_EARLY_COUNTS));
     FOR_EACH_AXIS(FALL_ASM)
+#if FALL_IN_TICK
+    __asm__ __volatile__(                     /* only the encoder's pulses come here: once */
+        "lds r24, %[timsk]\n\t"
+        "andi r24, %[off]\n\t"
+        "sts %[timsk], r24\n\t"
+        ::[timsk] "n"(_SFR_MEM_ADDR(TIMSK1)), [off] "n"(0xFF & ~_BV(OCIE1B)));
+#endif
     __asm__ __volatile__(
         "pop r25\n\t"
         "clr r24\n\t"

@@ -114,7 +114,8 @@ def cutting_passes(steps: np.ndarray, negative: np.ndarray, below: float) -> lis
 @pytest.mark.slow
 def test_a_g76_thread_on_the_firmware_cuts_the_helix_sim_cuts(tmp_path, monkeypatch):
     """G76 on mitic-lathe, 11 passes at 300 rpm: on the firmware every step of every pass lies
-    within one step of the helix the sim:// run cuts (Z steps against the spindle angle)."""
+    within one step of the helix the sim:// run cuts (Z steps against the spindle angle), and
+    every step of each pass's lead-in within one step of sim://'s."""
     monkeypatch.chdir(tmp_path)
     machine = load_machine("mitic-lathe")
     (tmp_path / "g76.ngc").write_text(THREAD)
@@ -145,3 +146,19 @@ def test_a_g76_thread_on_the_firmware_cuts_the_helix_sim_cuts(tmp_path, monkeypa
         angle = (np.searchsorted(iclk, rises[g], side="right") - 1) / counts   # index at count 0
         phi = helix_phase(position[g], angle, per_rev)
         assert np.abs(phi - np.median(ref)).max() <= 1.0
+
+    # the lead-ins too: step by step, each whole pass against sim://'s (a lead-in lags the
+    # helix by up to ~5 steps here), after its backlash take-up, which the clock times
+    everything = float("inf")
+    sim_whole = cutting_passes(carriage, np.diff(motor, prepend=0) < 0, everything)
+    fw_whole = cutting_passes(position, negative, everything)
+    takeup = round(z.backlash_mm * z.steps_per_mm)                   # 2 steps on each reversal
+    assert [len(g) for g in fw_whole] == [len(g) for g in sim_whole]
+    lead_dev = []
+    for g, h in zip(sim_whole, fw_whole):
+        ref_whole = helix_phase(carriage[g], sim.spindle.revolutions_at(ticks[g]), per_rev)
+        angle = (np.searchsorted(iclk, rises[h], side="right") - 1) / counts
+        phi = helix_phase(position[h], angle, per_rev)
+        assert np.abs(phi - ref_whole)[takeup:].max() <= 1.0
+        lead_dev.append(np.abs(ref_whole[takeup:] - np.median(ref)).max())
+    assert min(lead_dev) > 2                                          # each pass leads in

@@ -8,14 +8,18 @@ frames at chosen cycles, so each run is the same on a loaded machine.
 from __future__ import annotations
 
 import shutil
+from fractions import Fraction
 
 import numpy as np
 import pytest
 
 from retrofit.commands import parse_command
 from retrofit.config import load_machine
+from retrofit.controller.program import ProgramError, run_commands
 from retrofit.link import (IMMEDIATE, QUEUED, Ack, FrameDecoder, Position, Status, StatusFlags,
                            decode_reply, encode_command, encode_frame, seq_byte)
+from retrofit.motion.indexer import IndexerTrack, lead_in_counts
+from retrofit.sim import SimMachine
 
 pytestmark = pytest.mark.skipif(
     shutil.which("avr-gcc") is None or shutil.which("make") is None,
@@ -122,32 +126,13 @@ def test_the_mill_with_its_carousel_builds_and_its_e_axis_steps_on_the_e0_socket
     assert len(rises) >= 160 and fs.MEGA_PINS[26] == ("A", 4)
 
 
-@pytest.mark.parametrize("rpm", [300, 600, 1200])
-def test_a_thread_pass_waits_for_the_index_pulse_then_cuts_the_pitch_at_any_speed(lathe, rpm):
-    machine, elf = lathe
-    counts = machine.parts["spindle"].encoder_counts_per_rev
-    script = (Script(machine).at(3_200_000, "ISTP").at(3_300_000, "PFDR F0.5")
-              .at(3_400_000, "PMOV Z-1"))                     # 0.5 mm a revolution, 2 turns
-    turns_s = 60 / rpm
-    log = fs.Harness(elf, machine, script=script.items, cycles=int((0.3 + 3 * turns_s) * S),
-                     spindle_rpm=rpm).run()
-    rises, _, dirs = fs.step_times(log, machine, "Z")
-    sind = [c for c, port, bit, level in log.inputs if (port, bit, level) == ("D", 1, 1)]
-    iclk = np.array([c for c, port, bit, level in log.inputs if (port, bit, level) == ("D", 0, 1)])
-    index = [c for c in sind if c > 3_400_000]
-    z = machine.axis("Z")
-    assert len(rises) == round(1 * z.steps_per_mm) and not dirs.any()    # towards -Z
-    assert rises[0] > index[0]                                # no step before the index pulse
-    # each revolution (from one index pulse to the next) carries 0.5 mm = 40 Z steps
-    per_turn = [int(((rises > a) & (rises <= b)).sum()) for a, b in zip(index, index[1:3])]
-    assert per_turn == [round(0.5 * z.steps_per_mm)] * 2
-    # each step follows an encoder count: the same spindle angle at every speed
-    first_count = np.searchsorted(iclk, index[0])
-    assert np.searchsorted(iclk, rises[0]) - first_count <= counts // 40
-
-
-# 10 us at 16 MHz: the longest another interrupt (a received byte) may wait for the CPU.
-OFF_LIMIT_CYCLES = 160
+def thread_pass(machine, elf, rpm: float, move: str = "PMOV Z-1", turns: float = 4, **kw):
+    """SPIN at ``rpm`` with the harness's spindle turning at it, then ISTP, 0.5 mm a turn and
+    ``move``; the log."""
+    script = (Script(machine).at(3_100_000, f"SPIN S{rpm:g} D1").at(3_200_000, "ISTP")
+              .at(3_300_000, "PFDR F0.5").at(3_400_000, move))
+    return fs.Harness(elf, machine, script=script.items, cycles=int((0.3 + turns * 60 / rpm) * S),
+                      spindle_rpm=rpm, **kw).run()
 
 
 def counts_and_rises(log, machine, axis="Z"):
@@ -155,6 +140,44 @@ def counts_and_rises(log, machine, axis="Z"):
     rises, falls, dirs = fs.step_times(log, machine, axis)
     iclk = np.array([c for c, port, bit, level in log.inputs if (port, bit, level) == ("D", 0, 1)])
     return iclk, rises, falls, dirs
+
+
+@pytest.mark.parametrize("rpm", [300, 600, 1200])
+def test_a_thread_pass_leads_in_and_cuts_the_pitch_on_the_host_controllers_track(lathe, rpm):
+    """PMOV Z-1 at 0.5 mm a turn (80 Z steps over 800 counts). The host controller's rule
+    (retrofit/motion/indexer.py, exact fractions): the pass synchronises on the first index
+    after it starts; its reference index is the next one (the lead-in needs counts before it);
+    the axis starts L counts before that on a parabola that meets the line L counts after it,
+    L from the spindle speed plus its tolerance and the synchronised share of the acceleration.
+    On the pins: every Z step within one step of that track in the lead-in, exactly on it after
+    (40 steps a turn at the same spindle angle at every speed), none before the index."""
+    machine, elf = lathe
+    spindle, z = machine.parts["spindle"], machine.axis("Z")
+    counts = spindle.encoder_counts_per_rev
+    log = thread_pass(machine, elf, rpm)
+    iclk, rises, _, dirs = counts_and_rises(log, machine)
+    assert len(rises) == round(1 * z.steps_per_mm) and not dirs.any()    # towards -Z
+    sind = np.array([c for c, port, bit, level in log.inputs if (port, bit, level) == ("D", 1, 1)])
+    index = sind[sind > 3_400_000]
+    assert rises[0] > index[0]                                # no step before the index pulse
+    per_rev = Fraction(round(0.5 * z.steps_per_mm))
+    lead = lead_in_counts(per_rev, counts, rpm * (1 + spindle.speed_tolerance),
+                          z.max_accel_mm_s2 * spindle.sync_accel_share * z.steps_per_mm)
+    assert 0 < lead < counts                                  # 11, 42, 166 counts
+    count_of = lambda cycles: np.searchsorted(iclk, cycles, side="right")   # noqa: E731
+    reference = int(count_of(index[1]))                       # one turn after the synchronising one
+    track = IndexerTrack(per_rev, counts, Fraction(reference), lead, len(rises))
+    at = count_of(rises)
+    host = np.array([track.target(int(c)) for c in at])
+    position = np.arange(1, len(rises) + 1)
+    on_line = at >= reference + lead
+    assert np.abs(position - host)[~on_line].max(initial=0) <= 1
+    assert (position == host)[on_line].all()
+    assert (~on_line).sum() >= 1 and on_line.sum() >= 60
+
+
+# 10 us at 16 MHz: the longest another interrupt (a received byte) may wait for the CPU.
+OFF_LIMIT_CYCLES = 160
 
 
 @pytest.mark.parametrize("rpm", [300, 1200])
@@ -165,10 +188,7 @@ def test_in_a_thread_each_step_rises_at_the_same_delay_after_its_count_and_inter
     angle), and interrupts never off longer than 10 us (the counting and the next event run
     with them on)."""
     machine, elf = lathe
-    script = (Script(machine).at(3_200_000, "ISTP").at(3_300_000, "PFDR F0.5")
-              .at(3_400_000, "PMOV Z-1"))
-    log = fs.Harness(elf, machine, script=script.items, cycles=int((0.3 + 3 * 60 / rpm) * S),
-                     spindle_rpm=rpm, stats=True).run()
+    log = thread_pass(machine, elf, rpm, stats=True)
     iclk, rises, falls, _ = counts_and_rises(log, machine)
     assert len(rises) == 80
     delay = rises - iclk[np.searchsorted(iclk, rises) - 1]
@@ -185,8 +205,8 @@ def test_a_limit_switch_stops_a_thread_pass_within_a_step_of_its_trip_point(lath
     ERROR, with interrupts never off longer than 10 us on the way."""
     machine, elf = lathe
     rpm, start = 600, 1630
-    script = (Script(machine).at(3_200_000, "ISTP").at(3_300_000, "PFDR F0.5")
-              .at(3_400_000, "PMOV Z1").at(int(0.55 * S), "RDST"))
+    script = (Script(machine).at(3_100_000, f"SPIN S{rpm} D1").at(3_200_000, "ISTP")
+              .at(3_300_000, "PFDR F0.5").at(3_400_000, "PMOV Z1").at(int(0.55 * S), "RDST"))
     log = fs.Harness(elf, machine, script=script.items, cycles=int(0.6 * S), spindle_rpm=rpm,
                      start_steps={"Z": start}, stats=True).run()
     status = replies(log, machine)[-1]
@@ -312,15 +332,46 @@ def test_the_watchdog_does_not_fire_while_the_main_loop_runs(lathe):
     assert replies(log, machine)[-1] == Position((("X", 200), ("Z", 0)))   # no reset on the way
 
 
-@pytest.mark.parametrize("pitch, why", [(6.0, "480 Z steps a turn, 400 encoder counts"),
-                                        (2.5, "Z at 4000 steps/s, its limit 3200")])
-def test_a_thread_the_axis_cannot_cut_is_refused_with_error_before_any_step(lathe, pitch, why):
+@pytest.mark.parametrize("rpm, pitch, move, why", [
+    (300, 6.0, "PMOV Z-3", "480 Z steps a turn, 400 encoder counts"),
+    (1200, 2.5, "PMOV Z-3", "Z at 4 600 steps/s with the spindle 15 % fast, its limit 3 200"),
+    (1200, 1.9, "PMOV Z-3", "Z at 3 040 steps/s at 1 200 rpm, 3 496 at 1 380: over its limit"),
+    (1200, 1.5, "PMOV Z-1", "a lead-in of 496 counts (1.86 mm) for a line of 1 mm"),
+    (0, 0.5, "PMOV Z-1", "the spindle is stopped"),
+], ids=["steps-over-counts", "too-fast", "too-fast-with-tolerance", "lead-in-too-long", "stopped"])
+def test_a_thread_the_host_refuses_is_refused_with_error_before_any_step(
+        lathe, rpm, pitch, move, why):
+    """The firmware refuses what the host controller refuses (its MotionError is the oracle)."""
     machine, elf = lathe
-    script = (Script(machine).at(3_200_000, "SPIN S1200 D1").at(3_300_000, "ISTP")
-              .at(3_400_000, f"PFDR F{pitch}").at(3_500_000, "PMOV Z-3")
-              .at(int(0.45 * S), "RDST"))
-    log = fs.Harness(elf, machine, script=script.items, cycles=int(0.5 * S), spindle_rpm=1200).run()
+    texts = ([f"SPIN S{rpm} D1"] if rpm else []) + ["ISTP", f"PFDR F{pitch}", move]
+    with pytest.raises(ProgramError):
+        run_commands([parse_command(t) for t in texts], machine, sim=SimMachine(machine))
+    script = Script(machine)
+    for k, text in enumerate(texts):
+        script.at(3_200_000 + 100_000 * k, text)
+    script.at(int(0.45 * S), "RDST")
+    log = fs.Harness(elf, machine, script=script.items, cycles=int(0.5 * S),
+                     spindle_rpm=rpm or 600).run()
     status = replies(log, machine)[-1]
     assert status.flags & StatusFlags.ERROR, why
     rises, _, _ = fs.step_times(log, machine, "Z")
     assert len(rises) == 0, why
+
+
+def test_a_thread_within_every_rule_runs_on_both(lathe):
+    """The control case of the refusals: 1.7 mm a turn at 1 200 rpm (Z at 3 128 steps/s at
+    1 380 rpm; a lead-in of 562 counts, 2.39 mm) over 3 mm runs on the host controller and
+    the firmware alike."""
+    machine, elf = lathe
+    texts = ["SPIN S1200 D1", "ISTP", "PFDR F1.7", "PMOV Z-3"]
+    ctl = run_commands([parse_command(t) for t in texts], machine, sim=SimMachine(machine))
+    assert ctl.processor.position_steps()[[a.name for a in machine.axes].index("Z")] == -240
+    script = Script(machine)
+    for k, text in enumerate(texts):
+        script.at(3_200_000 + 100_000 * k, text)
+    script.at(int(0.5 * S), "RDST").at(int(0.5 * S), "RDPS")
+    log = fs.Harness(elf, machine, script=script.items, cycles=int(0.55 * S), spindle_rpm=1200).run()
+    status, position = replies(log, machine)[-2:]
+    assert not status.flags & (StatusFlags.ERROR | StatusFlags.MOVING)
+    assert dict(position.steps)["Z"] == -240
+    assert len(fs.step_times(log, machine, "Z")[0]) == 240

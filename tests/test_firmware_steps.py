@@ -155,6 +155,21 @@ def test_a_longer_pulse_keeps_interrupts_off_at_most_10_us(tmp_path, pulse_ticks
     assert 0 < log.stats["off_isr_longest"] <= OFF_LIMIT_CYCLES
 
 
+TIMER1_COMPB_VECTOR = 18              # the ATmega2560's vector number of compare B
+
+
+def test_compare_b_stays_off_while_the_tick_ends_its_own_pulses(bench):
+    """A 2 us pulse ends inside the tick, so compare B's interrupt has nothing to do while the
+    timer clocks the steps. Left on, it came at every wrap of the free-running counter (every
+    32.8 ms, at whatever count OCR1B last held) and held the next tick's entry back by its 57
+    cycles: a rise 1.1 us late at 60 kHz on four axes when the two met."""
+    machine, elf = bench
+    log, steps = cruise_move(machine, elf, "XYZA", 60_000, stats=True)
+    assert len(fs.step_times(log, machine, "X")[0]) == steps
+    assert log.stats["cycles"] > 4 * 65536 * 8                       # the counter wrapped
+    assert log.stats.get(f"vector{TIMER1_COMPB_VECTOR}", 0) == 0
+
+
 def corner(machine, elf, turn_deg: float):
     """FMOV X10, then 10 mm on at ``turn_deg`` from X: the X step times."""
     x, y = 10 + 10 * math.cos(math.radians(turn_deg)), 10 * math.sin(math.radians(turn_deg))

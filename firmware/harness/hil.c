@@ -380,7 +380,8 @@ static void events(void)
 static int want_stats;
 static unsigned long long off_start, off_longest_main, off_longest_isr, isr_cycles, isr_start;
 static unsigned long long isr_longest, off_pc, off_main_pc, off_isr_pc, off_isr_end;
-static int was_off, was_isr;
+static int was_off, was_isr, last_ptr;
+static unsigned long entries[64];          /* interrupts taken, by vector */
 
 static void account(void)
 {
@@ -388,6 +389,9 @@ static void account(void)
     int off = !avr->sreg[S_I];
     int in_isr = avr->interrupts.running_ptr > 0;
     unsigned long long now = avr->cycle;
+    if (avr->interrupts.running_ptr > last_ptr && avr->interrupts.running_ptr <= 64)
+        entries[avr->interrupts.running[avr->interrupts.running_ptr - 1]->vector & 63]++;
+    last_ptr = avr->interrupts.running_ptr;
     if (!started) {
         if (off)
             return;
@@ -575,10 +579,15 @@ int main(int argc, char **argv)
     }
     if (vcd_path)
         avr_vcd_stop(&vcd);
-    if (want_stats)
+    if (want_stats) {
         printf("stats cycles=%llu isr_cycles=%llu isr_longest=%llu off_main_longest=%llu "
-               "off_isr_longest=%llu off_main_pc=%llu off_isr_pc=%llu off_isr_end=%llu\n", (unsigned long long)avr->cycle,
+               "off_isr_longest=%llu off_main_pc=%llu off_isr_pc=%llu off_isr_end=%llu", (unsigned long long)avr->cycle,
                isr_cycles, isr_longest, off_longest_main, off_longest_isr, off_main_pc, off_isr_pc, off_isr_end);
+        for (int v = 0; v < 64; v++)          /* the interrupts taken, by vector number */
+            if (entries[v])
+                printf(" vector%d=%lu", v, entries[v]);
+        printf("\n");
+    }
     for (int i = 0; i < n_axes; i++)
         printf("axis %d steps=%ld\n", i, axes[i].steps);
     printf("end cycles=%llu state=%d pc=%x\n", (unsigned long long)avr->cycle, state, avr->pc);

@@ -22,6 +22,8 @@
 #define JUNCTION_DEVIATION_MM 0.01f
 #define ENCODER_COUNTS_PER_REV 0
 #define SPINDLE_MAX_RPM     3000UL
+#define SPINDLE_SPEED_TOLERANCE 0.0f   /* a thread is planned for a spindle this much faster */
+#define SYNC_ACCEL_SHARE    1.0f   /* of the acceleration, for a thread's lead-in */
 /* SWITCH(id, axis, side, kind, RAMPS endstop connector, status bit or -1) */
 #define SWITCHES \
 

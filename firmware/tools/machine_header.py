@@ -142,6 +142,10 @@ def header(m: Machine) -> str:
         f"#define JUNCTION_DEVIATION_MM {_float(m.motion.junction_deviation_mm)}",
         f"#define ENCODER_COUNTS_PER_REV {spindle.encoder_counts_per_rev if spindle else 0}",
         f"#define SPINDLE_MAX_RPM     {round(spindle.max_rpm) if spindle else 3000}UL",
+        f"#define SPINDLE_SPEED_TOLERANCE {_float(spindle.speed_tolerance if spindle else 0.0)}"
+        "   /* a thread is planned for a spindle this much faster */",
+        f"#define SYNC_ACCEL_SHARE    {_float(spindle.sync_accel_share if spindle else 1.0)}"
+        "   /* of the acceleration, for a thread's lead-in */",
         *switches,
         *homing_lines(m, axes, ids),
         "",
