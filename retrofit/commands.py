@@ -189,14 +189,11 @@ class Cool(Command):
 
 @dataclass(frozen=True)
 class Prob(_AxesCommand):
-    """Probing move (G38.2-G38.5): a straight line towards ``axes`` at the machining feed, as
-    PMOV, that stops at the first step after which the probe input closes (``away``: opens).
-
-    It waits until the motion before it has ended, runs only under CSTP, and nothing after it is
-    fetched until it has ended. If the input is already in the wanted state no step is made.
-    RDST's PROBED tells whether it stopped on the probe; one that reaches its end without the
-    change ends there, PROBED clear, no error. A device without a probe input refuses it. Not
-    one of 002's 14.
+    """Probing move (G38.2-G38.5): a straight line to ``axes`` at the machining feed, as PMOV,
+    that stops at the first step after which the probe input closes (``away``: opens); no step
+    if it already is. After the motion before it, under CSTP only; nothing after it is fetched
+    until it has ended. RDST's PROBED: it stopped on the probe (clear: it reached its end, no
+    error). A device without a probe input refuses it. Not one of 002's 14.
 
     >>> parse_command("PROB AWAY X1 Z-40")
     Prob(axes=(('X', 1.0), ('Z', -40.0)), away=True)
