@@ -1,4 +1,4 @@
-"""The instruction set in the middle: the 14 motion commands of 002, plus spindle and coolant.
+"""The instruction set in the middle: the 14 motion commands of 002, plus spindle, coolant, probing.
 
 Every front end (G-code, CAM link, tool changer) compiles to these objects and every output or
 link consumes them. Each is a frozen dataclass whose ``str()`` is its text form and
@@ -188,6 +188,37 @@ class Cool(Command):
 
 
 @dataclass(frozen=True)
+class Prob(_AxesCommand):
+    """Probing move (G38.2-G38.5): a straight line to ``axes`` at the machining feed, as PMOV,
+    that stops at the first step after which the probe input closes (``away``: opens); no step
+    if it already is. After the motion before it, under CSTP only; nothing after it is fetched
+    until it has ended. RDST's PROBED: it stopped on the probe (clear: it reached its end, no
+    error). A device without a probe input refuses it. Not one of 002's 14.
+
+    >>> parse_command("PROB AWAY X1 Z-40")
+    Prob(axes=(('X', 1.0), ('Z', -40.0)), away=True)
+    >>> str(Prob((("Z", -40.0),)))
+    'PROB Z-40'
+    """
+    mnemonic: ClassVar[str] = "PROB"
+    motion: ClassVar[bool] = True
+    away: bool = False
+
+    def __str__(self) -> str:
+        words = [self.mnemonic] + (["AWAY"] if self.away else [])
+        return " ".join(words + [f"{n}{_num(v)}" for n, v in self.axes])
+
+    @classmethod
+    def from_words(cls, words: list[str]) -> "Prob":
+        """``["AWAY", "X1", "Z-40"]`` -> Prob; AWAY may come once, first."""
+        away = bool(words) and words[0] == "AWAY"
+        rest = words[1:] if away else words
+        if "AWAY" in rest:
+            raise CommandError("PROB: AWAY comes once, before the axis words, e.g. PROB AWAY X1 Z-40")
+        return cls(tuple(_axis_words(cls.mnemonic, rest)), away)
+
+
+@dataclass(frozen=True)
 class Tool(Command):
     """Put tool ``number`` in the spindle (T<n> M6; T0 empties it). Not one of 002's 14.
 
@@ -289,7 +320,7 @@ class Wait(Command):
 #: every command class by mnemonic
 COMMANDS: dict[str, type[Command]] = {c.mnemonic: c for c in (
     Init, FMov, ZMov, PMov, Stop, FFdr, MFdr, PFdr, Dely, CStp, IStp, Pstn, Rdps, Rdst, Spin, Cool,
-    Tool, Paus, Dout, Wait)}
+    Prob, Tool, Paus, Dout, Wait)}
 #: the commands a device executes (what the serial link carries): all but the host's own and
 #: those the link does not carry yet
 DEVICE_COMMANDS: dict[str, type[Command]] = {m: c for m, c in COMMANDS.items()
@@ -307,6 +338,8 @@ def parse_command(text: str) -> Command:
     cls = COMMANDS.get(head)
     if cls is None:
         raise CommandError(f"unknown command {head!r}; known: {', '.join(COMMANDS)}")
+    if cls is Prob:
+        return Prob.from_words(words)
     if issubclass(cls, _AxesCommand):
         return cls(tuple(_axis_words(head, words)))
     if cls is ZMov:

@@ -29,6 +29,8 @@ def positions(opcode):
 PAYLOADS = st.one_of(
     st.binary(min_size=1, max_size=32),                                   # anything at all
     st.sampled_from([0x02, 0x04, 0x0C]).flatmap(positions),               # FMOV PMOV PSTN
+    st.tuples(st.integers(0, 3), positions(0x11)).map(                   # PROB: flags, positions
+        lambda t: t[1][:1] + bytes((t[0],)) + t[1][1:]),
     st.sampled_from([0x06, 0x07, 0x08, 0x09]).flatmap(lambda op: U32.map(lambda v: bytes((op,)) + v)),
     st.binary(max_size=4).map(lambda b: b"\x03" + bytes((len(b),)) + b),  # ZMOV
     st.binary(min_size=3, max_size=3).map(lambda b: b"\x0f" + b),         # SPIN

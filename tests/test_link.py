@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 import retrofit.link as link
 from retrofit.commands import (COMMANDS, DEVICE_COMMANDS, CommandError, Cool, CStp, Dely, FFdr, FMov, Init, IStp,
-                               MFdr, PFdr, PMov, Pstn, Rdps, Rdst, Spin, Stop, ZMov, parse_command)
+                               MFdr, PFdr, PMov, Prob, Pstn, Rdps, Rdst, Spin, Stop, ZMov, parse_command)
 from retrofit.config import load_machine
 from retrofit.errors import LinkError, MotionError
 from retrofit.link import (FEED_UNIT_MM, IMMEDIATE, POS_MAX, QUEUED, Ack, BadFrame, Busy,
@@ -157,6 +157,7 @@ def command_strategies(machine):
         Dely: st.integers(0, 0xFFFFFFFF).map(lambda ms: Dely(ms / 1000)),
         Spin: st.builds(Spin, st.integers(0, 0xFFFF).map(float), st.sampled_from((-1, 0, 1))),
         Cool: st.sampled_from((0, 7, 8)).map(Cool),
+        Prob: st.tuples(axes_cmd(Prob, machine), st.booleans()).map(lambda t: replace(t[0], away=t[1])),
     }
 
 
@@ -178,6 +179,7 @@ def test_every_command_round_trips_through_its_payload(machine, data):
     assert type(back) is cls
     assert encode_command(back, machine) == payload
     assert steps_of(back, machine) == steps_of(cmd, machine)
+    assert getattr(back, "away", None) == getattr(cmd, "away", None)
     if not hasattr(cmd, "axes"):
         assert back == cmd
 
@@ -195,6 +197,23 @@ def test_a_position_outside_the_24_bit_space_is_refused_by_name(steps):
     with pytest.raises(MotionError, match=r"PMOV Z: .* steps is outside the link's 24-bit step "
                                           r"space \(-8388607..8388607\)"):
         encode_command(cmd, LATHE)
+
+
+@pytest.mark.parametrize("text, wire", [
+    ("PROB X12.5 Z-3", "11 00 05 00 01 F4 FF FF 6A"),           # X 500, Z -150 steps, as PMOV
+    ("PROB AWAY X12.5 Z-3", "11 01 05 00 01 F4 FF FF 6A"),      # flags bit 0: until it opens
+    ("PROB AWAY Z-3", "11 01 04 FF FF 6A"),
+], ids=["towards", "away", "one-axis"])
+def test_prob_is_a_flags_byte_then_positions_as_pmov(text, wire):
+    payload = encode_command(parse_command(text), LATHE)
+    assert hexs(payload) == wire
+    assert len(payload) == 3 + 3 * bin(payload[2]).count("1")        # LEN = 3 + 3k, opcode included
+    assert str(decode_command(payload, LATHE)) == text
+
+
+def test_probed_is_bit_15_of_the_status_word():
+    assert StatusFlags.PROBED == 1 << 15
+    assert hexs(encode_reply(Status(StatusFlags.PROBED | StatusFlags.HOMED, 0))) == "85 80 80 00"
 
 
 @pytest.mark.parametrize("cmd, message", [
@@ -221,7 +240,14 @@ def test_values_a_field_cannot_hold_are_refused_before_sending(cmd, message):
     ("04 02 00 00 01", 3, r"mask bit 1 \(Y\) is not an axis of chivu-lathe"),
     ("03 01 01", 3, "ZMOV: axis bit 1"),
     ("0f 00 10 05", 3, "direction byte 0x05"),
-], ids=["opcode", "empty", "init-extra", "short", "reserved", "no-y", "zmov-y", "spin-dir"])
+    ("11", 2, "PROB: no argument bytes"),
+    ("11 00", 2, "PROB: missing axis mask"),
+    ("11 00 05 00 01 f4", 2, "mask 0x05 names 2 axes, needs 8 argument bytes, got 5"),
+    ("11 02 01 00 00 01", 3, r"PROB: flags 0x02; only bit 0 \(0x01"),
+    ("11 81 01 00 00 01", 3, "PROB: flags 0x81"),
+    ("11 00 02 00 00 01", 3, r"PROB: mask bit 1 \(Y\) is not an axis"),
+], ids=["opcode", "empty", "init-extra", "short", "reserved", "no-y", "zmov-y", "spin-dir",
+        "prob-empty", "prob-no-mask", "prob-short", "prob-flag-1", "prob-flag-7", "prob-y"])
 def test_malformed_payloads_are_refused_with_the_err_code_to_answer(payload, code, message):
     with pytest.raises(PayloadError, match=message) as info:
         decode_command(bytes.fromhex(payload), LATHE)

@@ -11,7 +11,7 @@ import pytest
 
 from retrofit.cli import main
 from retrofit.config import load_machine
-from retrofit.errors import OutputError
+from retrofit.errors import LinkError, OutputError
 from retrofit.frames import PortFrames
 from retrofit.outputs import open_output
 from tests.conformance.targets import McuTarget, die_with_parent
@@ -155,3 +155,31 @@ def test_a_position_the_link_cannot_carry_is_err_3_and_the_device_keeps_serving(
             assert mcu.proc.poll() is None
         finally:
             link.close()
+
+
+def test_prob_is_refused_err_6_and_error_until_init_the_controller_has_no_probe_input():
+    """retrofit mcu's controller reads no probe input: PROB is answered ERR 6 (detail 0x11, its
+    opcode) and RDST shows ERROR until INIT; a flags byte with another bit than bit 0 is ERR 3;
+    probe_over_link names the refused command."""
+    from tests.conformance.rawlink import RawLink
+    from retrofit.link import QUEUED, Ack, Err, HostLink, StatusFlags as F, probe_over_link
+    from retrofit.commands import parse_command
+    machine = load_machine(MACHINE)
+    with McuTarget() as mcu:
+        link = RawLink(mcu.url, machine)
+        try:
+            link.sync_both()
+            assert link.send("PROB Z-4") == Err(6, 0x11)
+            assert link.status().flags & F.ERROR
+            assert link.send("INIT") == Ack()
+            assert not link.status().flags & F.ERROR
+            number = link.next[QUEUED]
+            assert link.exchange(QUEUED, number, bytes.fromhex("11 02 04 FF FE C0")) == (number, Err(3, 0x11))
+            link.next[QUEUED] = number + 1
+            assert not link.status().flags & F.ERROR          # a layout error changes nothing
+        finally:
+            link.close()
+        with HostLink.open(mcu.url, machine, timeout_s=0.5) as host:
+            with pytest.raises(LinkError, match=r"PROB AWAY X1 \(sequence \d+, sent 1 times\): the "
+                                                r"device refused it: refused by the controller"):
+                probe_over_link(host, parse_command("PROB AWAY X1"))

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..commands import Command, Cool, CStp, Dely, FMov, IStp, PFdr, PMov, Pstn, Spin, ZMov
+from ..commands import Command, Cool, CStp, Dely, FMov, IStp, PFdr, PMov, Prob, Pstn, Spin, ZMov
 from ..config import Machine
 from ..errors import MotionError
 from ..motion.bresenham import prepare_line
@@ -158,6 +158,8 @@ class Walker:
         elif isinstance(cmd, (FMov, PMov, ZMov)):
             self.chain = False
             return [self._line(cmd, serial)]
+        elif isinstance(cmd, Prob):
+            raise MotionError(no_probe_input(cmd, self.machine))
         return []
 
     def _axis(self, name: str) -> int:
@@ -236,6 +238,13 @@ class Walker:
     def comp_offsets(self) -> tuple[int, ...]:
         """Motor minus commanded position per axis, as things stand after the last prepared entry."""
         return tuple(self._comp(i) for i in range(len(self.position)))
+
+
+def no_probe_input(cmd: Prob, machine: Machine) -> str:
+    """Why this controller refuses a probing move: it reads no probe input."""
+    return (f"{cmd}: the controller of {machine.name} has no probe input (its simulated machine has "
+            f"no beam to break), so it makes no probing move; a device with a probe input "
+            f"(firmware/) does, and G38.2-G38.5 probe on sim:// for a machine with a tool setter")
 
 
 def positive_feed(cmd) -> float:

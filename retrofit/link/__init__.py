@@ -7,6 +7,7 @@ The wire format is specified in docs/protocol.md. Layers, bottom up:
 - ``codec`` / ``replies``: the payload of every command and reply;
 - ``host`` / ``device``: the two endpoints as clock-free state machines;
 - ``transport``: the endpoints over a pyserial-like port (pyserial imported only there, lazily);
+- ``probing``: a probing move (PROB) over a HostLink: sent, waited for, PROBED and RDPS read;
 - ``simwire``: a seeded noisy line joining both endpoints on a simulated clock (tests, labs).
 """
 
@@ -20,6 +21,7 @@ from .host import HostEndpoint, HostStats, Transaction
 from .replies import (Ack, Busy, Err, Nak, Position, Reply, Status, StatusFlags, decode_reply,
                       encode_reply)
 from .transport import DeviceLink, HostLink, open_port
+from .probing import ProbeResult, probe_over_link
 
 __all__ = [
     "AXIS_LETTERS", "FEED_UNIT_MM", "OPCODES", "POS_MAX", "PayloadError", "decode_command",
@@ -27,4 +29,5 @@ __all__ = [
     "MAX_PAYLOAD", "QUEUED", "BadFrame", "Frame", "FrameDecoder", "encode_frame", "seq_byte",
     "HostEndpoint", "HostStats", "Transaction", "Ack", "Busy", "Err", "Nak", "Position", "Reply",
     "Status", "StatusFlags", "decode_reply", "encode_reply", "DeviceLink", "HostLink", "open_port",
+    "ProbeResult", "probe_over_link",
 ]

@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 
 from ..commands import (Command, CommandError, Cool, CStp, Dely, FFdr, FMov, Init, IStp,
-                        MFdr, PFdr, PMov, Pstn, Rdps, Rdst, Spin, Stop, ZMov)
+                        MFdr, PFdr, PMov, Prob, Pstn, Rdps, Rdst, Spin, Stop, ZMov)
 from ..config import Machine
 from ..errors import LinkError, MotionError
 
@@ -37,8 +37,10 @@ U32_MAX = 0xFFFFFFFF
 OPCODES: dict[type[Command], int] = {
     Init: 0x01, FMov: 0x02, ZMov: 0x03, PMov: 0x04, Stop: 0x05, FFdr: 0x06, MFdr: 0x07,
     PFdr: 0x08, Dely: 0x09, CStp: 0x0A, IStp: 0x0B, Pstn: 0x0C, Rdps: 0x0D, Rdst: 0x0E,
-    Spin: 0x0F, Cool: 0x10,
+    Spin: 0x0F, Cool: 0x10, Prob: 0x11,
 }
+#: PROB's flags byte: bit 0 set = move until the probe input opens (G38.4/5); no other bit is used
+PROB_AWAY = 0x01
 COMMAND_OF: dict[int, type[Command]] = {op: cls for cls, op in OPCODES.items()}
 SYNC = 0x7F
 SYNC_LEN = 5        # SYNC carries the host's 32-bit session number (docs/protocol.md §4)
@@ -123,14 +125,17 @@ def pack_positions(head: str, steps: dict[int, int], machine: Machine | None = N
     return bytes(out)
 
 
-def unpack_positions(head: str, args: bytes, machine: Machine | None) -> list[tuple[str, int]]:
-    """(letter, steps) pairs of a mask-and-values field; checks length and the machine's axes."""
+def unpack_positions(head: str, args: bytes, machine: Machine | None,
+                     lead: int = 0) -> list[tuple[str, int]]:
+    """(letter, steps) pairs of a mask-and-values field; checks length and the machine's axes.
+    ``lead``: argument bytes before the field (PROB's flags), counted in the length message."""
     if not args:
         raise PayloadError(f"{head}: missing axis mask", ERR_LENGTH)
     mask, bits = args[0], [b for b in range(8) if args[0] >> b & 1]
     if len(args) != 1 + 3 * len(bits):
         raise PayloadError(f"{head}: mask 0x{mask:02x} names {len(bits)} axes, needs "
-                           f"{1 + 3 * len(bits)} argument bytes, got {len(args)}", ERR_LENGTH)
+                           f"{lead + 1 + 3 * len(bits)} argument bytes, got {lead + len(args)}",
+                           ERR_LENGTH)
     pairs = []
     for i, bit in enumerate(bits):
         letter = letter_of(bit, machine)
@@ -160,15 +165,9 @@ def encode_command(cmd: Command, machine: Machine) -> bytes:
     head = cmd.mnemonic
     op = bytes((OPCODES[type(cmd)],))
     if isinstance(cmd, (FMov, PMov, Pstn)):
-        steps: dict[int, int] = {}
-        for name, mm in cmd.axes:
-            bit = axis_bit(name, machine, head)
-            if bit in steps:
-                raise CommandError(f"{head}: axis {name} given twice")
-            if not math.isfinite(mm):
-                raise CommandError(f"{head} {name}: {mm} is not a finite number")
-            steps[bit] = machine.axis(name).to_steps(mm)
-        return op + pack_positions(head, steps, machine)
+        return op + _axes_args(cmd, machine)
+    if isinstance(cmd, Prob):
+        return op + bytes((PROB_AWAY if cmd.away else 0,)) + _axes_args(cmd, machine)
     if isinstance(cmd, ZMov):
         bits = [axis_bit(name, machine, head) for name in cmd.names]
         if len(set(bits)) != len(bits):
@@ -185,6 +184,19 @@ def encode_command(cmd: Command, machine: Machine) -> bytes:
             raise CommandError(f"COOL M{cmd.mode}: mode must be 0, 7 or 8")
         return op + bytes((cmd.mode,))
     return op
+
+
+def _axes_args(cmd, machine: Machine) -> bytes:
+    """The mask-and-positions field of a command with axis words (mm -> steps)."""
+    head, steps = cmd.mnemonic, {}
+    for name, mm in cmd.axes:
+        bit = axis_bit(name, machine, head)
+        if bit in steps:
+            raise CommandError(f"{head}: axis {name} given twice")
+        if not math.isfinite(mm):
+            raise CommandError(f"{head} {name}: {mm} is not a finite number")
+        steps[bit] = machine.axis(name).to_steps(mm)
+    return pack_positions(head, steps, machine)
 
 
 def _spin_args(cmd: Spin) -> bytes:
@@ -218,6 +230,8 @@ def decode_command(payload: bytes, machine: Machine) -> Command:
         return cls(tuple((n, machine.axis(n).to_mm(s)) for n, s in pairs))
     if cls is ZMov:
         return _decode_zmov(args, machine)
+    if cls is Prob:
+        return _decode_prob(args, machine)
     if len(args) != _FIXED_ARGS[cls]:
         raise PayloadError(f"{head}: {len(args)} argument bytes; expected {_FIXED_ARGS[cls]}",
                            ERR_LENGTH)
@@ -238,6 +252,18 @@ def decode_command(payload: bytes, machine: Machine) -> Command:
     return cls()
 
 
+def _decode_prob(args: bytes, machine: Machine) -> Prob:
+    """Flags byte, then positions as PMOV: LEN = 3 + 3k; a flag bit other than bit 0 is ERR 3."""
+    if not args:
+        raise PayloadError("PROB: no argument bytes; expected a flags byte, an axis mask, then "
+                           "3 bytes per axis", ERR_LENGTH)
+    pairs = unpack_positions("PROB", args[1:], machine, lead=1)
+    if args[0] & ~PROB_AWAY:
+        raise PayloadError(f"PROB: flags 0x{args[0]:02x}; only bit 0 (0x01: until the probe "
+                           "input opens) may be set", ERR_VALUE)
+    return Prob(tuple((n, machine.axis(n).to_mm(s)) for n, s in pairs), bool(args[0]))
+
+
 def _decode_zmov(args: bytes, machine: Machine) -> ZMov:
     if not args or len(args) != 1 + args[0]:
         raise PayloadError(f"ZMOV: {len(args)} argument bytes; expected a count n, then n axis "
@@ -253,5 +279,6 @@ def _decode_zmov(args: bytes, machine: Machine) -> ZMov:
 
 
 __all__ = ["AXIS_LETTERS", "MAX_AXES", "axis_bits", "letter_of", "OPCODES", "COMMAND_OF", "SYNC", "POS_MAX", "FEED_UNIT_MM",
+           "PROB_AWAY",
            "PayloadError", "encode_command", "decode_command", "pack_positions",
            "unpack_positions", "ERR_TEXT"]

@@ -37,6 +37,12 @@ class StatusFlags(IntFlag):
     SPINDLE_ON = 1 << 12    # SPIN with a direction other than 0
     COOLANT_ON = 1 << 13    # COOL M7 or M8
     INDEX_SEEN = 1 << 14    # an indexer start pulse (SIND) arrived since the spindle started
+    PROBED = 1 << 15        # the last PROB stopped on the probe; cleared when a PROB starts, by INIT
+
+
+def flag_names(flags: int) -> list[str]:
+    """Names of the set status flags, bit 0 first (``["MOVING", "HOMED"]``)."""
+    return [f.name for f in StatusFlags if f in StatusFlags(flags) and f.name]
 
 
 @dataclass(frozen=True)

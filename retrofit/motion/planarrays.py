@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..commands import Dely, FFdr, FMov, MFdr, PFdr, PMov, Pstn, Wait, ZMov
+from ..commands import Dely, FFdr, FMov, MFdr, PFdr, PMov, Prob, Pstn, Wait, ZMov
 from ._jit import compiled, kernel
 from .bresenham import STEP_SPACE_LIMIT
 from .lookahead import speeds_of
@@ -68,7 +68,7 @@ def encode(commands, machine):
     words = np.full((n, n_axes), np.nan)
     scalar = np.zeros(n)
     for c, cmd in enumerate(commands):
-        if isinstance(cmd, Wait):            # its length depends on the input: the walker plans it
+        if isinstance(cmd, (Wait, Prob)):    # an input decides (WAIT), or the walker refuses (PROB)
             return None
         kind = _KINDS.get(type(cmd), K_NONE)
         kinds[c] = kind

@@ -13,7 +13,7 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from ..commands import Command, Dely, FFdr, FMov, MFdr, PFdr, PMov, Pstn, Wait, ZMov
+from ..commands import Command, Dely, FFdr, FMov, MFdr, PFdr, PMov, Prob, Pstn, Wait, ZMov
 from ..config import Machine
 from ..errors import MotionError
 from . import profile as prof
@@ -201,6 +201,10 @@ class _Walker:
                            index, cmd)
         elif isinstance(cmd, (FMov, PMov, ZMov)):
             yield self._move(cmd, index)
+        elif isinstance(cmd, Prob):
+            raise MotionError(f"{cmd}: a planned run has no probe input to stop a probing move; "
+                              f"send PROB to a device with one (firmware/), or probe with "
+                              f"G38.2-G38.5 in G-code on a machine with a tool setter")
 
     def _move(self, cmd: Command, index: int) -> _Segment:
         """A straight move in motor steps: the clearance is added while the nut is on its + face."""

@@ -37,6 +37,7 @@ from typing import Iterable
 from ..commands import Command, Init, Rdps, Rdst
 from ..errors import LinkError, OutputError
 from ..frames import PortFrames
+from ..link.replies import flag_names
 from .base import Output
 
 #: flags that mean the far end gave up on the program
@@ -214,9 +215,3 @@ def wait_for_device(port, boot_s: float, name: str, machine: str = "") -> Banner
         if time.monotonic() - start > boot_s:
             raise LinkError(f"{name}: no banner and no answer to SYNC within {boot_s:g} s of "
                             "opening the port (is the firmware flashed and the baud rate right?)")
-
-
-def flag_names(flags) -> list[str]:
-    """Names of the set status flags, bit 0 first (``["MOVING", "HOMED"]``)."""
-    from ..link import StatusFlags
-    return [f.name for f in StatusFlags if f in flags and f.name]
