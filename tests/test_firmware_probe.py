@@ -84,30 +84,32 @@ def carriages(log, machine) -> dict[str, int]:
     return dict(zip([a.name for a in fs.firmware_axes(machine)], log.steps))
 
 
-def run(machine, elf, start, commands, cycles, **kw):
+def run(machine, elf, start, commands, cycles, tool=TOOL, **kw):
     """PSTN to the carriages' start (so RDPS reads carriage steps), then ``commands(script)``."""
     script = ProbeScript(machine)
     script.at(3_100_000, "PSTN " + " ".join(f"{a}{v / 100:g}" for a, v in start.items()))
     commands(script)
     return fs.Harness(elf, machine, script=script.items, cycles=cycles, start_steps=start,
-                      tool=TOOL, **kw).run()
+                      tool=tool, **kw).run()
 
 
-def test_prob_down_stops_where_the_beam_breaks_and_later_moves_go_on_from_there(mill):
-    """Z descends at the setter's probe feed over the beam: it stops within one step plus the
-    debounce of the oracle's break point, RDPS says the same, STAT has PROBED; the FMOV queued
-    behind the PROB waits for it and starts from where it stopped."""
+@pytest.mark.parametrize("fast", [False, True], ids=["probe-feed", "1200mm-min"])
+def test_prob_down_stops_where_the_beam_breaks_and_later_moves_go_on_from_there(mill, fast):
+    """Z descends over the beam at the setter's probe feed (and at 1200 mm/min, where the
+    debounce is 6 steps): it stops within one step plus the debounce of the oracle's break
+    point, RDPS says the same, STAT has PROBED; the FMOV queued behind the PROB waits for it and
+    starts from where it stopped."""
     machine, elf = mill
     start = {**OVER_BEAM, "Z": -3100}
-    feed = machine.parts["setter"].probe_feed_mm_min
+    feed = 1200.0 if fast else machine.parts["setter"].probe_feed_mm_min
 
     def commands(s):
         s.at(3_200_000, f"PFDR F{feed:g}").prob(3_300_000, 0, {"Z": -3500})
-        s.at(3_400_000, "DELY P1").at(3_500_000, "FMOV Z-31")     # back to the start
+        s.at(3_400_000, "DELY P2").at(3_500_000, "FMOV Z-31")     # back to the start
         s.at(int(1.7 * S), "RDPS").at(int(1.7 * S), "RDST")
-        s.at(int(2.9 * S), "RDPS").at(int(2.9 * S), "RDST")
+        s.at(int(3.4 * S), "RDPS").at(int(3.4 * S), "RDST")
 
-    log = run(machine, elf, start, commands, int(3.0 * S), stats=True)
+    log = run(machine, elf, start, commands, int(3.5 * S), stats=True)
     edge = beam_edge(machine, start, "Z", -1, True)
     assert edge == -3200                            # -52 + 20 mm: the setter's own comment
     late = 1 + DEBOUNCE_S * feed / 60 * machine.axis("Z").steps_per_mm
@@ -121,15 +123,18 @@ def test_prob_down_stops_where_the_beam_breaks_and_later_moves_go_on_from_there(
     assert log.stats["off_isr_longest"] <= OFF_LIMIT_CYCLES
 
 
-def test_prob_that_misses_the_beam_ends_at_its_target_with_probed_clear(mill):
+@pytest.mark.parametrize("x, tool", [(3000, TOOL), (800, None)], ids=["beam-elsewhere", "no-tool"])
+def test_prob_that_misses_the_beam_ends_at_its_target_with_probed_clear(mill, x, tool):
+    """X 30 mm is beyond the emitter and receiver; without a tool in the spindle nothing breaks
+    the beam anywhere."""
     machine, elf = mill
-    start = {"X": 3000, "Y": 800, "Z": -3100}      # X 30 mm: beyond the emitter and receiver
+    start = {"X": x, "Y": 800, "Z": -3100}
 
     def commands(s):
         s.at(3_200_000, "PFDR F300").prob(3_300_000, 0, {"Z": -3500})
         s.at(int(1.4 * S), "RDPS").at(int(1.4 * S), "RDST")
 
-    log = run(machine, elf, start, commands, int(1.5 * S))
+    log = run(machine, elf, start, commands, int(1.5 * S), tool=tool)
     assert positions(log, machine)[0]["Z"] == -3500 == carriages(log, machine)["Z"]
     status = statuses(log)[0]
     assert not status & (PROBED | ERROR | MOVING)
