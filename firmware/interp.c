@@ -13,6 +13,7 @@
 #include "io.h"
 #include "link.h"
 #include "planner.h"
+#include "probe.h"
 #include "segment.h"
 #include "stepper.h"
 #include "switches.h"
@@ -43,7 +44,6 @@ static uint8_t indexer;                /* ISTP: the spindle encoder is the step 
 static float spindle_rpm;              /* SPIN's speed: the thread speed is checked against it */
 static uint8_t thread_chain;           /* the last move prepared was an ISTP PMOV */
 static uint16_t flags;                 /* HOMED, ERROR, STOPPED, SPINDLE_ON, COOLANT_ON, PROBED */
-static uint8_t probing;                /* a PROB's line runs: nothing after it is fetched */
 static uint8_t dwelling;
 static uint32_t dwell_left_ms;
 static uint8_t home_order[N_AXES], home_count, home_index, home_phase;
@@ -68,7 +68,8 @@ static void forget_motion(void)
     dwelling = 0;
     segment_hold(0);
     home_phase = HOME_IDLE;
-    thread_chain = probing = 0;
+    thread_chain = 0;
+    probe_cancel();
     stepper_position(planned);         /* prepare from where the axes really are, */
     planner_resync();                  /* and from the side each nut really rests on */
 }
@@ -100,14 +101,21 @@ static void fault(void)
     flags |= ST_ERROR;
 }
 
+/* Where a move to `c`'s position, taken now, ends: machine steps. */
+static void target_of(const command_t *c, int32_t *target)
+{
+    for (uint8_t i = 0; i < N_AXES; i++)
+        target[i] = (c->axes >> i) & 1 ? c->pos[i] + offset[i] : planned[i];
+}
+
 /* 1 if a move to `c`'s position, taken now, stays inside the soft limits. */
 static uint8_t inside_limits(const command_t *c)
 {
-    for (uint8_t i = 0; i < N_AXES; i++) {
-        int32_t target = (c->axes >> i) & 1 ? c->pos[i] + offset[i] : planned[i];
-        if (target < min_steps[i] || target > max_steps[i])
+    int32_t target[N_AXES];
+    target_of(c, target);
+    for (uint8_t i = 0; i < N_AXES; i++)
+        if (target[i] < min_steps[i] || target[i] > max_steps[i])
             return 0;
-    }
     return 1;
 }
 
@@ -260,8 +268,7 @@ static void fetch_motion(const command_t *c)
         fault();                                       /* outside the soft limits */
         return;
     }
-    for (uint8_t i = 0; i < N_AXES; i++)
-        target[i] = (c->axes >> i) & 1 ? c->pos[i] + offset[i] : planned[i];
+    target_of(c, target);
     uint8_t synchronised = !fast && indexer;
     if (plan_line(&m, planned, target, fast ? FEED_FAST : FEED_MACHINING,
                   fast ? fast_feed : machining_feed, synchronised)) {
@@ -277,46 +284,21 @@ static void fetch_motion(const command_t *c)
     }
 }
 
-/* PROB, at rest: a line at the machining feed that the step interrupt ends at the first step
- * after which the probe input is in the wanted state (SEEK: closed, RELEASE: open). An input
- * already in that state: no step, PROBED. Only the clock may step it (CSTP). */
+/* PROB, at rest (probe.c); only the clock may step it (CSTP). */
 static void fetch_probe(const command_t *c)
 {
     int32_t target[N_AXES];
-    move_t m;
-    uint8_t kind = c->value & PROB_UNTIL_OPEN ? MOVE_RELEASE : MOVE_SEEK;
     flags &= ~ST_PROBED;
     if (indexer || !inside_limits(c)) {
         fault();                                       /* under ISTP, or beyond the soft limits */
         return;
     }
-    if (switch_on(PROBE_SWITCH) == (kind == MOVE_SEEK)) {
-        flags |= ST_PROBED;                            /* found before any step */
-        return;
-    }
-    for (uint8_t i = 0; i < N_AXES; i++)
-        target[i] = (c->axes >> i) & 1 ? c->pos[i] + offset[i] : planned[i];
-    if (!plan_line(&m, planned, target, FEED_MACHINING, machining_feed, 0))
-        return;                                        /* no length: nothing to probe */
-    m.kind = kind;                                     /* no joint: it starts and ends at rest */
-    m.watch = PROBE_SWITCH;
-    planner_submit(&m);
-    for (uint8_t i = 0; i < N_AXES; i++)
-        planned[i] = target[i];
-    probing = 1;
-}
-
-/* A PROB's line: stopped on the probe (the rest dropped, the position where it stopped) or at
- * its end (PROBED clear). */
-static void probe_events(uint8_t events)
-{
-    if (events & EV_SWITCH) {
-        stepper_position(planned);                     /* later moves go on from here */
-        planner_resync();
+    target_of(c, target);
+    uint8_t r = probe_start(planned, target, c->value & PROB_UNTIL_OPEN, machining_feed);
+    if (r == PROBE_FOUND)
         flags |= ST_PROBED;
-        probing = 0;
-    } else if (idle())
-        probing = 0;
+    for (uint8_t i = 0; r == PROBE_RUNNING && i < N_AXES; i++)
+        planned[i] = target[i];
 }
 
 static void fetch_at_rest(const command_t *c)
@@ -398,10 +380,12 @@ void interp_run(void)
         planner_clear();
         segment_reset();
     }
-    if (probing)
-        probe_events(events);
-    if (probing)
-        return;                                        /* nothing is fetched behind a PROB */
+    if (probe_running()) {
+        if (probe_update(events, idle(), planned) == PROBE_FOUND)
+            flags |= ST_PROBED;
+        if (probe_running())
+            return;                                    /* nothing is fetched behind a PROB */
+    }
     if (home_phase) {
         homing_step(events);
         return;
