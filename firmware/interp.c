@@ -371,6 +371,8 @@ void interp_run(void)
 {
     segment_prepare();                                 /* keep the step interrupt fed */
     uint8_t events = stepper_take_events();
+    if (probe_running() && idle())                     /* a stop on the probe that came since: */
+        events |= stepper_take_events();               /* at rest, no other can come */
     if (events & EV_LIMIT) {
         fault();
         return;
