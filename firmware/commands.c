@@ -75,6 +75,18 @@ static uint8_t decode_zmov(const uint8_t *args, uint8_t n, command_t *cmd)
     return 0;
 }
 
+/* PROB: the flags byte, then positions as PMOV's. */
+static uint8_t decode_prob(const uint8_t *args, uint8_t n, command_t *cmd)
+{
+    if (n == 0)
+        return ERR_LENGTH;
+    uint8_t code = decode_positions(args + 1, (uint8_t)(n - 1), cmd);
+    if (!code && (args[0] & ~PROB_UNTIL_OPEN))
+        code = ERR_VALUE;                                  /* a flag this firmware lacks */
+    cmd->value = args[0];
+    return code;
+}
+
 /* Argument bytes of the fixed-length opcodes, 0x01 .. 0x10 (0xFF: checked on its own). */
 static const uint8_t fixed_args[16] = {
     0, 0xFF, 0xFF, 0xFF, 0, 4, 4, 4, 4, 0, 0, 0xFF, 0, 0, 3, 1
@@ -85,7 +97,7 @@ static uint8_t decode(const uint8_t *p, uint8_t len, command_t *cmd)
 {
     memset(cmd, 0, sizeof *cmd);
     cmd->op = p[0];
-    if (p[0] < OP_INIT || p[0] > OP_COOL)
+    if (p[0] < OP_INIT || p[0] > OP_PROB)
         return ERR_OPCODE;
     const uint8_t *args = p + 1;
     uint8_t n = len - 1;
@@ -93,6 +105,8 @@ static uint8_t decode(const uint8_t *p, uint8_t len, command_t *cmd)
         return decode_positions(args, n, cmd);
     if (p[0] == OP_ZMOV)
         return decode_zmov(args, n, cmd);
+    if (p[0] == OP_PROB)
+        return decode_prob(args, n, cmd);
     if (n != fixed_args[p[0] - 1])
         return ERR_LENGTH;
     if (n == 4)

@@ -22,6 +22,9 @@
 #define OP_RDST  0x0E
 #define OP_SPIN  0x0F
 #define OP_COOL  0x10
+#define OP_PROB  0x11
+
+#define PROB_UNTIL_OPEN 0x01       /* PROB's flags: move until the probe input opens (G38.4/5) */
 
 /* One decoded command. Positions are steps of the machine's axes (index 0 .. N_AXES-1, in the
  * order of the machine file), not of the link's axis bits. */
@@ -30,7 +33,7 @@ typedef struct {
     uint8_t axes;                  /* bit i: machine axis i is named (FMOV, PMOV, PSTN) */
     int32_t pos[N_AXES];           /* steps */
     uint32_t value;                /* feed in 0.1 um/min (or /rev), dwell ms, coolant mode,
-                                      spindle rpm << 8 | direction byte */
+                                      spindle rpm << 8 | direction byte, PROB's flags */
     uint8_t n_order;               /* ZMOV: axes to home, in order (0: the machine's order) */
     uint8_t order[N_AXES];
 } command_t;

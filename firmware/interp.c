@@ -5,13 +5,15 @@
  * processor here is the stepper's pending slot: a motion command is fetched and prepared as soon
  * as that slot is free, so the next move is ready when the running one ends. Set-up commands
  * (PFDR, CSTP, ISTP) take effect when fetched; commands that act on the machine at a point of
- * the program (PSTN, SPIN, COOL, DELY, ZMOV) wait until the motion before them has ended.
+ * the program (PSTN, SPIN, COOL, DELY, ZMOV, PROB) wait until the motion before them has ended;
+ * nothing after a PROB is fetched until it has ended.
  * The immediate commands (STOP, RDPS, RDST), INIT and the feed overrides FFDR and MFDR never
  * enter the queue (commands.c). */
 #include "interp.h"
 #include "io.h"
 #include "link.h"
 #include "planner.h"
+#include "probe.h"
 #include "segment.h"
 #include "stepper.h"
 #include "switches.h"
@@ -27,6 +29,7 @@
 #define ST_SPINDLE_ON  0x1000
 #define ST_COOLANT_ON  0x2000
 #define ST_INDEX_SEEN  0x4000
+#define ST_PROBED      0x8000
 
 #define FEED_UNITS_PER_MM 10000.0f     /* feeds travel in 0.1 um per minute (or per rev) */
 
@@ -40,7 +43,7 @@ static uint8_t program_feed_waiting;   /* PFDR: applies at the next motion comma
 static uint8_t indexer;                /* ISTP: the spindle encoder is the step source */
 static float spindle_rpm;              /* SPIN's speed: the thread speed is checked against it */
 static uint8_t thread_chain;           /* the last move prepared was an ISTP PMOV */
-static uint16_t flags;                 /* HOMED, ERROR, STOPPED, SPINDLE_ON, COOLANT_ON */
+static uint16_t flags;                 /* HOMED, ERROR, STOPPED, SPINDLE_ON, COOLANT_ON, PROBED */
 static uint8_t dwelling;
 static uint32_t dwell_left_ms;
 static uint8_t home_order[N_AXES], home_count, home_index, home_phase;
@@ -66,6 +69,7 @@ static void forget_motion(void)
     segment_hold(0);
     home_phase = HOME_IDLE;
     thread_chain = 0;
+    probe_cancel();
     stepper_position(planned);         /* prepare from where the axes really are, */
     planner_resync();                  /* and from the side each nut really rests on */
 }
@@ -97,14 +101,21 @@ static void fault(void)
     flags |= ST_ERROR;
 }
 
+/* Where a move to `c`'s position, taken now, ends: machine steps. */
+static void target_of(const command_t *c, int32_t *target)
+{
+    for (uint8_t i = 0; i < N_AXES; i++)
+        target[i] = (c->axes >> i) & 1 ? c->pos[i] + offset[i] : planned[i];
+}
+
 /* 1 if a move to `c`'s position, taken now, stays inside the soft limits. */
 static uint8_t inside_limits(const command_t *c)
 {
-    for (uint8_t i = 0; i < N_AXES; i++) {
-        int32_t target = (c->axes >> i) & 1 ? c->pos[i] + offset[i] : planned[i];
-        if (target < min_steps[i] || target > max_steps[i])
+    int32_t target[N_AXES];
+    target_of(c, target);
+    for (uint8_t i = 0; i < N_AXES; i++)
+        if (target[i] < min_steps[i] || target[i] > max_steps[i])
             return 0;
-    }
     return 1;
 }
 
@@ -114,8 +125,9 @@ uint8_t interp_accepts(const command_t *cmd)
         return 0;                      /* the operator or a switch stopped it: INIT first */
     if (cmd->op == OP_ISTP && ENCODER_COUNTS_PER_REV == 0)
         return 0;                      /* no spindle encoder on this machine */
-    uint8_t bad = cmd->op == OP_PFDR && cmd->value == 0;          /* a feed of 0: never ends */
-    if ((cmd->op == OP_FMOV || cmd->op == OP_PMOV) && !home_phase &&
+    uint8_t bad = (cmd->op == OP_PFDR && cmd->value == 0) ||     /* a feed of 0: never ends */
+                  (cmd->op == OP_PROB && PROBE_SWITCH == NO_SWITCH);   /* no probe input */
+    if ((cmd->op == OP_FMOV || cmd->op == OP_PMOV || cmd->op == OP_PROB) && !bad && !home_phase &&
         !queue_holds(OP_PSTN) && !queue_holds(OP_ZMOV))
         bad = !inside_limits(cmd);     /* the coordinates it will have are known: check now */
     if (bad)
@@ -256,8 +268,7 @@ static void fetch_motion(const command_t *c)
         fault();                                       /* outside the soft limits */
         return;
     }
-    for (uint8_t i = 0; i < N_AXES; i++)
-        target[i] = (c->axes >> i) & 1 ? c->pos[i] + offset[i] : planned[i];
+    target_of(c, target);
     uint8_t synchronised = !fast && indexer;
     if (plan_line(&m, planned, target, fast ? FEED_FAST : FEED_MACHINING,
                   fast ? fast_feed : machining_feed, synchronised)) {
@@ -271,6 +282,23 @@ static void fetch_motion(const command_t *c)
         for (uint8_t i = 0; i < N_AXES; i++)
             planned[i] = target[i];
     }
+}
+
+/* PROB, at rest (probe.c); only the clock may step it (CSTP). */
+static void fetch_probe(const command_t *c)
+{
+    int32_t target[N_AXES];
+    flags &= ~ST_PROBED;
+    if (indexer || !inside_limits(c)) {
+        fault();                                       /* under ISTP, or beyond the soft limits */
+        return;
+    }
+    target_of(c, target);
+    uint8_t r = probe_start(planned, target, c->value & PROB_UNTIL_OPEN, machining_feed);
+    if (r == PROBE_FOUND)
+        flags |= ST_PROBED;
+    for (uint8_t i = 0; r == PROBE_RUNNING && i < N_AXES; i++)
+        planned[i] = target[i];
 }
 
 static void fetch_at_rest(const command_t *c)
@@ -302,6 +330,9 @@ static void fetch_at_rest(const command_t *c)
     case OP_COOL:
         coolant_set((uint8_t)c->value);
         flags = c->value ? flags | ST_COOLANT_ON : flags & ~ST_COOLANT_ON;
+        break;
+    case OP_PROB:
+        fetch_probe(c);
         break;
     }
 }
@@ -340,14 +371,22 @@ void interp_run(void)
 {
     segment_prepare();                                 /* keep the step interrupt fed */
     uint8_t events = stepper_take_events();
+    if (probe_running() && idle())                     /* a stop on the probe that came since: */
+        events |= stepper_take_events();               /* at rest, no other can come */
     if (events & EV_LIMIT) {
         fault();
         return;
     }
-    if (events & EV_SWITCH) {                          /* a homing move ended on its switch: */
-        stepper_stop();                                /* the rest of it is dropped */
+    if (events & EV_SWITCH) {                          /* a homing or probing move ended on */
+        stepper_stop();                                /* its switch: the rest of it is dropped */
         planner_clear();
         segment_reset();
+    }
+    if (probe_running()) {
+        if (probe_update(events, idle(), planned) == PROBE_FOUND)
+            flags |= ST_PROBED;
+        if (probe_running())
+            return;                                    /* nothing is fetched behind a PROB */
     }
     if (home_phase) {
         homing_step(events);
@@ -359,10 +398,10 @@ void interp_run(void)
     uint8_t op = c->op;
     uint8_t motion = op == OP_FMOV || op == OP_PMOV;
     uint8_t at_rest = op == OP_DELY || op == OP_ZMOV || op == OP_PSTN || op == OP_SPIN ||
-                      op == OP_COOL;
+                      op == OP_COOL || op == OP_PROB;
     if ((motion && planner_room() < 2) || (at_rest && !idle()))
         return;                                        /* the processor cannot take it yet */
-    if ((motion || op == OP_DELY || op == OP_ZMOV) && program_feed_waiting) {
+    if ((motion || op == OP_DELY || op == OP_ZMOV || op == OP_PROB) && program_feed_waiting) {
         machining_feed = program_feed;
         program_feed_waiting = 0;
     }

@@ -8,6 +8,7 @@
 #define SW_LIMIT    0   /* motion towards it stops when it closes: NLSX, PLSX, PLSZ */
 #define SW_HOME     1   /* only homing looks at it */
 #define SW_PRECISE  2   /* 002's precise-position switch: homing's fine reference (PPSX, PPSZ) */
+#define SW_PROBE    3   /* the tool setter's beam: only PROB looks at it (PROBE_SWITCH) */
 
 void switches_init(void);
 /* Sample every switch pin: once a millisecond, from the clock's interrupt (debouncing). */

@@ -2,13 +2,14 @@
 
 ``firmware/harness/hil.c`` (``make -C firmware harness``) runs ``firmware.elf`` on simavr's
 cycle-exact ATmega2560. This module is its Python side: it builds both, turns a machine file
-into the harness's wiring (the RAMPS sockets of the step / direction pins, the endstop connectors
-of the switches, the spindle encoder on D21 / D20), serves the USART on a TCP port or feeds it a
-script of timed bytes, and reads back the log of every pin change and every byte sent, stamped
-with the AVR's cycle. :func:`sim_machine` feeds the step pins to :class:`retrofit.sim.SimMachine`
-(the driver model of ``sim://``) at the resolution of one cycle, for carriage positions and
-timing violations; :func:`step_times` gives the raw edges, in cycles, for tests that measure
-pulse widths and intervals. Nothing here reads the host's clock to measure the firmware.
+into the harness's wiring (the RAMPS sockets of the step / direction pins, the endstop
+connectors of the switches and of the tool setter's beam, the spindle encoder on D21 / D20),
+serves the USART on a TCP port or feeds it a script of timed bytes, and reads back the log of
+every pin change and every byte sent, stamped with the AVR's cycle. :func:`sim_machine` feeds
+the step pins to :class:`retrofit.sim.SimMachine` (the driver model of ``sim://``) at the
+resolution of one cycle, for carriage positions and timing violations; :func:`step_times` gives
+the raw edges, in cycles, for tests that measure pulse widths and intervals. Nothing here reads
+the host's clock to measure the firmware.
 """
 
 from __future__ import annotations
@@ -105,9 +106,38 @@ def switch_connectors(machine: Machine) -> list[tuple[object, str, int]]:
     return out
 
 
+def probe_connector(machine: Machine) -> str | None:
+    """The endstop connector of the tool setter's beam (the probe input): the first one the
+    switches leave free; None without a ``[setter]``."""
+    if "setter" not in machine.parts:
+        return None
+    taken = {connector for _, connector, _ in switch_connectors(machine)}
+    free = [c for c in CONNECTORS if c not in taken]
+    if not free:
+        raise HarnessError(f"{machine.source} [setter]: no RAMPS endstop connector left for the "
+                           "beam (the switches take all six)")
+    return free[0]
+
+
+def beam_args(machine: Machine, tool: tuple[float, float] | None) -> list[str]:
+    """The --beam option: the probe pin, high (broken) while the carriages are inside the box
+    where ``tool`` (length, diameter in mm) breaks the beam; without a tool it stays low (clear)."""
+    connector = probe_connector(machine)
+    if connector is None:
+        return []
+    port, bit = CONNECTOR_PINS[connector]
+    if tool is None:
+        return ["--beam", f"{port}{bit},1"]
+    from .atc.beam import beam_box_steps
+    index = {a.name: i for i, a in enumerate(firmware_axes(machine))}
+    box = beam_box_steps(machine, *tool)
+    return ["--beam", f"{port}{bit},1," + ",".join(f"{index[a]},{lo},{hi}" for a, (lo, hi) in box.items())]
+
+
 def wiring_args(machine: Machine, start_steps: dict[str, int] | None = None,
-                spindle_rpm: float = 0.0) -> list[str]:
-    """The harness options that wire ``machine`` to the firmware's pins."""
+                spindle_rpm: float = 0.0, tool: tuple[float, float] | None = None) -> list[str]:
+    """The harness options that wire ``machine`` to the firmware's pins; ``tool``: (length,
+    diameter) in mm of the tool in the spindle, which the setter's beam sees."""
     start_steps = start_steps or {}
     axes = firmware_axes(machine)
     args: list[str] = []
@@ -122,6 +152,7 @@ def wiring_args(machine: Machine, start_steps: dict[str, int] | None = None,
               else math.floor(spec.trip_mm * spm + 1e-9))
         port, bit = CONNECTOR_PINS[connector]
         args += ["--switch", f"{port}{bit},{index[spec.axis]},{'>' if spec.side > 0 else '<'},{at},1"]
+    args += beam_args(machine, tool)
     spindle = machine.parts.get("spindle")
     if spindle is not None and spindle_rpm > 0:
         args += ["--spindle", f"{spindle_rpm:g},{spindle.encoder_counts_per_rev}"]
@@ -308,14 +339,16 @@ class Harness:
                  start_steps: dict[str, int] | None = None, spindle_rpm: float = 0.0,
                  vcd: Path | None = None, stats: bool = False, speed: float | None = None,
                  boot_ms: float = 0.0, stall: tuple[int, bool] | None = None,
-                 glitches: list[tuple[str, int, int, int]] = ()):
-        """``boot_ms``: a bootloader's time before the firmware starts (bytes sent meanwhile are
+                 glitches: list[tuple[str, int, int, int]] = (),
+                 tool: tuple[float, float] | None = None):
+        """``tool``: (length, diameter) mm of the tool in the spindle, for the setter's beam;
+        ``boot_ms``: a bootloader's time before the firmware starts (bytes sent meanwhile are
         lost); ``stall``: (cycle, interrupts off?) the main loop hangs; ``glitches``: (connector or
         pin such as "XMAX" / "E4", cycle, cycles, level) an input driven for a while."""
         self.tmp = tempfile.TemporaryDirectory(prefix="retrofit-hil-")
         self.log_path = Path(self.tmp.name) / "pins.log"
         self.args = [str(HARNESS), str(elf), "--log", str(self.log_path),
-                     *wiring_args(machine, start_steps, spindle_rpm)]
+                     *wiring_args(machine, start_steps, spindle_rpm, tool)]
         if listen:
             self.args += ["--listen", listen]
         if script:

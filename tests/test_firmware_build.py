@@ -40,6 +40,19 @@ def test_the_header_carries_steps_per_mm_switches_and_homing_of_the_lathe():
     assert "#define ENCODER_COUNTS_PER_REV 400" in text
 
 
+def test_the_mills_setter_beam_is_a_probe_input_on_the_next_free_connector():
+    """tul-mill's four homing switches take X-min, X-max, Y-min, Y-max: the beam gets Z-min (D18,
+    PD3), with no axis and no status bit; the lathe has no setter, so no probe input."""
+    from retrofit.config import load_machine
+    shipped = (FIRMWARE / "machines" / "tul-mill.h").read_text()
+    assert shipped == header_tool().header(load_machine("tul-mill")), (
+        "firmware/machines/tul-mill.h is out of date: run make -C firmware machine MACHINE=tul-mill")
+    assert re.search(r"SWITCH\(4, 0, \+1, SW_PROBE, ZMIN, -1\)", shipped)
+    assert "#define PROBE_SWITCH        4" in shipped and "#define N_SWITCHES          5" in shipped
+    lathe = (FIRMWARE / "machines" / "mitic-lathe.h").read_text()
+    assert "#define PROBE_SWITCH        255" in lathe and "SW_PROBE" not in lathe
+
+
 @needs_avr
 def test_it_builds_without_warnings_and_fits_the_2560():
     subprocess.run(["make", "-C", str(FIRMWARE), "clean"], check=True, capture_output=True)

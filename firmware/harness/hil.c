@@ -11,7 +11,9 @@
  * so the Python side (retrofit/firmware_sim.py) decodes the step pins with retrofit's own driver
  * model. The harness keeps a step count per axis itself (--axis STEP,DIR,INVERT_DIR) so that
  * switches (--switch PIN,AXIS,<|>,STEPS,ACTIVE_LEVEL) open and close at a step count within the
- * same cycle, and drives the spindle encoder (--spindle RPM,COUNTS_PER_REV: ICLK on PD0, SIND on
+ * same cycle, drives a tool setter's beam (--beam PIN,LEVEL[,AXIS,LO,HI,AXIS,LO,HI,AXIS,LO,HI]:
+ * the pin at LEVEL while every named axis's count lies within LO..HI, at the other level outside
+ * or without a box - no tool in the spindle), and drives the spindle encoder (--spindle RPM,COUNTS_PER_REV: ICLK on PD0, SIND on
  * PD1). --stats prints interrupt figures at the end: the longest stretch with interrupts off
  * outside and inside ISRs (with the program counter where the longest one outside began, and
  * where the longest one inside began and ended), and
@@ -64,7 +66,10 @@ typedef struct { char port; int bit; } pin_t;
 typedef struct { pin_t step, dir; int invert_dir; long steps; int step_level; } axis_t;
 typedef struct { pin_t pin; int axis; char side; long at; int active; int level; } sw_t;
 
+typedef struct { pin_t pin; int level, used, n, axis[3], state; long lo[3], hi[3]; } beam_t;
+
 static axis_t axes[MAX_AXES];
+static beam_t beam;
 static int n_axes;
 static sw_t switches[MAX_SWITCHES];
 static int n_switches;
@@ -102,6 +107,23 @@ static void update_switches(void)
     }
 }
 
+/* The beam: broken (its LEVEL) while the carriages are inside its box. */
+static void update_beam(void)
+{
+    if (!beam.used)
+        return;
+    int inside = beam.n > 0;
+    for (int k = 0; k < beam.n; k++) {
+        long pos = axes[beam.axis[k]].steps;
+        inside &= pos >= beam.lo[k] && pos <= beam.hi[k];
+    }
+    int level = inside ? beam.level : !beam.level;
+    if (level != beam.state) {
+        beam.state = level;
+        drive(beam.pin, level);
+    }
+}
+
 static int pin_level(pin_t p) { return (out_ports[p.port - 'A'] >> p.bit) & 1; }
 
 static void port_changed(struct avr_irq_t *irq, uint32_t value, void *param)
@@ -125,8 +147,10 @@ static void port_changed(struct avr_irq_t *irq, uint32_t value, void *param)
         }
         a->step_level = level;
     }
-    if (moved)
+    if (moved) {
         update_switches();
+        update_beam();
+    }
 }
 
 /* D10 = PB4 = OC2A, the spindle PWM: the timer drives this pin without a write to PORTB, so its
@@ -493,6 +517,25 @@ int main(int argc, char **argv)
             w->side = side;
             w->level = -1;
             i++;
+        } else if (!strcmp(a, "--beam")) {
+            char p[4];
+            int got = sscanf(v, "%2[A-L0-7],%d,%d,%ld,%ld,%d,%ld,%ld,%d,%ld,%ld", p, &beam.level,
+                             &beam.axis[0], &beam.lo[0], &beam.hi[0], &beam.axis[1], &beam.lo[1],
+                             &beam.hi[1], &beam.axis[2], &beam.lo[2], &beam.hi[2]);
+            beam.n = (got - 2) / 3;
+            if (got < 2 || (got - 2) % 3) {
+                fprintf(stderr, "hil: --beam %s: expected PIN,LEVEL then AXIS,LO,HI for 0 to 3 axes\n", v);
+                return 2;
+            }
+            for (int k = 0; k < beam.n; k++)
+                if (beam.axis[k] < 0 || beam.axis[k] >= MAX_AXES) {
+                    fprintf(stderr, "hil: --beam %s: axis %d: expected 0..%d\n", v, beam.axis[k], MAX_AXES - 1);
+                    return 2;
+                }
+            beam.pin = parse_pin(p);
+            beam.used = 1;
+            beam.state = -1;
+            i++;
         } else if (!strcmp(a, "--spindle")) {
             sscanf(v, "%lf,%ld", &spindle_rpm, &spindle_counts);
             i++;
@@ -530,6 +573,7 @@ int main(int argc, char **argv)
         avr_extint_set_strict_lvl_trig(avr, n, 0);
     uart_in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
     update_switches();
+    update_beam();
     boot_start();
     if (spindle_rpm > 0 && spindle_counts > 0)
         avr_cycle_timer_register(avr, 1000, spindle_edge, NULL);

@@ -33,6 +33,7 @@
     SWITCH(4, 1, +1, SW_PRECISE, YMAX, 6)   /* PPSZ */ \
 
 #define N_SWITCHES          5
+#define PROBE_SWITCH        255   /* PROB watches it; 255: no probe input */
 #define HOME_COUNT          2
 #define HOME_ORDER          { 0, 1 }
 #define HOME_DIRS           { 1, 1 }

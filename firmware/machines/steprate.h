@@ -28,6 +28,7 @@
 #define SWITCHES \
 
 #define N_SWITCHES          0
+#define PROBE_SWITCH        255   /* PROB watches it; 255: no probe input */
 #define HOME_COUNT          0
 #define HOME_ORDER          { 0, 0, 0, 0 }
 #define HOME_DIRS           { 1, 1, 1, 1 }

@@ -30,8 +30,10 @@
     SWITCH(1, 1, -1, SW_HOME, XMAX, -1)   /* YMIN */ \
     SWITCH(2, 2, +1, SW_HOME, YMIN, -1)   /* ZTOP */ \
     SWITCH(3, 3, -1, SW_HOME, YMAX, -1)   /* CAROUSEL */ \
+    SWITCH(4, 0, +1, SW_PROBE, ZMIN, -1)   /* the tool setter's beam (no axis) */ \
 
-#define N_SWITCHES          4
+#define N_SWITCHES          5
+#define PROBE_SWITCH        4   /* PROB watches it; 255: no probe input */
 #define HOME_COUNT          4
 #define HOME_ORDER          { 2, 1, 0, 3 }
 #define HOME_DIRS           { -1, -1, 1, -1 }

@@ -6,7 +6,8 @@ The firmware compiles in what the Python side plans with: steps/mm, speed and ac
 limits, backlash, pulse timing, feeds, switches, homing and the spindle encoder. Axes are listed
 in the link's axis-bit order (X, Y, Z, A, ...) and drive the RAMPS socket of their letter (a
 fourth axis: E0). The 002 switches go to the endstop connectors of ``SWITCH_CONNECTORS``; others
-take the free connectors in order.
+take the free connectors in order. A machine with a tool setter (``[setter]``) gets its beam as
+the probe input (``PROBE_SWITCH``, kind SW_PROBE) on the next free connector after them.
 """
 
 from __future__ import annotations
@@ -19,7 +20,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from retrofit.config import Machine, load_machine  # noqa: E402
 from retrofit.errors import RetrofitError  # noqa: E402
-from retrofit.firmware_sim import SWITCH_CONNECTORS, CONNECTORS, firmware_axes, sockets  # noqa: E402
+from retrofit.firmware_sim import (firmware_axes, probe_connector, sockets,  # noqa: E402
+                                   switch_connectors)
 from retrofit.link.codec import axis_bits  # noqa: E402
 
 KINDS = {"limit": "SW_LIMIT", "home": "SW_HOME", "precise": "SW_PRECISE"}
@@ -69,25 +71,27 @@ def axis_lines(m: Machine, axes) -> list[str]:
 
 
 def switch_lines(m: Machine, axes) -> tuple[list[str], dict[str, int]]:
-    """The SWITCHES X-macro, one entry per switch of [switches]; returns the switch ids too."""
-    switches = m.parts.get("switches")
-    specs = switches.specs if switches else ()
-    free = [c for c in CONNECTORS if c not in {v[0] for k, v in SWITCH_CONNECTORS.items()
-                                               if switches and switches.named(k)}]
+    """The SWITCHES X-macro, one entry per switch of [switches] and the setter's beam (a probe
+    input: no axis, no status bit); returns the switch ids too."""
+    try:
+        wired = switch_connectors(m)
+        probe = probe_connector(m)
+    except RetrofitError as exc:
+        raise SystemExit(str(exc)) from None
     index = {a.name: i for i, a in enumerate(axes)}
     lines, ids = ["/* SWITCH(id, axis, side, kind, RAMPS endstop connector, status bit or -1) */",
                   "#define SWITCHES \\"], {}
-    for i, spec in enumerate(specs):
-        connector, bit = SWITCH_CONNECTORS.get(spec.name, (None, -1))
-        if connector is None:
-            if not free:
-                raise SystemExit(f"{m.name}: more switches than RAMPS endstop connectors")
-            connector = free.pop(0)
+    for i, (spec, connector, bit) in enumerate(wired):
         ids[spec.name] = i
         lines.append(f"    SWITCH({i}, {index[spec.axis]}, {spec.side:+d}, {KINDS[spec.kind]}, "
                      f"{connector}, {bit})   /* {spec.name.upper()} */ \\")
+    if probe:
+        lines.append(f"    SWITCH({len(wired)}, 0, +1, SW_PROBE, {probe}, -1)"
+                     "   /* the tool setter's beam (no axis) */ \\")
     lines.append("")
-    lines.append(f"#define N_SWITCHES          {len(specs)}")
+    lines.append(f"#define N_SWITCHES          {len(wired) + bool(probe)}")
+    lines.append(f"#define PROBE_SWITCH        {len(wired) if probe else 255}"
+                 "   /* PROB watches it; 255: no probe input */")
     return lines, ids
 
 

@@ -8,6 +8,8 @@ and receiver ``beam_span_mm`` apart.
 
 from __future__ import annotations
 
+import math
+
 from ..config import Machine
 from .settings import tools_of
 from .setter import SetterSettings
@@ -35,3 +37,20 @@ class SimBeam:
         reaches = tip - s.beam_top_z_mm <= _SLACK_MM                            # tip down past the top edge
         spans = s.beam_top_z_mm - at_mm["Z"] <= s.beam_width_mm + _SLACK_MM     # spindle above the bottom edge
         return between and across and reaches and spans
+
+
+def beam_box_steps(machine: Machine, length_mm: float, diameter_mm: float) -> dict[str, tuple[int, int]]:
+    """The carriage positions, in whole steps of X, Y and Z (lowest, highest, both inside), at
+    which a tool of ``length_mm`` and ``diameter_mm`` breaks the beam: :meth:`SimBeam.broken`'s
+    conditions solved for each axis (the ones of a harness that counts steps, not mm)."""
+    s: SetterSettings = machine.parts["setter"]
+    half_x = s.beam_span_mm / 2
+    half_y = diameter_mm / 2 + s.beam_width_mm / 2
+    bounds = {"X": (s.beam_x_mm - half_x, s.beam_x_mm + half_x),
+              "Y": (s.beam_y_mm - half_y, s.beam_y_mm + half_y),
+              "Z": (s.beam_top_z_mm - s.beam_width_mm, s.beam_top_z_mm + length_mm)}
+    out = {}
+    for name, (lo, hi) in bounds.items():
+        spm = machine.axis(name).steps_per_mm
+        out[name] = (math.ceil(lo * spm - _SLACK_MM * spm), math.floor(hi * spm + _SLACK_MM * spm))
+    return out

@@ -25,6 +25,9 @@ def add_commands(sub) -> None:
     s.add_argument("--vcd", metavar="FILE", help="write the output ports as VCD")
     s.add_argument("--spindle-rpm", type=float, default=0.0,
                    help="turn the spindle encoder at this speed (ICLK on D21, SIND on D20)")
+    s.add_argument("--tool", metavar="LENGTH,DIAMETER",
+                   help="the tool in the spindle, mm, for the tool setter's beam (a machine with "
+                        "[setter]); without it nothing breaks the beam")
     s.add_argument("--start", metavar="AXIS=STEPS", action="append", default=[],
                    help="where a carriage starts, in steps (repeatable); default 0")
     s.add_argument("--speed", type=float, default=1.0,
@@ -53,15 +56,32 @@ def _start_steps(specs: list[str], machine) -> dict[str, int]:
     return out
 
 
+def _tool(spec: str | None, machine) -> tuple[float, float] | None:
+    from ..errors import ConfigError
+    if spec is None:
+        return None
+    if "setter" not in machine.parts:
+        raise ConfigError(f"--tool {spec}: machine {machine.name} has no tool setter ([setter] "
+                          "section); --tool is for a machine with one")
+    try:
+        length, diameter = (float(v) for v in spec.split(","))
+    except ValueError:
+        raise ConfigError(f"--tool {spec}: expected LENGTH,DIAMETER in mm, e.g. 20,3") from None
+    if not (length > 0 and diameter > 0):
+        raise ConfigError(f"--tool {spec}: length and diameter must be above 0 mm")
+    return length, diameter
+
+
 def _cmd_sim(args) -> int:
     from ..config import load_machine
     from ..firmware_sim import Harness, build, report
     machine = load_machine(args.machine)
     start = _start_steps(args.start, machine)
+    tool = _tool(args.tool, machine)
     elf = build(machine.name)
     harness = Harness(elf, machine, listen=args.listen, start_steps=start, vcd=args.vcd,
                       spindle_rpm=args.spindle_rpm, speed=args.speed, stats=True,
-                      boot_ms=args.boot_ms)
+                      boot_ms=args.boot_ms, tool=tool)
     if args.once:
         harness.args.append("--once")
     harness.start()
