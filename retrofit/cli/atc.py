@@ -36,6 +36,10 @@ def add_commands(sub) -> None:
 
 def _common(p) -> None:
     p.add_argument("--machine", default="tul-mill", help="shipped machine name or path to a .toml file")
+    p.add_argument("--output", default="sim://", metavar="URL",
+                   help="where the moves are made: sim:// (the simulated mill, default) or the "
+                        "controller on the serial link (serial:///dev/ttyACM0, serial+socket://HOST:PORT, "
+                        "e.g. the firmware in retrofit firmware sim); it starts with INIT at home")
     p.add_argument("--tool-table", metavar="FILE.tbl",
                    help="LinuxCNC tool table (default: next to the machine file; for a shipped "
                         "machine NAME.tbl in the current folder); the spindle record is beside it")
@@ -68,10 +72,26 @@ class _Mill:
         recover = getattr(args, "recover", False)
         self.changer = ToolChanger(self.machine, self.store, read_record=not recover)
         tool = _tool_number(args.tool) if recover and args.tool else self.changer.spindle_tool
-        self.cell = SimCell(self.machine, MagazineState.loaded(self.machine, tool or 0))
+        self.output = None
+        self.url = getattr(args, "output", None) or "sim://"
+        self._cell = (SimCell(self.machine, MagazineState.loaded(self.machine, tool or 0))
+                      if self.url.split("://")[0] == "sim" else None)
+
+    @property
+    def cell(self):
+        """The simulated cell, or the controller on the link (its port opened at the first use)."""
+        if self._cell is None:
+            from ..atc.linkcell import LinkCell
+            from ..outputs import open_output
+            self.output = open_output(self.url, self.machine)
+            self._cell = LinkCell(self.output, self.machine)
+            self.output.open()
+        return self._cell
 
     def finish(self) -> int:
-        """Print what the simulated machine holds and every violation; 1 when there was one."""
+        """Print what the machine holds (and, simulated, every violation; 1 when there was one)."""
+        if self.output is not None:
+            return self._finish_remote()
         state = self.cell.magazine.state
         spindle = f"T{state.spindle}" if state.spindle else "empty"
         pockets = " ".join(f"{p}:{'T%d' % t if t else '-'}" for p, t in sorted(state.pockets.items()))
@@ -82,12 +102,30 @@ class _Mill:
             print(f"    tick {v.tick} {v.axis} {v.kind}: {v.detail}")
         return 1 if found else 0
 
+    def _finish_remote(self) -> int:
+        at = " ".join(f"{a} {mm:.3f}" for a, mm in self.cell.commanded_mm().items())
+        print(f"  {self.output.url.text}: at {at} mm; {self.cell.probes} probing moves")
+        self.close()
+        return 0
+
+    def close(self) -> None:
+        if self.output is not None:
+            self.output.close()
+            self.output = None
+
 
 def cmd_tool(args) -> int:
     """``retrofit tool [Tn] [--recover]``."""
     if args.recover and args.tool is None:
         raise RetrofitError("--recover needs the tool you see in the spindle, e.g. retrofit tool T3 --recover")
     mill = _Mill(args)
+    try:
+        return _tool(args, mill)
+    finally:
+        mill.close()
+
+
+def _tool(args, mill) -> int:
     if args.recover:
         seen = _tool_number(args.tool)
         steps = mill.changer.recover(seen, mill.cell)
@@ -107,8 +145,15 @@ def cmd_tool(args) -> int:
 
 def cmd_setter(args) -> int:
     """``retrofit setter reference | measure T.. | table``."""
-    from ..atc.measure import ToolSetter
     mill = _Mill(args)
+    try:
+        return _setter(args, mill)
+    finally:
+        mill.close()
+
+
+def _setter(args, mill) -> int:
+    from ..atc.measure import ToolSetter
     table = mill.tables.load()
     setter = ToolSetter(mill.machine, table)
     name = mill.machine.name

@@ -1,0 +1,88 @@
+"""The optical tool setter's probing moves on the firmware: ``retrofit setter`` through the
+serial link against the firmware in simavr (``retrofit firmware sim``), its beam fed back from the
+tool the harness is told the spindle holds.
+
+Oracles: the tool's true length and diameter in the machine file (``[tools.sim]``), and the same
+measurement on the simulated mill (sim://), which cuts its probing moves at the step that breaks
+the beam. The firmware reads the beam debounced (three 1 ms samples), so it stops up to 3 ms
+late: at the setter's probe feed (60 mm/min) 3 um, 1.2 steps of Z.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+
+import pytest
+
+from retrofit.atc.settings import tools_of
+from retrofit.atc.state import SpindleStore, state_paths
+from retrofit.atc.tooltable import ToolTableStore
+from retrofit.cli import main
+from retrofit.config import load_machine
+
+pytestmark = pytest.mark.skipif(
+    shutil.which("avr-gcc") is None or shutil.which("make") is None,
+    reason="the firmware needs avr-gcc and make: apt-get install gcc-avr avr-libc make libsimavr-dev")
+
+fs = pytest.importorskip("retrofit.firmware_sim")
+
+
+def spindle_holds(machine, table, tool: int) -> None:
+    """The spindle record beside ``table`` says ``tool`` is in the spindle."""
+    _, record = state_paths(machine, table)
+    SpindleStore(machine.name, record, machine.parts["atc"].pockets).save(tool)
+
+
+def setter(machine, table, output: str, *words: str) -> None:
+    assert main(["setter", *words, "--machine", machine.name, "--tool-table", str(table),
+                 "--output", output]) == 0
+
+
+def measured(machine, table, tool: int):
+    tbl, _ = state_paths(machine, table)
+    t = ToolTableStore(machine.name, tbl.with_name(f"{tbl.stem}.setter.json"), tbl).load()
+    return t.reference, t.tools[tool]
+
+
+@pytest.mark.slow
+def test_the_setter_measures_the_tool_on_the_firmware_as_on_the_simulated_mill(tmp_path, capsys):
+    """T1 (20 mm x 3 mm) in the spindle: the reference run, then its length and diameter, on the
+    firmware through the link and on sim://. Every probing move is a PROB that stops on the
+    beam; the results agree with the tool's true size and with sim:// to within the debounce."""
+    machine = load_machine("tul-mill")
+    t1 = tools_of(machine).sim[1]                             # [tools.sim] t1 of tul-mill.toml
+    length_true, diameter_true = t1.length_mm, t1.diameter_mm
+    assert (length_true, diameter_true) == (20.0, 3.0)
+    sim_tbl, fw_tbl = tmp_path / "sim" / "tul.tbl", tmp_path / "fw" / "tul.tbl"
+    for table in (sim_tbl, fw_tbl):
+        table.parent.mkdir()
+        spindle_holds(machine, table, 1)
+    setter(machine, sim_tbl, "sim://", "reference")
+    setter(machine, sim_tbl, "sim://", "measure", "T1")
+
+    harness = fs.Harness(fs.build(machine.name), machine, listen="127.0.0.1:0", speed=0,
+                         tool=(length_true, diameter_true)).start()
+    try:
+        url = f"serial+socket://{harness.address}?wait_s=600"
+        setter(machine, fw_tbl, url, "reference")
+        setter(machine, fw_tbl, url + "&init=0", "measure", "T1")   # the same session goes on
+    finally:
+        harness.stop()
+    out = capsys.readouterr().out
+    assert len(re.findall(r"(\d+) probing moves", out)) == 2
+    assert [int(n) for n in re.findall(r"(\d+) probing moves", out)] == [1, 3]
+
+    sim_ref, sim_t1 = measured(machine, sim_tbl, 1)
+    fw_ref, fw_t1 = measured(machine, fw_tbl, 1)
+    z_step = 1 / machine.axis("Z").steps_per_mm
+    y_step = 1 / machine.axis("Y").steps_per_mm
+    late = 0.003 * machine.parts["setter"].probe_feed_mm_min / 60       # 3 ms at the probe feed
+    # the beam met up to the debounce later (lower) on the firmware, never earlier
+    assert -(late + z_step) <= fw_ref.z_break_mm - sim_ref.z_break_mm <= z_step
+    # the length is measured against the reference: the late stop cancels
+    assert abs(fw_t1.length_mm - length_true) <= z_step
+    assert abs(fw_t1.length_mm - sim_t1.length_mm) <= z_step
+    # each side stops late by the same amount: the diameter comes out smaller by up to twice
+    assert -2 * (late + y_step) <= fw_t1.diameter_mm - diameter_true <= y_step
+    assert abs(fw_t1.diameter_mm - sim_t1.diameter_mm) <= 2 * (late + y_step)
