@@ -264,7 +264,10 @@ def test_a_duplicated_frame_is_answered_again_but_not_executed_twice(link, machi
     (bytes((0x04, 0x01, 0x80, 0x00, 0x00)), Err(3, 0x04)),  # the reserved position 0x800000
     (bytes((0x0F, 0x01, 0xF4, 0x05)), Err(3, 0x0F)),       # SPIN direction 5
     (bytes((0x10, 0x09)), Err(3, 0x10)),                   # COOL mode 9
-], ids=["opcode", "length", "axis", "reserved-position", "spin-direction", "coolant-mode"])
+    (bytes((0x11,)), Err(2, 0x11)),                        # PROB without its flags byte
+    (bytes((0x11, 0x02, 0x04, 0xFF, 0xFE, 0xC0)), Err(3, 0x11)),   # PROB flag bit 1
+], ids=["opcode", "length", "axis", "reserved-position", "spin-direction", "coolant-mode",
+        "prob-length", "prob-flags"])
 def test_layout_errors_are_answered_err_and_recorded(link, machine, payload, err):
     number = link.next[QUEUED]
     assert link.exchange(QUEUED, number, payload) == (number, err)
@@ -272,6 +275,16 @@ def test_layout_errors_are_answered_err_and_recorded(link, machine, payload, err
     link.next[QUEUED] = number + 1
     assert link.send("CSTP") == Ack()                                   # the number moved on
     assert link.position() == {"X": 0, "Z": 0}
+
+
+def test_prob_without_a_probe_input_is_refused_err_6_and_error_until_init(link):
+    """The lathe has no tool setter: PROB is refused where it is decided, the controller reports
+    ERROR and makes no step, and INIT clears it."""
+    assert link.send("PROB Z-1") == Err(6, 0x11)
+    assert link.status().flags & StatusFlags.ERROR
+    assert link.position() == {"X": 0, "Z": 0}
+    assert link.send("INIT") == Ack()
+    assert not link.status().flags & StatusFlags.ERROR
 
 
 def test_a_burst_of_frames_is_answered_in_order(link):
