@@ -136,8 +136,10 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "sub r21, r20\n\t"
         "brmi 36b\n\t"
 #else
-        "ldi r24, 1\n\t"                      /* the pulse's end may come meanwhile */
-        "sts %[busy], r24\n\t"
+        "ldi r24, 1\n\t"                      /* the pulse's end may come meanwhile, not */
+        "sts %[busy], r24\n\t"               /* the 1 ms clock: nested in a segment's */
+        "clr r24\n\t"                         /* hand-over it pushed the next tick past its */
+        "sts %[timsk3], r24\n\t"              /* slot (a rise 6 us late at 42.5 kHz) */
         "sei\n\t"
 #endif
         ::ENTRY_OPERANDS, [period] "i"(&st_period), [ocrah] "n"(_SFR_MEM_ADDR(OCR1AH)),
@@ -206,6 +208,10 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "sbi %[tifr1], %[ocf1a]\n\t"        /* passed yet), as its interrupt would */
         "rjmp 46b\n\t"
         "47:\n\t"
+#else
+        "cli\n\t"                           /* the clock again */
+        "ldi r24, %[t3]\n\t"
+        "sts %[timsk3], r24\n\t"
 #endif
         "clr r24\n\t"                        /* done: a match may nest from here on (and no */
         "sts %[busy], r24\n\t"               /* interrupts-off tail delays compare B's) */
@@ -232,15 +238,11 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "pop r24\n\t"
         "out __SREG__, r24\n\t"
         "pop r24\n\t"
-#if FALL_IN_TICK
         "sbic %[tifr3], %[ocf3a]\n\t"       /* the clock came while masked: its interrupt */
         "rjmp 44f\n\t"                      /* now, as the CPU would take it after reti */
-#endif
         "reti\n\t"
-#if FALL_IN_TICK
         "44: sbi %[tifr3], %[ocf3a]\n\t"    /* (simavr 1.6 would never take it: it does */
         "jmp " CLOCK_VECTOR "\n\t"          /* not look at a flag raised while masked) */
-#endif
         ::ENTRY_OPERANDS, [left] "i"(&st_ticks_left), [missed] "i"(&st_missed),
           [tifr3] "I"(_SFR_IO_ADDR(TIFR3)), [ocf3a] "n"(OCF3A), [tifr1] "I"(_SFR_IO_ADDR(TIFR1)),
           [ocf1a] "n"(OCF1A), [t1] "M"(TICK_TIMSK), [timsk1] "n"(_SFR_MEM_ADDR(TIMSK1)),
