@@ -189,11 +189,9 @@ class Cool(Command):
 
 @dataclass(frozen=True)
 class Prob(_AxesCommand):
-    """Probing move (G38.2-G38.5): a straight line to ``axes`` at the machining feed, as PMOV,
-    that stops at the first step after which the probe input closes (``away``: opens); no step
-    if it already is. After the motion before it, under CSTP only; nothing after it is fetched
-    until it has ended. RDST's PROBED: it stopped on the probe (clear: it reached its end, no
-    error). A device without a probe input refuses it. Not one of 002's 14.
+    """Probing move (G38.2-G38.5): a line to ``axes`` at the machining feed (as PMOV) that stops
+    at the first step after which the probe input closes (``away``: opens), at rest, under CSTP;
+    RDST's PROBED says it stopped on the probe (docs/protocol.md). Not one of 002's 14.
 
     >>> parse_command("PROB AWAY X1 Z-40")
     Prob(axes=(('X', 1.0), ('Z', -40.0)), away=True)
@@ -211,7 +209,7 @@ class Prob(_AxesCommand):
     @classmethod
     def from_words(cls, words: list[str]) -> "Prob":
         """``["AWAY", "X1", "Z-40"]`` -> Prob; AWAY may come once, first."""
-        away = bool(words) and words[0] == "AWAY"
+        away = words[:1] == ["AWAY"]
         rest = words[1:] if away else words
         if "AWAY" in rest:
             raise CommandError("PROB: AWAY comes once, before the axis words, e.g. PROB AWAY X1 Z-40")

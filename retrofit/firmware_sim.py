@@ -112,11 +112,10 @@ def probe_connector(machine: Machine) -> str | None:
     if "setter" not in machine.parts:
         return None
     taken = {connector for _, connector, _ in switch_connectors(machine)}
-    free = [c for c in CONNECTORS if c not in taken]
-    if not free:
-        raise HarnessError(f"{machine.source} [setter]: no RAMPS endstop connector left for the "
-                           "beam (the switches take all six)")
-    return free[0]
+    for c in (c for c in CONNECTORS if c not in taken):
+        return c
+    raise HarnessError(f"{machine.source} [setter]: no RAMPS endstop connector left for the beam "
+                       "(the switches take all six)")
 
 
 def beam_args(machine: Machine, tool: tuple[float, float] | None) -> list[str]:
@@ -125,19 +124,17 @@ def beam_args(machine: Machine, tool: tuple[float, float] | None) -> list[str]:
     connector = probe_connector(machine)
     if connector is None:
         return []
-    port, bit = CONNECTOR_PINS[connector]
-    if tool is None:
-        return ["--beam", f"{port}{bit},1"]
     from .atc.beam import beam_box_steps
+    port, bit = CONNECTOR_PINS[connector]
     index = {a.name: i for i, a in enumerate(firmware_axes(machine))}
-    box = beam_box_steps(machine, *tool)
-    return ["--beam", f"{port}{bit},1," + ",".join(f"{index[a]},{lo},{hi}" for a, (lo, hi) in box.items())]
+    box = beam_box_steps(machine, *tool).items() if tool is not None else ()
+    return ["--beam", ",".join([f"{port}{bit}", "1"] + [f"{index[a]},{lo},{hi}" for a, (lo, hi) in box])]
 
 
 def wiring_args(machine: Machine, start_steps: dict[str, int] | None = None,
                 spindle_rpm: float = 0.0, tool: tuple[float, float] | None = None) -> list[str]:
     """The harness options that wire ``machine`` to the firmware's pins; ``tool``: (length,
-    diameter) in mm of the tool in the spindle, which the setter's beam sees."""
+    diameter) in mm of the tool in the spindle (what the setter's beam sees)."""
     start_steps = start_steps or {}
     axes = firmware_axes(machine)
     args: list[str] = []
