@@ -83,42 +83,48 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
     from .atc.front import expand_host_commands
     from .gcode import compile_program
     run = Run(machine, name)
-    # 1. program: G-code -> commands (G38 probing moves made on the simulated machine as the
-    #    program is read); TOOL and PAUS -> the changer's sequences and pauses
-    prober = sim_prober(machine, spindle_tool)
-    run.program = compile_program(text, machine, file=name, tool_table=tool_table,
-                                  spindle_tool=spindle_tool, probe=prober,
-                                  on_progress=lambda done: progress.fraction("compile", done))
-    if prober is not None and prober.moves:
-        refuse_real_probing(opts.urls, name)
-    run.expanded = expand_host_commands(run.program, machine, spindle_tool)
-    run.command_count = len(run.program.commands)
-    progress.done("compile")
-    # 2. plan and 3. execute: by the planner and the fast path, or through the 002 controller
-    reason = "--controller" if opts.controller else controller_reason(run.expanded.commands, machine)
-    streamed = False
-    if reason:
-        refuse_io_on_controller(run.expanded, reason)
-        run.log = run_on_controller(run.expanded, machine, opts.backlash_comp, opts.reference, reason)
-        run.how = f"002 controller ({reason})"
-        progress.done("plan")
-    else:
-        run.plan = plan_expanded(run.expanded, machine, opts.backlash_comp, progress)
-        streamed = can_stream(run, opts)
-        if streamed and not getattr(opts, "keep_commands", True):
-            run.program.commands = run.expanded.commands = []     # planned: let the objects go
-        run.log = None if streamed else execute(run.plan, opts.reference)
-        run.how = "reference path" if opts.reference else "fast path"
-        run.io = digital_outputs(run)
-    progress.done("execute")
-    # 4. outputs: frames to every output, stopping at pauses on a real machine; a clock-timed
-    #    run to sim:// and vcd:// only is made and delivered a window at a time (bounded memory)
-    if getattr(opts, "before_outputs", None):
-        opts.before_outputs(run)
-    if streamed:
-        run.sim = stream_outputs(run, opts.urls, progress)
-    else:
-        run.sim = deliver_outputs(run, opts.urls, wait, progress)
+    # 1. program: G-code -> commands (G38 probing moves made as the program is read: on the
+    #    controller at the far end of the link when the run drives one, else on the simulated
+    #    machine); TOOL and PAUS -> the changer's sequences and pauses
+    prober = link_prober(machine, spindle_tool, opts.urls) or sim_prober(machine, spindle_tool)
+    try:
+        run.program = compile_program(text, machine, file=name, tool_table=tool_table,
+                                      spindle_tool=spindle_tool, probe=prober,
+                                      on_progress=lambda done: progress.fraction("compile", done))
+        opened = prober.handoff() if hasattr(prober, "handoff") and prober.moves else None
+        if prober is not None and prober.moves and opened is None:
+            refuse_real_probing(opts.urls, name)
+        run.expanded = expand_host_commands(run.program, machine, spindle_tool)
+        run.command_count = len(run.program.commands)
+        progress.done("compile")
+        # 2. plan and 3. execute: by the planner and the fast path, or through the 002 controller
+        reason = "--controller" if opts.controller else controller_reason(run.expanded.commands, machine)
+        streamed = False
+        if reason:
+            refuse_io_on_controller(run.expanded, reason)
+            run.log = run_on_controller(run.expanded, machine, opts.backlash_comp, opts.reference, reason)
+            run.how = f"002 controller ({reason})"
+            progress.done("plan")
+        else:
+            run.plan = plan_expanded(run.expanded, machine, opts.backlash_comp, progress)
+            streamed = can_stream(run, opts)
+            if streamed and not getattr(opts, "keep_commands", True):
+                run.program.commands = run.expanded.commands = []     # planned: let the objects go
+            run.log = None if streamed else execute(run.plan, opts.reference)
+            run.how = "reference path" if opts.reference else "fast path"
+            run.io = digital_outputs(run)
+        progress.done("execute")
+        # 4. outputs: frames to every output, stopping at pauses on a real machine; a clock-timed
+        #    run to sim:// and vcd:// only is made and delivered a window at a time (bounded memory)
+        if getattr(opts, "before_outputs", None):
+            opts.before_outputs(run)
+        if streamed:
+            run.sim = stream_outputs(run, opts.urls, progress)
+        else:
+            run.sim = deliver_outputs(run, opts.urls, wait, progress, opened)
+    finally:
+        if hasattr(prober, "close"):
+            prober.close()          # (the link's port, when probing opened it)
     # 5. report: the log joined with what the machine did
     from .runreport import run_report
     run.report = run_report(run)
@@ -167,14 +173,27 @@ def sim_prober(machine: Machine, spindle_tool: int = 0):
     return SimProber(machine, spindle_tool)
 
 
+def link_prober(machine: Machine, spindle_tool: int, urls):
+    """The prober of G38 moves on the controller at the far end of the link, when the run drives
+    one (a single serial output) and the machine has a probe input (a tool setter); else None."""
+    from .outputs import OutputURL, open_output, output_class
+    linked = [u for u in urls
+              if getattr(output_class(OutputURL.parse(u).scheme), "takes_commands", False)]
+    if len(linked) != 1 or "setter" not in machine.parts:
+        return None
+    from .atc.linkcell import LinkProber
+    return LinkProber(open_output(linked[0], machine), machine, spindle_tool)
+
+
 def refuse_real_probing(urls, name: str) -> None:
     """A program whose probing moves were made on the simulated machine must not drive a real one."""
     from .runner import is_real
     real = [u for u in urls if is_real(u)]
     if real:
         raise OutputError(f"{real[0]}: {name} probes (G38) and its probe results come from the "
-                          "simulated machine; this host does not read a real machine's probe "
-                          "input: run it on sim://")
+                          "simulated machine; a machine's own probe input is read through one "
+                          "controller on the serial link (a single serial:// output, on a machine "
+                          "with a tool setter), or run it on sim://")
 
 
 def plan_expanded(expanded, machine: Machine, backlash_comp: bool, progress):
@@ -238,8 +257,9 @@ def execute(plan, reference: bool = False) -> RunLog:
     return execute_fast(plan)
 
 
-def deliver_outputs(run: Run, urls: list[str], wait, progress):
-    """Frames to the frame outputs, commands to the command outputs; the simulated machine."""
+def deliver_outputs(run: Run, urls: list[str], wait, progress, opened=None):
+    """Frames to the frame outputs, commands to the command outputs; the simulated machine.
+    ``opened``: (URL, open output, device commands already run) of a link that probing used."""
     from .runner import deliver, is_real
     exp = run.expanded
     pauses = [(pause_tick(run, e.index), e.index, f"line {e.line}: {e.says}") for e in exp.pauses]
@@ -248,7 +268,7 @@ def deliver_outputs(run: Run, urls: list[str], wait, progress):
         raise OutputError(f"{real[0]}: the program pauses ({pauses[0][2]}) and this output drives a "
                           "machine: run it from a terminal, where Enter resumes after each pause")
     frame_urls, remote = command_outputs(urls, run.machine, exp.commands,
-                                         [(i, says) for _, i, says in pauses], wait)
+                                         [(i, says) for _, i, says in pauses], wait, opened)
     run.report["remote"] = remote
     total = max(int(run.log.ticks), 1)
     return deliver(run.log, frame_urls, [(t, says) for t, _, says in pauses], wait,
@@ -296,8 +316,8 @@ def pause_tick(run: Run, index: int) -> int:
     return round(max(ends, default=0.0) / run.machine.tick_s)
 
 
-def command_outputs(urls: list[str], machine: Machine, commands, pauses=(), wait=None
-                    ) -> tuple[list[str], list[dict]]:
+def command_outputs(urls: list[str], machine: Machine, commands, pauses=(), wait=None,
+                    opened=None) -> tuple[list[str], list[dict]]:
     """Run ``commands`` on the command-level outputs among ``urls`` (``serial://``, ...).
 
     Such outputs (``takes_commands``) get the program's commands, not its port frames, and
@@ -317,9 +337,10 @@ def command_outputs(urls: list[str], machine: Machine, commands, pauses=(), wait
                               "port frames (use it with retrofit run)")
         device = [c for c in commands if not c.host]
         refuse_io_on_link(url, device)
-        with open_output(url, machine) as out:
-            done, part, sent = 0, None, 0
-            for index, says in list(pauses) + [(len(device), None)]:
+        resumed = opened is not None and opened[0] == url
+        with (opened[1] if resumed else open_output(url, machine)) as out:
+            done, part, sent = (opened[2], None, opened[2]) if resumed else (0, None, 0)
+            for index, says in [p for p in pauses if p[0] >= done] + [(len(device), None)]:
                 if index > done or says is None:
                     part = out.send_program(device[done:index])
                     sent += part["commands"]

@@ -10,6 +10,7 @@ late: at the setter's probe feed (60 mm/min) 3 um, 1.2 steps of Z.
 
 from __future__ import annotations
 
+import json
 import re
 import shutil
 
@@ -85,3 +86,64 @@ def test_the_setter_measures_the_tool_on_the_firmware_as_on_the_simulated_mill(t
     # each side stops late by the same amount: the diameter comes out smaller by up to twice
     assert -2 * (late + y_step) <= fw_t1.diameter_mm - diameter_true <= y_step
     assert abs(fw_t1.diameter_mm - sim_t1.diameter_mm) <= 2 * (late + y_step)
+
+
+G38_PROGRAM = """G21 G90 G54
+G0 Z-18
+G0 X8 Y8
+G38.2 Z-45 F60 (down onto the setter's beam)
+G10 L20 P1 Z0 (where it met the beam is Z0 of G54)
+G0 Z5
+G0 X20 Y20
+M2
+"""
+
+
+def test_a_g38_program_probes_on_the_firmware_and_goes_on_from_where_the_machine_stopped(
+        tmp_path, monkeypatch):
+    """G38.2 in a part program run through the link: the probing move is made on the machine as
+    the program is read (a PROB), and the program goes on from where it stopped. The harness's
+    spindle holds a 25 mm tool while the record says T1 (20 mm): the beam top is at Z -52, so the
+    machine meets it at Z -27 and ends 5 mm above, at Z -22; on sim:// (the record's 20 mm tool)
+    it meets it at -32 and ends at -27. The result is the machine's, not the simulator's."""
+    monkeypatch.chdir(tmp_path)
+    machine = load_machine("tul-mill")
+    (tmp_path / "probe.ngc").write_text(G38_PROGRAM)
+    table = tmp_path / "tul.tbl"
+    spindle_holds(machine, table, 1)
+    top = machine.parts["setter"].beam_top_z_mm
+
+    def run(output: str, name: str) -> dict:
+        assert main(["run", "probe.ngc", "--machine", machine.name, "--tool-table", str(table),
+                     "--output", output, "--progress", "off", "--report", f"{name}.json"]) == 0
+        return json.loads((tmp_path / f"{name}.json").read_text())
+
+    sim = run("sim://", "sim")
+    harness = fs.Harness(fs.build(machine.name), machine, listen="127.0.0.1:0", speed=0,
+                         tool=(25.0, 3.0)).start()
+    try:
+        remote = run(f"serial+socket://{harness.address}?wait_s=600", "fw")["remote"][0]
+    finally:
+        log = harness.stop()
+    z_step = 1 / machine.axis("Z").steps_per_mm
+    assert sim["axes"]["Z"]["carriage_mm"] == pytest.approx(top + 20 + 5, abs=z_step)
+    assert remote["position_mm"]["Z"] == pytest.approx(top + 25 + 5, abs=z_step)
+    assert "PROBED" in remote["status"]
+    carriage = fs.report(log, machine)["carriage_mm"]                 # counted on the pins
+    assert carriage == pytest.approx({"X": 20.0, "Y": 20.0, "Z": top + 30, "E": 0.0}, abs=z_step)
+
+
+def test_a_g38_program_on_two_links_is_refused_before_anything_moves(tmp_path, monkeypatch,
+                                                                       capsys):
+    """Two controllers on the link: whose probe would the program read? Refused, as any probing
+    program to a real output the run cannot probe on."""
+    monkeypatch.chdir(tmp_path)
+    machine = load_machine("tul-mill")
+    (tmp_path / "probe.ngc").write_text(G38_PROGRAM)
+    table = tmp_path / "tul.tbl"
+    spindle_holds(machine, table, 1)
+    code = main(["run", "probe.ngc", "--machine", machine.name, "--tool-table", str(table),
+                 "--output", "serial+socket://127.0.0.1:9", "--output", "serial+socket://127.0.0.1:10",
+                 "--progress", "off"])
+    assert code == 2
+    assert "probes (G38)" in capsys.readouterr().err        # (nothing listens on either port)

@@ -10,7 +10,8 @@ it did. Positions come back from the controller (RDPS), so every next move start
 machine really is.
 
 The first command list sent starts with INIT (the controller's position is then 0, the machine
-standing at home, as the simulated cell starts).
+standing at home, as the simulated cell starts). :class:`LinkProber` makes a part program's
+G38 moves the same way, as the program is read (``retrofit run`` with a serial output).
 """
 
 from __future__ import annotations
@@ -59,3 +60,52 @@ class LinkCell:
             return None
         at = self.commanded_mm()
         return ProbeHit(-1, at, {a.name: a.step_mm for a in self.machine.axes})
+
+
+class LinkProber:
+    """Makes a program's probing moves (G38) on the controller behind ``output``, as the program
+    is read: at each one the program's commands so far (tool changes expanded) are run there,
+    then the move is one PROB, and where it stopped goes back to the interpreter. The run then
+    sends the rest of the program on the same connection (:meth:`handoff`).
+    """
+
+    def __init__(self, output, machine: Machine, spindle_tool: int = 0):
+        self.cell = LinkCell(output, machine)
+        self.machine = machine
+        self.spindle_tool = spindle_tool
+        self.sent = 0                 # device commands of the expanded program run so far
+        self.moves = 0
+
+    def __call__(self, request):
+        from ..gcode.errors import RuleError
+        from ..gcode.probing import ProbeResult
+        from ..gcode.program import Program
+        from .front import expand_host_commands
+        expanded = expand_host_commands(Program(list(request.commands), list(request.lines),
+                                                "<program>"), self.machine, self.spindle_tool)
+        if expanded.pauses:
+            raise RuleError(f"{self.cell.output.url.text}: the program pauses before this probing "
+                            f"move ({expanded.pauses[0].says}); on the link a probing program "
+                            f"runs without pauses before its last probe")
+        device = [c for c in expanded.commands if not c.host]
+        if not self.moves:
+            self.cell.output.open()                    # the port, at the first probing move
+        self.cell.run(device[self.sent:])              # (INIT first, at the first one)
+        self.sent = len(device)
+        before = self.cell.commanded_mm()
+        hit = self.cell.probe([PFdr(request.feed_mm_min), PMov(tuple(request.end_mm.items()))],
+                              until_broken=request.toward)
+        self.moves += 1
+        if hit is None:
+            return ProbeResult(False, self.cell.commanded_mm())
+        if all(abs(hit.position_mm[a] - before[a]) < hit.step_mm[a] / 2 for a in before):
+            return ProbeResult(False, before, already=True)
+        return ProbeResult(True, hit.position_mm)
+
+    def handoff(self) -> tuple[str, object, int]:
+        """(URL, the open output, device commands already run) for the rest of the run."""
+        return self.cell.output.url.text, self.cell.output, self.sent
+
+    def close(self) -> None:
+        """Close the port (after the run, or when reading the program failed)."""
+        self.cell.output.close()

@@ -14,8 +14,10 @@ The interpreter cannot know where a probing move stops: the machine must make it
 translator hands every probing move to a *prober* (``compile_program(..., probe=)``), which
 executes the program so far and the move on the machine and returns a :class:`ProbeResult`;
 the move is then compiled as a feed move to where it stopped. ``retrofit run`` probes on the
-simulated machine (:class:`retrofit.atc.prober.SimProber`, the tool setter's beam). Without a
-prober, or on a machine without a probe input, a probing move is refused with its line.
+simulated machine (:class:`retrofit.atc.prober.SimProber`, the tool setter's beam), or on the
+controller at the far end of the serial link when it drives one
+(:class:`retrofit.atc.linkcell.LinkProber`). Without a prober, or on a machine without a probe
+input, a probing move is refused with its line.
 """
 
 from __future__ import annotations
