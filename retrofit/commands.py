@@ -190,14 +190,8 @@ class Cool(Command):
 @dataclass(frozen=True)
 class Prob(_AxesCommand):
     """Probing move (G38.2-G38.5): a line to ``axes`` at the machining feed (as PMOV) that stops
-    at the first step after which the probe input closes (``away``: opens), at rest, under CSTP;
-    RDST's PROBED says it stopped on the probe (docs/protocol.md). Not one of 002's 14.
-
-    >>> parse_command("PROB AWAY X1 Z-40")
-    Prob(axes=(('X', 1.0), ('Z', -40.0)), away=True)
-    >>> str(Prob((("Z", -40.0),)))
-    'PROB Z-40'
-    """
+    at the first step after which the probe input closes (``away``, text ``PROB AWAY X1 Z-40``:
+    opens); RDST's PROBED says it stopped on the probe (docs/protocol.md). Not one of 002's 14."""
     mnemonic: ClassVar[str] = "PROB"
     motion: ClassVar[bool] = True
     away: bool = False

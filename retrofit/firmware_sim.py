@@ -8,8 +8,7 @@ serves the USART on a TCP port or feeds it a script of timed bytes, and reads ba
 every pin change and every byte sent, stamped with the AVR's cycle. :func:`sim_machine` feeds
 the step pins to :class:`retrofit.sim.SimMachine` (the driver model of ``sim://``) at the
 resolution of one cycle, for carriage positions and timing violations; :func:`step_times` gives
-the raw edges, in cycles, for tests that measure pulse widths and intervals. Nothing here reads
-the host's clock to measure the firmware.
+the raw edges, in cycles, for tests that measure pulse widths and intervals (no host clock).
 """
 
 from __future__ import annotations
@@ -179,9 +178,8 @@ def build(machine_name: str) -> Path:
 
 
 def build_copy(machine: Machine, workdir: Path, source: Path = FIRMWARE) -> Path:
-    """The firmware for ``machine`` (any machine file, shipped or not), built in a copy of
-    ``source`` (this tree's ``firmware/``, or an older one) under ``workdir``, so the tree's
-    machine headers stay as they are; the ELF."""
+    """The ELF for ``machine`` (any machine file), built in a copy of ``source`` (this tree's
+    ``firmware/`` or an older one) under ``workdir``: the tree's machine headers stay as they are."""
     import shutil
     import sys
     _make("harness")
