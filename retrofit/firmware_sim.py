@@ -117,17 +117,14 @@ def probe_connector(machine: Machine) -> str | None:
                        "(the switches take all six)")
 
 
-def beam_args(machine: Machine, tool: tuple[float, float] | None) -> list[str]:
-    """The --beam option: the probe pin, high (broken) while the carriages are inside the box
-    where ``tool`` (length, diameter in mm) breaks the beam; without a tool it stays low (clear)."""
+def beam_args(machine: Machine, tool: tuple[float, float] | int | None) -> list[str]:
+    """The setter's beam (and the magazine, for a tool number): :func:`retrofit.atc.hil.beam_args`."""
     connector = probe_connector(machine)
     if connector is None:
         return []
-    from .atc.beam import beam_box_steps
+    from .atc.hil import beam_args as options
     port, bit = CONNECTOR_PINS[connector]
-    index = {a.name: i for i, a in enumerate(firmware_axes(machine))}
-    box = beam_box_steps(machine, *tool).items() if tool is not None else ()
-    return ["--beam", ",".join([f"{port}{bit}", "1"] + [f"{index[a]},{lo},{hi}" for a, (lo, hi) in box])]
+    return options(machine, f"{port}{bit}", {a.name: i for i, a in enumerate(firmware_axes(machine))}, tool)
 
 
 def wiring_args(machine: Machine, start_steps: dict[str, int] | None = None,
@@ -209,6 +206,7 @@ class HarnessLog:
     stats: dict[str, int] = field(default_factory=dict)
     steps: list[int] = field(default_factory=list)      # the harness's own count per axis
     stalled_at: int | None = None                        # the cycle --stall hung the main loop
+    spindle_tool: int | None = None                      # the magazine's, at the end
 
     @classmethod
     def read(cls, log_path: Path, stdout: str) -> "HarnessLog":
@@ -232,6 +230,8 @@ class HarnessLog:
                 log.stats = {k: int(v) for k, v in pairs.items()}
             elif words[0] == "axis":
                 log.steps.append(int(pairs["steps"]))
+            elif words[0] == "magazine":
+                log.spindle_tool = int(pairs["spindle"])
             elif words[0] == "end":
                 log.end_cycle = int(pairs["cycles"])
         return log

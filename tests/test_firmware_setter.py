@@ -147,3 +147,49 @@ def test_a_g38_program_on_two_links_is_refused_before_anything_moves(tmp_path, m
                  "--progress", "off"])
     assert code == 2
     assert "probes (G38)" in capsys.readouterr().err        # (nothing listens on either port)
+
+
+@pytest.mark.slow
+def test_tools_the_changer_brings_are_measured_on_the_firmware_as_on_the_simulated_mill(tmp_path):
+    """T1 in the spindle, the others in their pockets; the harness moves the tools as the
+    carousel changes them and the beam sees the tool really in the spindle. `setter reference`,
+    then `setter measure T3 T5` through the link: each change made by the firmware (T1 back to
+    its pocket, T3 picked, ...), each tool's length and diameter as its true size and as sim://
+    measures it, and T5 in the spindle at the end."""
+    machine = load_machine("tul-mill")
+    sim_tbl, fw_tbl = tmp_path / "sim" / "tul.tbl", tmp_path / "fw" / "tul.tbl"
+    for table in (sim_tbl, fw_tbl):
+        table.parent.mkdir()
+        spindle_holds(machine, table, 1)
+    setter(machine, sim_tbl, "sim://", "reference")
+    setter(machine, sim_tbl, "sim://", "measure", "T3", "T5")
+    harness = fs.Harness(fs.build(machine.name), machine, listen="127.0.0.1:0", speed=0,
+                         tool=1).start()
+    try:
+        url = f"serial+socket://{harness.address}?wait_s=600"
+        setter(machine, fw_tbl, url, "reference")
+        setter(machine, fw_tbl, url + "&init=0", "measure", "T3", "T5")
+    finally:
+        log = harness.stop()
+    assert log.spindle_tool == 5                                     # what the magazine holds
+    true = tools_of(machine).sim
+    z_step, y_step = (1 / machine.axis(a).steps_per_mm for a in "ZY")
+    late = 0.003 * machine.parts["setter"].probe_feed_mm_min / 60
+    for tool in (3, 5):
+        _, sim = measured(machine, sim_tbl, tool)
+        _, fw = measured(machine, fw_tbl, tool)
+        assert abs(fw.length_mm - true[tool].length_mm) <= z_step, tool
+        assert abs(fw.length_mm - sim.length_mm) <= z_step, tool
+        assert -2 * (late + y_step) <= fw.diameter_mm - true[tool].diameter_mm <= y_step, tool
+        assert abs(fw.diameter_mm - sim.diameter_mm) <= 2 * (late + y_step), tool
+
+
+@pytest.mark.parametrize("spec, says", [
+    ("T99", "expected T0 (empty) or a tool of [tools.sim] of tul-mill: T1, T2,"),
+    ("20", "expected LENGTH,DIAMETER in mm"),
+    ("20,0", "length and diameter must be above 0 mm"),
+])
+def test_firmware_sim_names_what_its_tool_option_accepts(spec, says, capsys):
+    assert main(["firmware", "sim", "--machine", "tul-mill", "--listen", "127.0.0.1:0",
+                 "--tool", spec]) == 2
+    assert says in capsys.readouterr().err

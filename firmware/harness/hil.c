@@ -124,6 +124,78 @@ static void update_beam(void)
     }
 }
 
+/* The magazine (--seat, --pocket, --tool-box, --spindle-tool): which tool the spindle holds,
+ * moved as retrofit/atc/magazine.py moves it: an empty spindle that comes down into the seat
+ * (station X1, the fork's Y, down to the clamp height) over a pocket's tool clamps it; a spindle
+ * that lifts out of the seat while still in the fork leaves its tool in the pocket there, if
+ * that pocket is empty. The pocket is the one at the spindle when it came into the seat. With
+ * a magazine the beam's box is that of the tool in the spindle (none: the beam stays clear). */
+#define MAX_TOOLS 32
+typedef struct { int axis[3]; long lo[3], hi[3]; int used; } box_t;
+static box_t seat, tool_box[MAX_TOOLS];
+static struct { long lo, hi; int tool, used; } pockets[MAX_TOOLS];
+static int carousel_axis, spindle_tool, seated, seated_pocket;
+
+static int in_box(const box_t *b)
+{
+    for (int k = 0; k < 3; k++) {
+        long pos = axes[b->axis[k]].steps;
+        if (pos < b->lo[k] || pos > b->hi[k])
+            return 0;
+    }
+    return 1;
+}
+
+static void update_magazine(void)
+{
+    if (!seat.used)
+        return;
+    int now = in_box(&seat), p = seated_pocket;
+    if (now && !seated) {
+        long c = axes[carousel_axis].steps;
+        p = 0;
+        for (int n = 1; n < MAX_TOOLS && !p; n++)
+            if (pockets[n].used && c >= pockets[n].lo && c <= pockets[n].hi)
+                p = n;
+        if (p && !spindle_tool && pockets[p].tool) {
+            spindle_tool = pockets[p].tool;
+            pockets[p].tool = 0;
+        }
+    } else if (!now && seated) {
+        int lifted = axes[seat.axis[2]].steps > seat.hi[2];
+        long y = axes[seat.axis[1]].steps;
+        if (p && spindle_tool && lifted && y >= seat.lo[1] && y <= seat.hi[1] && !pockets[p].tool) {
+            pockets[p].tool = spindle_tool;
+            spindle_tool = 0;
+        }
+        p = 0;
+    }
+    seated = now;
+    seated_pocket = p;
+    if (beam.used) {
+        beam.n = 0;
+        if (spindle_tool > 0 && spindle_tool < MAX_TOOLS && tool_box[spindle_tool].used) {
+            beam.n = 3;
+            for (int k = 0; k < 3; k++) {
+                beam.axis[k] = tool_box[spindle_tool].axis[k];
+                beam.lo[k] = tool_box[spindle_tool].lo[k];
+                beam.hi[k] = tool_box[spindle_tool].hi[k];
+            }
+        }
+    }
+}
+
+static int parse_box(const char *v, box_t *b)
+{
+    int got = sscanf(v, "%d,%ld,%ld,%d,%ld,%ld,%d,%ld,%ld", &b->axis[0], &b->lo[0], &b->hi[0],
+                     &b->axis[1], &b->lo[1], &b->hi[1], &b->axis[2], &b->lo[2], &b->hi[2]);
+    for (int k = 0; k < 3 && got == 9; k++)
+        if (b->axis[k] < 0 || b->axis[k] >= MAX_AXES)
+            got = 0;
+    b->used = got == 9;
+    return b->used;
+}
+
 static int pin_level(pin_t p) { return (out_ports[p.port - 'A'] >> p.bit) & 1; }
 
 static void port_changed(struct avr_irq_t *irq, uint32_t value, void *param)
@@ -149,6 +221,7 @@ static void port_changed(struct avr_irq_t *irq, uint32_t value, void *param)
     }
     if (moved) {
         update_switches();
+        update_magazine();
         update_beam();
     }
 }
@@ -536,6 +609,39 @@ int main(int argc, char **argv)
             beam.used = 1;
             beam.state = -1;
             i++;
+        } else if (!strcmp(a, "--seat")) {           /* X,LO,HI,Y,LO,HI,Z,LO,HI,CAROUSEL */
+            const char *last = strrchr(v, ',');
+            seat.used = parse_box(v, &seat) && last && sscanf(last + 1, "%d", &carousel_axis) == 1
+                        && carousel_axis >= 0 && carousel_axis < MAX_AXES;
+            if (!seat.used) {
+                fprintf(stderr, "hil: --seat %s: expected X,LO,HI,Y,LO,HI,Z,LO,HI,CAROUSEL (axis numbers)\n", v);
+                return 2;
+            }
+            i++;
+        } else if (!strcmp(a, "--pocket")) {          /* N,LO,HI,TOOL: pocket N at the spindle */
+            int n = 0, tool = 0;                      /* while the carousel is in LO..HI */
+            long lo = 0, hi = -1;
+            if (sscanf(v, "%d,%ld,%ld,%d", &n, &lo, &hi, &tool) != 4 || n < 1 || n >= MAX_TOOLS
+                || tool < 0 || tool >= MAX_TOOLS) {
+                fprintf(stderr, "hil: --pocket %s: expected N,LO,HI,TOOL with N 1..%d\n", v, MAX_TOOLS - 1);
+                return 2;
+            }
+            pockets[n].lo = lo, pockets[n].hi = hi, pockets[n].tool = tool, pockets[n].used = 1;
+            i++;
+        } else if (!strcmp(a, "--tool-box")) {        /* T,X,LO,HI,Y,LO,HI,Z,LO,HI: where tool T */
+            int t = 0, n = 0;                         /* breaks the beam */
+            if (sscanf(v, "%d,%n", &t, &n) != 1 || t < 1 || t >= MAX_TOOLS || !parse_box(v + n, &tool_box[t])) {
+                fprintf(stderr, "hil: --tool-box %s: expected T,X,LO,HI,Y,LO,HI,Z,LO,HI\n", v);
+                return 2;
+            }
+            i++;
+        } else if (!strcmp(a, "--spindle-tool")) {    /* the tool in the spindle at the start */
+            spindle_tool = atoi(v);
+            if (spindle_tool < 0 || spindle_tool >= MAX_TOOLS) {
+                fprintf(stderr, "hil: --spindle-tool %s: expected 0..%d\n", v, MAX_TOOLS - 1);
+                return 2;
+            }
+            i++;
         } else if (!strcmp(a, "--spindle")) {
             sscanf(v, "%lf,%ld", &spindle_rpm, &spindle_counts);
             i++;
@@ -573,6 +679,7 @@ int main(int argc, char **argv)
         avr_extint_set_strict_lvl_trig(avr, n, 0);
     uart_in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
     update_switches();
+    update_magazine();
     update_beam();
     boot_start();
     if (spindle_rpm > 0 && spindle_counts > 0)
@@ -634,6 +741,8 @@ int main(int argc, char **argv)
     }
     for (int i = 0; i < n_axes; i++)
         printf("axis %d steps=%ld\n", i, axes[i].steps);
+    if (seat.used)
+        printf("magazine spindle=%d\n", spindle_tool);
     printf("end cycles=%llu state=%d pc=%x\n", (unsigned long long)avr->cycle, state, avr->pc);
     if (log_file)
         fclose(log_file);

@@ -25,9 +25,11 @@ def add_commands(sub) -> None:
     s.add_argument("--vcd", metavar="FILE", help="write the output ports as VCD")
     s.add_argument("--spindle-rpm", type=float, default=0.0,
                    help="turn the spindle encoder at this speed (ICLK on D21, SIND on D20)")
-    s.add_argument("--tool", metavar="LENGTH,DIAMETER",
-                   help="the tool in the spindle, mm, for the tool setter's beam (a machine with "
-                        "[setter]); without it nothing breaks the beam")
+    s.add_argument("--tool", metavar="Tn|LENGTH,DIAMETER",
+                   help="the tool in the spindle for the tool setter's beam (a machine with "
+                        "[setter]): Tn, a tool of [tools.sim], with the magazine moving the tools "
+                        "as the carousel changes them (T0: empty); or a fixed tool, LENGTH,DIAMETER "
+                        "in mm; without it nothing breaks the beam")
     s.add_argument("--start", metavar="AXIS=STEPS", action="append", default=[],
                    help="where a carriage starts, in steps (repeatable); default 0")
     s.add_argument("--speed", type=float, default=1.0,
@@ -56,13 +58,24 @@ def _start_steps(specs: list[str], machine) -> dict[str, int]:
     return out
 
 
-def _tool(spec: str | None, machine) -> tuple[float, float] | None:
+def _tool(spec: str | None, machine) -> tuple[float, float] | int | None:
     from ..errors import ConfigError
     if spec is None:
         return None
     if "setter" not in machine.parts:
         raise ConfigError(f"--tool {spec}: machine {machine.name} has no tool setter ([setter] "
                           "section); --tool is for a machine with one")
+    if spec[:1] in "Tt":
+        from ..atc.settings import tools_of
+        if "atc" not in machine.parts:
+            raise ConfigError(f"--tool {spec}: machine {machine.name} has no tool changer ([atc]); "
+                              "give the tool as LENGTH,DIAMETER in mm")
+        known = sorted(tools_of(machine).sim)
+        number = spec[1:]
+        if not (number.isascii() and number.isdigit()) or (int(number) and int(number) not in known):
+            raise ConfigError(f"--tool {spec}: expected T0 (empty) or a tool of [tools.sim] of "
+                              f"{machine.name}: {', '.join(f'T{t}' for t in known) or 'none'}")
+        return int(number)
     try:
         length, diameter = (float(v) for v in spec.split(","))
     except ValueError:
@@ -94,6 +107,8 @@ def _cmd_sim(args) -> int:
     log = harness.stop(0.0)
     result = report(log, machine, start)
     result["interrupts"] = log.stats
+    if log.spindle_tool is not None:
+        result["spindle_tool"] = log.spindle_tool              # the magazine's, at the end
     if args.json:
         print(json.dumps(result, indent=2))
     else:
@@ -106,6 +121,8 @@ def _print_report(r: dict) -> None:
           f"{r['bytes_sent']} bytes sent")
     print("  carriage mm: " + ", ".join(f"{a} {v:.3f}" for a, v in r["carriage_mm"].items()))
     print("  motor steps: " + ", ".join(f"{a} {v}" for a, v in r["motor_steps"].items()))
+    if "spindle_tool" in r:
+        print(f"  spindle: {'T%d' % r['spindle_tool'] if r['spindle_tool'] else 'empty'}")
     print(f"  violations: {len(r['violations'])}")
     for v in r["violations"][:10]:
         print(f"    cycle {v['cycle']} {v['axis']} {v['kind']}: {v['detail']}")
