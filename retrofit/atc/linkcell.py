@@ -20,7 +20,8 @@ from typing import Iterable, Sequence
 
 from ..commands import Command, PFdr, PMov, Prob
 from ..config import Machine
-from ..errors import OutputError, ProbeError
+from ..errors import LinkError, MotionError, OutputError, ProbeError
+from ..link.probing import probe_over_link
 from .cell import ProbeHit
 
 
@@ -53,13 +54,18 @@ class LinkCell:
         moves = [c for c in commands if isinstance(c, PMov)]
         if len(moves) != 1 or any(not isinstance(c, (PFdr, PMov)) for c in commands):
             raise ProbeError(f"a probing move is a feed and one PMOV; got {'; '.join(map(str, commands))}")
-        sent = [Prob(moves[0].axes, away=not until_broken) if c is moves[0] else c for c in commands]
-        remote = self.run(sent)
+        self.run([c for c in commands if c is not moves[0]])       # its feed (INIT first, once)
+        opts = self.output.opts
+        try:
+            got = probe_over_link(self.output.link, Prob(moves[0].axes, away=not until_broken),
+                                  wait_s=opts["wait_s"], poll_s=opts["poll_ms"] / 1000)
+        except (LinkError, MotionError) as exc:
+            raise OutputError(f"{self.output.url.text}: {exc}") from None
+        self.steps = dict(got.steps)
         self.probes += 1
-        if "PROBED" not in remote["status"]:
+        if not got.probed:
             return None
-        at = self.commanded_mm()
-        return ProbeHit(-1, at, {a.name: a.step_mm for a in self.machine.axes})
+        return ProbeHit(-1, self.commanded_mm(), {a.name: a.step_mm for a in self.machine.axes})
 
 
 class LinkProber:
