@@ -50,6 +50,15 @@ static void put_stuffed(uint8_t byte)
     }
 }
 
+/* The longest answer on the wire: SOF, then LEN, SEQ, POS of every axis and the CRC, each
+ * byte stuffed at worst into two. */
+#define ANSWER_MAX_BYTES (1 + 2 * (1 + 1 + 2 + 3 * N_AXES + 4))
+
+uint8_t link_can_receive(void)
+{
+    return uart_tx_free() >= ANSWER_MAX_BYTES;
+}
+
 /* Send one frame: SOF, then LEN SEQ PAYLOAD CRC, stuffed. */
 static void send_frame(uint8_t seq, const uint8_t *payload, uint8_t len)
 {

@@ -26,6 +26,10 @@
 void link_init(void);
 /* Feed one byte from the host; complete frames are checked, answered and delivered. */
 void link_receive(uint8_t byte);
+/* Whether the next byte may be fed: the answer it may complete fits the transmit buffer now, so
+ * answering never waits for the wire (a host that polls faster than the answers drain would
+ * otherwise hold the main loop, and the motion it prepares, in uart_putc). */
+uint8_t link_can_receive(void);
 
 /* Supplied by the command layer: handle one good payload, write the answer payload into
  * `answer` (at most MAX_PAYLOAD bytes) and return its length. An answer of BUSY means the

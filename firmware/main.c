@@ -68,8 +68,8 @@ int main(void)
         wdt_reset();
         io_main_loop_alive();
         int16_t byte;
-        while ((byte = uart_getc()) >= 0)             /* async_comm */
-            link_receive((uint8_t)byte);
+        while (link_can_receive() && (byte = uart_getc()) >= 0)   /* async_comm, never */
+            link_receive((uint8_t)byte);              /* waiting for the wire to answer */
         interp_run();                                  /* interpret */
         uint16_t now = io_millis();
         while (last_ms != now) {                       /* processing: time-driven parts */

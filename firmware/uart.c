@@ -104,6 +104,11 @@ int16_t uart_getc(void)
     return byte;
 }
 
+uint8_t uart_tx_free(void)
+{
+    return (uint8_t)((tx_tail - tx_head - 1) & (TX_SIZE - 1));
+}
+
 void uart_putc(uint8_t byte)
 {
     uint8_t next = (tx_head + 1) & (TX_SIZE - 1);

@@ -9,5 +9,7 @@ void uart_init(void);
 int16_t uart_getc(void);
 /* Queue one byte for sending; waits only if the 128-byte transmit buffer is full. */
 void uart_putc(uint8_t byte);
+/* Bytes the transmit buffer can take now without waiting. */
+uint8_t uart_tx_free(void);
 
 #endif

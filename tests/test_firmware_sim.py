@@ -312,6 +312,32 @@ def test_a_second_of_framed_garbage_during_a_move_leaves_its_deceleration_intact
     assert abs(int(dn[-1]) - int(dq[-1])) <= CYCLES_PER_US
 
 
+def test_a_host_that_polls_faster_than_the_answers_drain_cannot_hold_the_motion(lathe):
+    """RDST frames back to back at the line's full rate for 0.7 s during FMOV X20: each STAT
+    answer is longer than its request, so the transmit side falls behind. The firmware reads
+    the next byte only when the answer it may complete fits the transmit buffer (the link
+    degrades: late frames are dropped, the host resends), so the main loop never waits for the
+    wire: the move's steps come as without the polls, and the board never resets. (Waiting in
+    uart_putc, the main loop starved the segment buffer and the stall guard reset the board
+    after 295 of the 2 002 steps.)"""
+    machine, elf = lathe
+    frame_cycles = 10 * 8 * S // 57_600              # 8 bytes at simavr's 57 600 baud
+
+    def run(polls: int):
+        script = Script(machine).at(3_200_000, "FMOV X20")
+        script.items += [(4_000_000 + k * frame_cycles, encode_frame(seq_byte(IMMEDIATE, k % 128), b"\x0e"))
+                         for k in range(1, polls + 1)]
+        return fs.Harness(elf, machine, script=script.items, cycles=int(1.6 * S)).run()
+
+    quiet, noisy = run(0), run(500)
+    q, _, _ = fs.step_times(quiet, machine, "X")
+    n, _, _ = fs.step_times(noisy, machine, "X")
+    assert len(n) == len(q) == 2002
+    assert np.abs(n - q).max() <= CYCLES_PER_US
+    assert noisy.answer_bytes().count(b"retrofit firmware machine=") == 1     # no reset
+    assert sum(isinstance(a, Status) for a in replies(noisy, machine)) >= 100
+
+
 def test_the_spindle_pwm_runs_while_on_and_its_pin_stays_low_when_off(lathe):
     machine, elf = lathe
     script = (Script(machine).at(3_200_000, "SPIN S1000 D1")
