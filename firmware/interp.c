@@ -30,6 +30,7 @@
 #define ST_COOLANT_ON  0x2000
 #define ST_INDEX_SEEN  0x4000
 #define ST_PROBED      0x8000
+#define ST_HOST_LOST   0x10000UL       /* the heartbeat stopped the machine (docs/protocol.md §5) */
 
 #define FEED_UNITS_PER_MM 10000.0f     /* feeds travel in 0.1 um per minute (or per rev) */
 
@@ -43,7 +44,9 @@ static uint8_t program_feed_waiting;   /* PFDR: applies at the next motion comma
 static uint8_t indexer;                /* ISTP: the spindle encoder is the step source */
 static float spindle_rpm;              /* SPIN's speed: the thread speed is checked against it */
 static uint8_t thread_chain;           /* the last move prepared was an ISTP PMOV */
-static uint16_t flags;                 /* HOMED, ERROR, STOPPED, SPINDLE_ON, COOLANT_ON, PROBED */
+static uint32_t flags;                 /* HOMED, ERROR, STOPPED, SPINDLE_ON, COOLANT_ON, PROBED,
+                                          HOST_LOST */
+static uint8_t braking;                /* the heartbeat brakes the machine (below) */
 static uint8_t dwelling;
 static uint32_t dwell_left_ms;
 static uint8_t home_order[N_AXES], home_count, home_index, home_phase;
@@ -70,6 +73,7 @@ static void forget_motion(void)
     home_phase = HOME_IDLE;
     thread_chain = 0;
     probe_cancel();
+    braking = 0;
     stepper_position(planned);         /* prepare from where the axes really are, */
     planner_resync();                  /* and from the side each nut really rests on */
 }
@@ -166,7 +170,7 @@ uint8_t interp_position_answer(uint8_t *answer)
 
 uint8_t interp_status_answer(uint8_t *answer)
 {
-    uint16_t s = flags | switch_status();
+    uint32_t s = flags | switch_status();
     if (!idle())
         s |= ST_MOVING;
     if (queue_count() == QUEUE_DEPTH)
@@ -178,10 +182,11 @@ uint8_t interp_status_answer(uint8_t *answer)
     if ((flags & ST_SPINDLE_ON) && stepper_index_seen())
         s |= ST_INDEX_SEEN;
     answer[0] = ANS_STAT;
-    answer[1] = (uint8_t)(s >> 8);
-    answer[2] = (uint8_t)s;
-    answer[3] = queue_count();
-    return 4;
+    answer[1] = (uint8_t)(s >> 16);
+    answer[2] = (uint8_t)(s >> 8);
+    answer[3] = (uint8_t)s;
+    answer[4] = queue_count();
+    return 5;
 }
 
 /* ---- homing (ZMOV) ---------------------------------------------------------------------
@@ -415,8 +420,68 @@ void interp_run(void)
         fetch_setup(&cmd);
 }
 
+/* ---- the heartbeat (docs/protocol.md §5) ---------------------------------------------------
+ * A machine with work (a move, a dwell, a homing, a command waiting) whose host has sent no frame
+ * of its session for HEARTBEAT_MS brakes as a feed override to nothing would: the queue is
+ * dropped and every planned move's feed goes to the lowest rate, so once the segments already cut
+ * have run out the speed ramps down at the moves' own acceleration. When no axis has stepped for
+ * BRAKE_QUIET_MS (slower than any axis starts from rest), or the moves have ended, or after the
+ * longest braking an axis can need (a thread pass follows the spindle and does not slow), what
+ * is left is dropped; the spindle and coolant go off. The status says STOPPED and HOST_LOST, and
+ * motion is refused until INIT. The position stays what the step counters say. */
+#define HEARTBEAT_MS   500
+#define BRAKE_QUIET_MS 20
+
+static uint16_t brake_ms, brake_limit_ms, quiet_ms;
+static int32_t brake_seen[N_AXES];
+
+static void brake_start(void)
+{
+    static const float rate[N_AXES] = MAX_RATE_STEPS_S, accel[N_AXES] = ACCEL_STEPS_S2;
+    float longest = 0.0f;
+    for (uint8_t i = 0; i < N_AXES; i++)
+        if (rate[i] / accel[i] > longest)
+            longest = rate[i] / accel[i];
+    brake_limit_ms = (uint16_t)(2000.0f * longest + SEGMENTS * SEGMENT_MS + 100.0f);
+    brake_ms = quiet_ms = 0;
+    braking = 1;
+    queue_clear();
+    home_phase = HOME_IDLE;
+    planner_set_feed(FEED_FAST, 0.0f);
+    planner_set_feed(FEED_MACHINING, 0.0f);
+    planner_set_feed(FEED_HOMING, 0.0f);
+    flags |= ST_HOST_LOST | ST_STOPPED;
+    stepper_position(brake_seen);
+}
+
+static void heartbeat_1ms(void)
+{
+    if (!braking) {
+        if (!(flags & ST_HOST_LOST) && (!idle() || queue_count()) &&
+            link_silent_ms() >= HEARTBEAT_MS)
+            brake_start();
+        return;
+    }
+    int32_t now[N_AXES];
+    stepper_position(now);
+    uint8_t moved = 0;
+    for (uint8_t i = 0; i < N_AXES; i++) {
+        moved |= now[i] != brake_seen[i];
+        brake_seen[i] = now[i];
+    }
+    quiet_ms = moved ? 0 : quiet_ms + 1;
+    if (quiet_ms >= BRAKE_QUIET_MS || idle() || ++brake_ms >= brake_limit_ms) {
+        forget_motion();                               /* at rest: nothing left to run */
+        spindle_set(0, 0);
+        coolant_set(0);
+        spindle_rpm = 0.0f;
+        flags &= ~(uint32_t)(ST_SPINDLE_ON | ST_COOLANT_ON);
+    }
+}
+
 void interp_tick_1ms(void)
 {
+    heartbeat_1ms();
     if (dwelling && --dwell_left_ms == 0) {
         dwelling = 0;
         segment_hold(0);
