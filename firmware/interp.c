@@ -422,8 +422,9 @@ void interp_run(void)
 
 /* ---- the heartbeat (docs/protocol.md §5) ---------------------------------------------------
  * A machine with work (a move, a dwell, a homing, a command waiting) whose host has sent no frame
- * of its session for HEARTBEAT_MS brakes as a feed override to nothing would: the queue is
- * dropped and every planned move's feed goes to the lowest rate, so once the segments already cut
+ * of its session for HEARTBEAT_MS brakes as a feed override to a crawl would: the queue is
+ * dropped and every planned move's feed goes to BRAKE_RATE steps a second of the finest axis (a
+ * lower one would make segment.c cut ever emptier segments), so once the segments already cut
  * have run out the speed ramps down at the moves' own acceleration. When no axis has stepped for
  * BRAKE_QUIET_MS (slower than any axis starts from rest), or the moves have ended, or after the
  * longest braking an axis can need (a thread pass follows the spindle and does not slow), what
@@ -431,6 +432,7 @@ void interp_run(void)
  * motion is refused until INIT. The position stays what the step counters say. */
 #define HEARTBEAT_MS   500
 #define BRAKE_QUIET_MS 20
+#define BRAKE_RATE     10.0f           /* steps/s of the axis with the fewest steps per mm */
 
 static uint16_t brake_ms, brake_limit_ms, quiet_ms;
 static int32_t brake_seen[N_AXES];
@@ -438,18 +440,23 @@ static int32_t brake_seen[N_AXES];
 static void brake_start(void)
 {
     static const float rate[N_AXES] = MAX_RATE_STEPS_S, accel[N_AXES] = ACCEL_STEPS_S2;
-    float longest = 0.0f;
-    for (uint8_t i = 0; i < N_AXES; i++)
+    static const float per_mm[N_AXES] = STEPS_PER_MM;
+    float longest = 0.0f, coarsest = per_mm[0];
+    for (uint8_t i = 0; i < N_AXES; i++) {
         if (rate[i] / accel[i] > longest)
             longest = rate[i] / accel[i];
+        if (per_mm[i] < coarsest)
+            coarsest = per_mm[i];
+    }
+    float crawl = 60.0f * BRAKE_RATE / coarsest;       /* mm/min */
     brake_limit_ms = (uint16_t)(2000.0f * longest + SEGMENTS * SEGMENT_MS + 100.0f);
     brake_ms = quiet_ms = 0;
     braking = 1;
     queue_clear();
     home_phase = HOME_IDLE;
-    planner_set_feed(FEED_FAST, 0.0f);
-    planner_set_feed(FEED_MACHINING, 0.0f);
-    planner_set_feed(FEED_HOMING, 0.0f);
+    planner_set_feed(FEED_FAST, crawl);
+    planner_set_feed(FEED_MACHINING, crawl);
+    planner_set_feed(FEED_HOMING, crawl);
     flags |= ST_HOST_LOST | ST_STOPPED;
     stepper_position(brake_seen);
 }

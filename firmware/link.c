@@ -8,8 +8,8 @@
  * that number (the CRC covers it first), so frames of another session - recorded, replayed, a
  * second host's - fail the CRC. A repeated sequence number is a duplicate (answered again, not
  * delivered), a number out of step is ERR 5, and the answer that consumes a number is kept for
- * duplicates. BUSY consumes nothing. Every frame of a session resets the heartbeat's count of
- * silent milliseconds (interp.c stops a machine whose host fell silent). */
+ * duplicates. BUSY consumes nothing. Every intact frame, bound or not, resets the heartbeat's
+ * count of silent milliseconds (interp.c stops a machine whose host fell silent). */
 #include <string.h>
 #include <avr/eeprom.h>
 
@@ -130,7 +130,6 @@ static void sync(uint8_t channel, uint8_t number, uint8_t seq, const uint8_t *pa
         send_err(seq, ERR_LENGTH, OP_SYNC, 0);
         return;
     }
-    silent_ms = 0;
     if (in_session[channel] && last[channel] == number &&
         memcmp(nonce[channel], payload + 1, SYNC_LEN - 1) == 0) {
         send_frame(seq, answer[channel], answer_len[channel], 0);
@@ -161,7 +160,6 @@ static void good_frame(uint8_t seq, const uint8_t *payload, uint8_t len, uint8_t
             send_err(seq, ERR_NOT_SYNCED, 0, 0);           /* rule 2: of no session here */
         return;
     }
-    silent_ms = 0;                                         /* the host is there */
     if (number == last[channel]) {                         /* rule 3: a duplicate */
         send_frame(seq, answer[channel], answer_len[channel], 1);
         return;
@@ -195,6 +193,7 @@ static void frame_complete(void)
         for (uint8_t i = 0; i < len + 2; i++)
             c = crc32_update(c, body[i]);
         if (crc32_final(c) == crc) {
+            silent_ms = 0;                                 /* the host is there */
             good_frame(body[1], &body[2], len, 1);
             return;
         }
@@ -203,6 +202,7 @@ static void frame_complete(void)
         send_nak();                                        /* bad (CRC), or of another session */
         return;
     }
+    silent_ms = 0;
     good_frame(body[1], &body[2], len, 0);
 }
 

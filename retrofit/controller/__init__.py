@@ -80,6 +80,8 @@ class Controller:
         self.heartbeat_ticks: int | None = None
         self._heard = 0                       # the tick of the host's last frame
         self._braking = False
+        #: (tick of the host's last frame, tick the heartbeat braked) of the last heartbeat stop
+        self.host_lost_at: tuple[int, int] | None = None
 
     # -- the interpreter: commands in ----------------------------------------------------------
     def submit(self, cmd: Command) -> object | None:
@@ -173,6 +175,7 @@ class Controller:
             return
         self.queue.clear()
         self._source = None
+        self.host_lost_at = (self._heard, n)
         proc.host_lost = proc.stopped = True
         self._braking = proc.brake(n)
         if not self._braking:

@@ -14,7 +14,7 @@ that raises a RetrofitError, or an answer that its payload cannot carry (a posit
 Sessions are the device's: a SYNC is answered SESS with a number this device never issued before
 (``SessionNumbers``: a counter from a random start), and only frames bound to it (their CRC covers
 it) are taken on that channel, so a recorded or foreign byte stream is refused. ``on_frame`` is
-called for every frame of a running session: the heartbeat's sign of life.
+called for every intact frame (its CRC checks out, bound or not): the heartbeat's sign of life.
 """
 
 from __future__ import annotations
@@ -112,8 +112,8 @@ class DeviceEndpoint:
     def _frame(self, frame: Frame) -> None:
         channel, number = split_seq(frame.seq)
         last = self._last[channel]
-        if frame.bound and self.on_frame is not None:
-            self.on_frame()                     # a sign of life of the host of this session
+        if self.on_frame is not None:
+            self.on_frame()                     # an intact frame: a sign of life of a host
         if frame.payload[0] == SYNC and not frame.bound:
             self._sync(channel, number, frame)
         elif not frame.bound:                   # rule 2: of no session this device runs
@@ -142,8 +142,6 @@ class DeviceEndpoint:
             self._session[channel] = None          # the SESS answer itself is not bound
             self._answered(channel, number, Session(self.sessions()), frame.seq)
             self._session[channel] = decode_session(self._answer[channel])
-        if len(frame.payload) == SYNC_LEN and self.on_frame is not None:
-            self.on_frame()
 
     def _deliver(self, channel: int, number: int, frame: Frame) -> None:
         opcode = frame.payload[0]
