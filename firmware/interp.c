@@ -46,7 +46,6 @@ static float spindle_rpm;              /* SPIN's speed: the thread speed is chec
 static uint8_t thread_chain;           /* the last move prepared was an ISTP PMOV */
 static uint32_t flags;                 /* HOMED, ERROR, STOPPED, SPINDLE_ON, COOLANT_ON, PROBED,
                                           HOST_LOST */
-static uint8_t braking;                /* the heartbeat brakes the machine (below) */
 static uint8_t dwelling;
 static uint32_t dwell_left_ms;
 static uint8_t home_order[N_AXES], home_count, home_index, home_phase;
@@ -73,7 +72,6 @@ static void forget_motion(void)
     home_phase = HOME_IDLE;
     thread_chain = 0;
     probe_cancel();
-    braking = 0;
     stepper_position(planned);         /* prepare from where the axes really are, */
     planner_resync();                  /* and from the side each nut really rests on */
 }
@@ -420,75 +418,33 @@ void interp_run(void)
         fetch_setup(&cmd);
 }
 
-/* ---- the heartbeat (docs/protocol.md §5) ---------------------------------------------------
- * A machine with work (a move, a dwell, a homing, a command waiting) whose host has sent no frame
- * of its session for HEARTBEAT_MS brakes as a feed override to a crawl would: the queue is
- * dropped and every planned move's feed goes to BRAKE_RATE steps a second of the finest axis (a
- * lower one would make segment.c cut ever emptier segments), so once the segments already cut
- * have run out the speed ramps down at the moves' own acceleration. When no axis has stepped for
- * BRAKE_QUIET_MS (slower than any axis starts from rest), or the moves have ended, or after the
- * longest braking an axis can need (a thread pass follows the spindle and does not slow), what
- * is left is dropped; the spindle and coolant go off. The status says STOPPED and HOST_LOST, and
- * motion is refused until INIT. The position stays what the step counters say. */
-#define HEARTBEAT_MS   500
-#define BRAKE_QUIET_MS 20
-#define BRAKE_RATE     10.0f           /* steps/s of the axis with the fewest steps per mm */
+/* ---- the heartbeat's stop (heartbeat.c, docs/protocol.md §5.1) ---------------------------- */
 
-static uint16_t brake_ms, brake_limit_ms, quiet_ms;
-static int32_t brake_seen[N_AXES];
+uint8_t interp_has_work(void) { return !idle() || queue_count(); }
 
-static void brake_start(void)
+uint8_t interp_host_lost(void) { return (flags & ST_HOST_LOST) != 0; }
+
+void interp_brake(float crawl_mm_min)
 {
-    static const float rate[N_AXES] = MAX_RATE_STEPS_S, accel[N_AXES] = ACCEL_STEPS_S2;
-    static const float per_mm[N_AXES] = STEPS_PER_MM;
-    float longest = 0.0f, coarsest = per_mm[0];
-    for (uint8_t i = 0; i < N_AXES; i++) {
-        if (rate[i] / accel[i] > longest)
-            longest = rate[i] / accel[i];
-        if (per_mm[i] < coarsest)
-            coarsest = per_mm[i];
-    }
-    float crawl = 60.0f * BRAKE_RATE / coarsest;       /* mm/min */
-    brake_limit_ms = (uint16_t)(2000.0f * longest + SEGMENTS * SEGMENT_MS + 100.0f);
-    brake_ms = quiet_ms = 0;
-    braking = 1;
-    queue_clear();
+    queue_clear();                                     /* nothing more is fetched */
     home_phase = HOME_IDLE;
-    planner_set_feed(FEED_FAST, crawl);
-    planner_set_feed(FEED_MACHINING, crawl);
-    planner_set_feed(FEED_HOMING, crawl);
-    flags |= ST_HOST_LOST | ST_STOPPED;
-    stepper_position(brake_seen);
+    planner_set_feed(FEED_FAST, crawl_mm_min);         /* every planned move slows down */
+    planner_set_feed(FEED_MACHINING, crawl_mm_min);
+    planner_set_feed(FEED_HOMING, crawl_mm_min);
+    flags |= ST_HOST_LOST | ST_STOPPED;                /* motion refused until INIT */
 }
 
-static void heartbeat_1ms(void)
+void interp_halt_outputs(void)
 {
-    if (!braking) {
-        if (!(flags & ST_HOST_LOST) && (!idle() || queue_count()) &&
-            link_silent_ms() >= HEARTBEAT_MS)
-            brake_start();
-        return;
-    }
-    int32_t now[N_AXES];
-    stepper_position(now);
-    uint8_t moved = 0;
-    for (uint8_t i = 0; i < N_AXES; i++) {
-        moved |= now[i] != brake_seen[i];
-        brake_seen[i] = now[i];
-    }
-    quiet_ms = moved ? 0 : quiet_ms + 1;
-    if (quiet_ms >= BRAKE_QUIET_MS || idle() || ++brake_ms >= brake_limit_ms) {
-        forget_motion();                               /* at rest: nothing left to run */
-        spindle_set(0, 0);
-        coolant_set(0);
-        spindle_rpm = 0.0f;
-        flags &= ~(uint32_t)(ST_SPINDLE_ON | ST_COOLANT_ON);
-    }
+    forget_motion();
+    spindle_set(0, 0);
+    coolant_set(0);
+    spindle_rpm = 0.0f;
+    flags &= ~(uint32_t)(ST_SPINDLE_ON | ST_COOLANT_ON);
 }
 
 void interp_tick_1ms(void)
 {
-    heartbeat_1ms();
     if (dwelling && --dwell_left_ms == 0) {
         dwelling = 0;
         segment_hold(0);

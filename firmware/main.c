@@ -16,6 +16,7 @@
 #include <avr/pgmspace.h>
 #include <avr/wdt.h>
 
+#include "heartbeat.h"
 #include "interp.h"
 #include "io.h"
 #include "link.h"
@@ -74,7 +75,8 @@ int main(void)
         uint16_t now = io_millis();
         while (last_ms != now) {                       /* processing: time-driven parts */
             last_ms++;
-            link_tick_1ms();                           /* the heartbeat's clock */
+            link_tick_1ms();                           /* the host's silence, */
+            heartbeat_tick_1ms();                      /* and a stop when it lasts */
             interp_tick_1ms();
         }
     }

@@ -116,6 +116,38 @@ def test_a_second_host_on_a_running_tty_is_refused_and_the_first_run_ends_where_
     assert not set(result["status"]) & {"STOPPED", "ERROR", "HOST_LOST"}
 
 
+def test_a_second_host_on_a_served_tcp_port_gets_no_answer_and_the_first_goes_on(tmp_path, capsys):
+    """Over TCP there is no lock: retrofit mcu serves one connection at a time, so the second
+    host hears nothing and gives up (exit 2) while the first host's move ends where it should."""
+    machine = load_machine(MACHINE)
+    program = tmp_path / "second.ngc"
+    program.write_text("G21 G18 G90\nG0 X3 Z-2\nM30\n")
+    with McuTarget() as mcu:
+        first = RawLink(mcu.url, machine)
+        first.sync_both()
+        assert first.send("INIT") == Ack() and first.send("FMOV X20 Z-3") == Ack()
+        done = threading.Event()
+        polls = []
+
+        def keep_polling():                       # the first host keeps its link alive
+            while not done.is_set():
+                polls.append(first.status())
+                time.sleep(0.05)
+        poller = threading.Thread(target=keep_polling)
+        poller.start()
+        try:
+            code = main(["run", str(program), "--machine", MACHINE, "--output",
+                         f"{mcu.output_url}?boot_ms=500", "--progress", "off"])
+        finally:
+            done.set()
+            poller.join(10)
+        st = first.wait_idle()
+        where = first.position()
+        first.close()
+    assert code == 2 and "no banner and no answer to SYNC" in capsys.readouterr().err
+    assert where == {"X": 2000, "Z": -240} and not st.flags & (F.STOPPED | F.ERROR | F.HOST_LOST)
+
+
 # -- replayed bytes ---------------------------------------------------------------------------------
 
 class Recording(RawLink):

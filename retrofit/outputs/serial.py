@@ -42,6 +42,7 @@ from typing import Iterable
 from ..commands import Command, FMov, Init, PMov, Prob, Pstn, Rdps, Rdst, ZMov
 from ..errors import LinkError, OutputError
 from ..frames import PortFrames
+from ..link.codec import HEARTBEAT_MS
 from ..link.replies import flag_names
 from .base import Output
 
@@ -67,6 +68,10 @@ class SerialOutput(Output):
             raise OutputError(f"{url.text}: no device or address; expected {self.grammar}")
         if self.opts["timeout_ms"] <= 0 or self.opts["poll_ms"] <= 0 or self.opts["tries"] < 1:
             raise OutputError(f"{url.text}: timeout_ms and poll_ms must be > 0 and tries >= 1")
+        if self.opts["poll_ms"] > HEARTBEAT_MS / 2:
+            raise OutputError(f"{url.text}: poll_ms = {self.opts['poll_ms']:g} is too long: the "
+                              f"device stops a machine whose host is silent for {HEARTBEAT_MS} ms; "
+                              f"expected at most {HEARTBEAT_MS // 2}")
         self.link = None
         self.remote: dict | None = None
         self.banner: Banner | None = None
