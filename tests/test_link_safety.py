@@ -321,6 +321,42 @@ def test_retrofit_mcu_brakes_a_move_whose_host_fell_silent_and_knows_where_it_st
     assert gaps[-1] > 4 * cruise                               # braked, not cut off at speed
 
 
+@linux
+def test_a_retrofit_run_killed_mid_move_leaves_retrofit_mcu_braked_and_refusing_motion(tmp_path):
+    """SIGKILL of the host process: nothing closes the port politely, nothing says STOP. The
+    device (on a pty, at about the machine's pace) brakes on its own, RDPS equals the steps on
+    the wire, and motion is refused until INIT."""
+    import signal
+    machine = load_machine(MACHINE)
+    ctl = make_controller(machine, backlash_comp=False)
+    device = DeviceThread(lambda port: PacedLoop(port, machine, ctl))
+    program = tmp_path / "long.ngc"
+    program.write_text("G21 G18 G90\nG1 X30 F600\nM30\n")          # 3 s at 10 mm/s
+    try:
+        host = subprocess.Popen([sys.executable, "-m", "retrofit.cli", "run", str(program),
+                                 "--machine", MACHINE, "--output", f"serial://{device.name}",
+                                 "--progress", "off"], stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL)
+        deadline = time.monotonic() + 60
+        while ctl.position_steps[0] < 300 and time.monotonic() < deadline:
+            time.sleep(0.01)                                  # under way: X past 3 mm
+        host.send_signal(signal.SIGKILL)
+        host.wait(30)
+        deadline = time.monotonic() + 30
+        while not (ctl.processor.host_lost and ctl.idle) and time.monotonic() < deadline:
+            time.sleep(0.05)
+    finally:
+        device.close()
+    st = ctl.status
+    assert st.flags & F.HOST_LOST and st.flags & F.STOPPED and not st.flags & F.MOVING
+    rises = x_rises(ctl.frames(), machine)
+    assert ctl.position_steps == (len(rises), 0) and 300 <= len(rises) < 3000
+    heard, braked = ctl.host_lost_at
+    assert braked - heard == machine.ticks(0.5)
+    assert rises[-1] - braked <= machine.ticks(braking_s(machine) + 0.01)
+    assert ctl.submit(parse_command("FMOV X1")) == Err(6, 0x02)
+
+
 @avr
 def test_the_firmware_brakes_a_move_whose_host_fell_silent_and_knows_where_it_stopped(lathe):
     """In simavr: FMOV X39 at the rapid, then nothing from the host. Within the heartbeat's

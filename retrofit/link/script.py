@@ -28,6 +28,10 @@ from .replies import Err, Reply, Session, decode_reply
 SIMAVR_FIRST_SESSION = 0x00010000
 #: how often keep-alive frames come (s): well inside the heartbeat's 500 ms
 KEEPALIVE_S = 0.2
+#: copies of the SYNC that opens a channel's next session inside a script: the host cannot see
+#: whether it arrived (on a line that drops frames a lost SYNC would leave the script's sessions
+#: one ahead of the device's), and the device answers a copy with the same SESS
+SYNC_COPIES = 3
 
 
 class ScriptedHost:
@@ -59,7 +63,10 @@ class ScriptedHost:
             channel = (IMMEDIATE if cmd.immediate else QUEUED) if channel is None else channel
         elif channel is None:
             raise ValueError("ScriptedHost.frame: a raw payload needs its channel")
-        opened = self.sync(channel) if self.sessions[channel] is None or self.next[channel] == 0 else b""
+        opened = b""
+        if self.sessions[channel] is None or self.next[channel] == 0:
+            opened = self.sync(channel)
+            opened *= SYNC_COPIES       # a copy is answered the same SESS: a lost one costs nothing
         number = self.next[channel]
         self.next[channel] = (number + 1) % SEQ_MOD
         return opened + encode_frame(seq_byte(channel, number), payload, self.sessions[channel])
