@@ -293,7 +293,9 @@ def test_retrofit_mcu_brakes_a_move_whose_host_fell_silent_and_knows_where_it_st
         while not host.status().flags & F.MOVING:
             pass
         host.close()                                          # the host is gone: not a byte more
-        time.sleep(1.0)
+        deadline = time.monotonic() + 60
+        while not (ctl.processor.host_lost and ctl.idle) and time.monotonic() < deadline:
+            time.sleep(0.05)                                  # (a new host's frames would be heard)
         later = RawLink(url, machine)
         later.sync_both()
         st = later.wait_idle()
