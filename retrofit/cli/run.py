@@ -31,8 +31,8 @@ def add_commands(sub) -> None:
                                    "engraving.ngc), or - for standard input")
     motion_options(r)
     r.add_argument("--tool-table", metavar="FILE.tbl",
-                   help="LinuxCNC tool table (default: next to the machine file; for a shipped "
-                        "machine NAME.tbl in the current folder); the spindle record is beside it")
+                   help="LinuxCNC tool table (default: in the machine's state folder, see "
+                        "docs/atc.md); the spindle record stays in the state folder")
     r.add_argument("--reference", action="store_true",
                    help="step by the readable per-tick reference path instead of the compiled fast path")
     r.add_argument("--controller", action="store_true",
@@ -105,7 +105,7 @@ def cmd_run(args) -> int:
 
 
 def _run(args) -> int:
-    from ..atc.state import SpindleStore, state_paths
+    from ..atc.state import spindle_store
     from ..config import load_machine
     from ..progress import Progress
     from ..runprogram import STAGE_WEIGHTS, read_program, run_program
@@ -114,16 +114,15 @@ def _run(args) -> int:
     machine = load_machine(args.machine)
     text, name = read_program(args.program)
     files = output_files(args)
-    table_path, spindle_path = state_paths(machine, args.tool_table)
-    atc = machine.parts.get("atc")
-    store = SpindleStore(machine.name, spindle_path, getattr(atc, "pockets", None))
+    urls = args.output or ["sim://"]
+    table_path, store = spindle_store(machine, args.machine, urls, args.tool_table)
     table, start_tool = ToolTable.load(table_path), store.load()
 
-    def mark(run) -> None:                 # the record says "changing" until the run has ended
-        if run.expanded.events:
+    def mark(run) -> None:                 # the machine's record says "changing" until the run has ended
+        if store.real and changes_tools(run.expanded):
             store.begin(start_tool, run.expanded.end_tool)
     opts = SimpleNamespace(backlash_comp=not args.no_backlash_comp, reference=args.reference,
-                           controller=args.controller, urls=args.output or ["sim://"],
+                           controller=args.controller, urls=urls,
                            keep_frames=bool(getattr(args, "html", None)),
                            keep_commands=bool(getattr(args, "plot", None)),
                            before_outputs=mark)
@@ -133,17 +132,22 @@ def _run(args) -> int:
     finally:
         progress.close()
     exp = run.expanded
-    if exp.events:
+    if changes_tools(exp):
         store.save(exp.end_tool)
     title = f"{machine.name}: {name}, {run.command_count} commands, {run.how}"
     lines = summary_lines(run.report, title)
-    lines += [f"  tool table: {table_path}; spindle record: {spindle_path} "
-              f"(T{exp.end_tool} in the spindle)"] if exp.events or "atc" in machine.parts else []
+    lines += [f"  tool table: {table_path}; {store.describe()} (T{exp.end_tool} in the spindle)"
+              ] if exp.events or "atc" in machine.parts else []
     lines += remote_lines(run.report.get("remote") or [])
     files_lines = write_files(files, args, run.log, run.sim, run.report,     # a path is not wrapped
                               run.program.commands, (name, text), run.program)
     print("\n".join(fit(lines) + files_lines))
     return exit_code(run.report, args)
+
+
+def changes_tools(expanded) -> bool:
+    """Whether the run changes the tool in the spindle (by the changer or by hand)."""
+    return any(e.tool is not None for e in expanded.events)
 
 
 def exit_code(report: dict, args) -> int:
