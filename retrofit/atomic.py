@@ -87,10 +87,13 @@ def check_target(path: Path) -> None:
 
 
 @contextmanager
-def staged(path: str | Path) -> Iterator[Path]:
+def staged(path: str | Path, keep_on_error: bool = False) -> Iterator[Path]:
     """Yield a temporary path to write ``path`` through; rename it into place when the block ends.
 
     An OSError inside the block or while finishing becomes one OutputError naming ``path``.
+    ``keep_on_error``: when the block fails but the writer has written something (a port's
+    recording, closed with the byte that stopped the machine last), that is renamed into place
+    too, and the error goes on.
     """
     path = Path(path)
     check_target(path)
@@ -99,12 +102,13 @@ def staged(path: str | Path) -> Iterator[Path]:
     except OSError as exc:
         raise OutputError(f"{path}: cannot write the file: {reason(exc)}") from None
     try:
-        yield tmp
-        _still_ours(tmp, made)
-        fsync_file(tmp)
-        os.replace(tmp, path)
-        fsync_dir(path.parent)
-        WRITTEN.append(path)
+        try:
+            yield tmp
+        except BaseException:
+            if keep_on_error:
+                _keep(tmp, made, path)
+            raise
+        _finish(tmp, made, path)
     except OutputError as exc:
         raise OutputError(str(exc).replace(str(tmp), str(path))) from None
     except OSError as exc:
@@ -114,6 +118,23 @@ def staged(path: str | Path) -> Iterator[Path]:
             tmp.unlink(missing_ok=True)
         except OSError:
             pass
+
+
+def _finish(tmp: Path, made: os.stat_result, path: Path) -> None:
+    _still_ours(tmp, made)
+    fsync_file(tmp)
+    os.replace(tmp, path)
+    fsync_dir(path.parent)
+    WRITTEN.append(path)
+
+
+def _keep(tmp: Path, made: os.stat_result, path: Path) -> None:
+    """What a failed writer left, put in place when it is not empty (else nothing)."""
+    try:
+        if os.lstat(tmp).st_size:
+            _finish(tmp, made, path)
+    except OSError:
+        pass                        # the run's own error is the one to report
 
 
 def fsync_file(path: Path) -> None:

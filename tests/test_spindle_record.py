@@ -165,6 +165,10 @@ def long_program(path: Path) -> Path:
     return path
 
 
+#: the progress bar shows every step it takes (tqdm's own settings), so a test can wait for one
+EVERY_STEP = {"TQDM_MINITERS": "1", "TQDM_MININTERVAL": "0"}
+
+
 def wait_for(proc, pattern: str, ceiling_s: float = 50.0) -> str:
     """Read the process's standard error until ``pattern`` shows; what was read."""
     seen, found = [], threading.Event()
@@ -186,7 +190,7 @@ def wait_for(proc, pattern: str, ceiling_s: float = 50.0) -> str:
 def test_ctrl_c_in_a_simulated_run_leaves_a_record_the_next_run_accepts(tmp_path):
     manual_machine(tmp_path)
     program = long_program(tmp_path / "long.ngc")
-    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg", **EVERY_STEP)
     cmd = [sys.executable, "-m", "retrofit.cli", "run", str(program), "--machine", "./mymill2.toml"]
     proc = subprocess.Popen(cmd + ["--progress", "on", "--report", "r.json"], cwd=tmp_path, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)

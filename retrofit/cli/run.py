@@ -24,9 +24,12 @@ def add_commands(sub) -> None:
 
     r = sub.add_parser("run", help="run a G-code part program on a machine",
                        description="Run PROGRAM on the machine: tool changes (the changer's sequences, "
-                                   "or a pause for a manual change), homing, threads, pauses. Exit 0: "
-                                   "clean; 1: the simulated machine reported violations; 2: refused "
-                                   "input or an unusable output; 130: interrupted.")
+                                   "or a pause for a manual change), homing, threads, pauses. Any "
+                                   "error or stop puts the outputs in a safe state first (enable off, "
+                                   "step bits low). Exit 0: clean; 1: the simulated machine reported "
+                                   "violations; 2: refused input or an unusable output; 130: "
+                                   "interrupted (Ctrl-C); 128+N: stopped by signal N (129 SIGHUP, "
+                                   "143 SIGTERM).")
     r.add_argument("program", help="G-code file (.ngc), a shipped example (lathe-profile.ngc, "
                                    "engraving.ngc), or - for standard input")
     motion_options(r)
@@ -97,9 +100,11 @@ def cmd_run(args) -> int:
     # command) and almost no reference cycles: refcounting frees them, and the cyclic collector
     # would only walk them again and again (a tenth of a long run's CPU). This process ends with
     # the run, so the collector stays off for it.
+    from ..failsafe import signals_raise
     gc.disable()
     try:
-        return _run(args)
+        with signals_raise():              # SIGHUP, SIGTERM: the outputs go safe, as on Ctrl-C
+            return _run(args)
     finally:
         gc.enable()
 

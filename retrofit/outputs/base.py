@@ -40,7 +40,9 @@ class Output(ABC):
 
     Contract: ``open()`` before the first ``write()``; ``write(frames)`` takes port frames in
     tick order (it may be called several times, each chunk continuing the last); ``close()``
-    finishes and releases everything, and is safe to call twice. Use as a context manager.
+    finishes and releases everything, and is safe to call twice; ``safe_stop()`` puts the
+    outputs in a safe state when a run fails or is stopped. Use as a context manager (an
+    exception in the block calls ``safe_stop()`` before ``close()``).
     """
 
     scheme: ClassVar[str] = ""
@@ -80,6 +82,13 @@ class Output(ABC):
     def close(self) -> None:
         self.is_open = False
 
+    def safe_stop(self) -> None:
+        """Put the outputs in a safe state at once: drivers' enable off, step bits low, then flush.
+
+        Called when a run fails or is told to end, before ``close()`` and before anything else
+        (reports, files). The base has nothing that moves a machine; outputs that do override it.
+        """
+
     def observe(self) -> dict | None:
         """What this output knows of the machine after the run (the simulator answers; others None)."""
         return None
@@ -89,7 +98,11 @@ class Output(ABC):
         return self
 
     def __exit__(self, *exc):
-        self.close()
+        try:
+            if exc[0] is not None and self.is_open:
+                self.safe_stop()          # an exception in the block: the machine stops first
+        finally:
+            self.close()
         return False
 
 

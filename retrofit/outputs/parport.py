@@ -101,6 +101,7 @@ class PpdevPort:
         import parallel                       # lazily: only a real port needs pyparallel
         self._port = parallel.Parallel(port=device)
         self._set_data = self._port.setData
+        self.held = 0                         # the byte on the data pins
 
     @property
     def fd(self) -> int | None:
@@ -110,6 +111,7 @@ class PpdevPort:
 
     def write(self, tick: int, value: int) -> None:
         self._set_data(value)
+        self.held = value
 
     def frob_control(self, mask: int, bits: int) -> None:
         self._port.PPFCONTROL(mask, bits)
@@ -125,6 +127,15 @@ class PpdevPort:
         self._port = None                     # pyparallel releases the port and closes it
 
     discard = close                           # a port that failed to start: just let it go
+
+
+def safe_byte(machine, held: int) -> int:
+    """The byte that stops a machine on this port: every step bit at its resting level (the level
+    of no step, after the pin's inversion), the ``[io]`` outputs off, the direction bits of
+    ``held`` (the byte on the port) kept: without a step edge a driver does not move."""
+    rest = sum(a.invert_step << a.step_bit for a in machine.axes)
+    dirs = sum(1 << a.dir_bit for a in machine.axes)
+    return (held & dirs) | rest
 
 
 def open_error(url: str, device: str, exc: BaseException) -> OutputError:
@@ -165,6 +176,7 @@ class ParportOutput(Output):
         self.timing: Lateness | None = None
         self.realtime = RealtimeMode()
         self.quiet = False                     # True: do not print the timing lines on close
+        self.stopped = False                   # safe_stop() ran: the run ended early
 
     @property
     def device(self) -> str:
@@ -213,13 +225,28 @@ class ParportOutput(Output):
 
     def write(self, frames: PortFrames) -> None:
         self.pacer.play(frames, self.port.write, getattr(self.port, "fd", None))
+        if len(frames):                       # (the compiled writer writes past port.write)
+            self.port.held = int(frames.values[-1])
+
+    def safe_stop(self) -> None:
+        """Stop now: the safe byte on the data pins at once (step bits at rest, digital outputs
+        off, directions kept), then the drivers' enable off; ``close()`` then holds nothing."""
+        if not self.is_open or self.stopped:
+            return
+        self.stopped = True
+        try:
+            self.port.write(getattr(self.port, "next_tick", 0),
+                            safe_byte(self.machine, getattr(self.port, "held", 0)))
+        finally:
+            self._set_enable(False)
 
     def close(self) -> None:
         if not self.is_open:
             return
         try:
-            self.timing = self.pacer.finish()
-            self.port.hold_until(self.pacer.end_tick)
+            self.timing = self.pacer.lateness() if self.stopped else self.pacer.finish()
+            if not self.stopped:
+                self.port.hold_until(self.pacer.end_tick)
             self._set_enable(False)
         finally:
             self.realtime.leave()
