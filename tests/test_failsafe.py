@@ -102,6 +102,31 @@ def test_a_bug_inside_a_run_still_ends_with_the_safe_byte_last(tmp_path, monkeyp
 EVERY_STEP = {"TQDM_MINITERS": "1", "TQDM_MININTERVAL": "0"}
 
 
+def test_an_error_in_the_block_drops_the_enable_and_rests_inverted_step_pins(tmp_path):
+    """A machine whose X step pin is inverted (it rests at 5 V) and whose drivers are enabled by
+    pin 14 at 0 V: an error while the port holds a step pulse leaves the X step pin at 5 V, the
+    Z step pin at 0 V, and pin 14 at 5 V (drivers off)."""
+    from retrofit.frames import PortFrames
+    from retrofit.outputs import open_output
+    text = (Path(LATHE.source).read_text().replace("step_pin = 4 ", "step_pin = 4\ninvert_step = true ")
+            + '\n[parport]\nenable_pin = 14\nenable_level = "low"\n')
+    (tmp_path / "lathe.toml").write_text(text)
+    machine = load_machine(tmp_path / "lathe.toml")
+    assert [a.invert_step for a in machine.axes] == [True, False]
+    out = open_output(f"parport+record://{tmp_path / 'r.bin'}?paced=0", machine)
+    pulse = 0b001011                     # X step at 0 V (its pulse), Z step at 5 V, X dir at 5 V
+    with pytest.raises(RuntimeError):
+        with out:
+            rec = out.recording
+            assert rec.control_register & 0b10            # pin 14 at 0 V: drivers on
+            out.write(PortFrames([0, 3], [0b001100, pulse], 5))
+            raise RuntimeError("the run fails")
+    data = rec.buffer
+    assert data[3] == pulse and data[-1] == 0b001100 | (pulse & DIR_BITS)   # X at rest (5 V), dir kept
+    assert not rec.control_register & 0b10                # pin 14 at 5 V: drivers off
+    assert len(data) == 5                                 # the safe byte, at once after the pulse
+
+
 def wait_for(proc, pattern: str, ceiling_s: float = 50.0) -> list[str]:
     """Read the process's standard error until ``pattern`` shows; all it writes is kept in the list."""
     seen, found = [], threading.Event()
@@ -117,7 +142,8 @@ def wait_for(proc, pattern: str, ceiling_s: float = 50.0) -> list[str]:
     return seen
 
 
-@pytest.mark.parametrize("signum", [signal.SIGHUP, signal.SIGTERM], ids=["SIGHUP", "SIGTERM"])
+@pytest.mark.parametrize("signum", [signal.SIGHUP, signal.SIGTERM, signal.SIGINT],
+                         ids=["SIGHUP", "SIGTERM", "SIGINT"])
 def test_a_signal_mid_run_leaves_the_port_safe_and_the_files_complete_or_absent(tmp_path, signum):
     moves = 6
     prog = program(tmp_path / "p.ngc", moves)
@@ -136,9 +162,9 @@ def test_a_signal_mid_run_leaves_the_port_safe_and_the_files_complete_or_absent(
     finally:
         proc.kill()
     err = "".join(seen)
-    assert proc.returncode == 128 + signum, err
-    name = signal.Signals(signum).name
-    assert f"retrofit: stopped by {name}; not written: " in err and "Traceback" not in err
+    assert proc.returncode == 128 + signum, err           # 130 for SIGINT (Ctrl-C)
+    said = "interrupted" if signum == signal.SIGINT else f"stopped by {signal.Signals(signum).name}"
+    assert f"retrofit: {said}; not written: " in err and "Traceback" not in err
     for lost in ("w.vcd", "r.json", "p.png"):
         assert lost in err.split("not written: ")[1] and not (tmp_path / lost).exists()
     data = recording(tmp_path / "rec.bin")

@@ -146,10 +146,10 @@ class SpindleStore:
 
     def recovery(self) -> str:
         """What the operator does when the record cannot be trusted (docs/atc.md, "Recovery")."""
-        after = ("the record is rewritten, the carousel is homed and T0 puts that tool back into "
-                 "its pocket") if self.changer else "the record is rewritten"
-        return (f"look at the spindle, then run 'retrofit tool T<n> --recover {self.recover}' with n "
-                f"the tool you see there (T0 if it is empty): {after}")
+        what = ("rewrite the record, home the carousel and put that tool back into its pocket "
+                "(T0)") if self.changer else "rewrite the record"
+        return (f"look at the spindle, then, to {what}, run this with n the tool you see there (T0 "
+                f"if it is empty): retrofit tool T<n> --recover {self.recover}")
 
     def _error(self, what: str) -> ToolStateError:
         return ToolStateError(f"{self.path}: the record of the tool in the spindle cannot be trusted: "

@@ -120,11 +120,7 @@ def cmd_tool(args) -> int:
         import shlex
         raise RetrofitError("--recover needs the tool you see in the spindle, e.g. retrofit tool T3 "
                             f"--recover --machine {shlex.quote(args.machine)}")
-    mill = _Mill(args)
-    try:
-        return _tool(args, mill)
-    finally:
-        mill.close()
+    return _on_mill(args, _tool)
 
 
 def _tool(args, mill) -> int:
@@ -166,11 +162,7 @@ def _print_spindle(mill, tool: int) -> None:
 
 def cmd_setter(args) -> int:
     """``retrofit setter reference | measure T.. | table``."""
-    mill = _Mill(args)
-    try:
-        return _setter(args, mill)
-    finally:
-        mill.close()
+    return _on_mill(args, _setter)
 
 
 def _setter(args, mill) -> int:
@@ -199,6 +191,22 @@ def _setter(args, mill) -> int:
         _print_table(name, table, mill.tables.path)
         return 0
     return mill.finish()
+
+
+def _on_mill(args, command) -> int:
+    """``command(args, mill)`` on the mill; an error or a stop (Ctrl-C, SIGHUP, SIGTERM) puts the
+    link's output in a safe state before anything else."""
+    from ..failsafe import signals_raise
+    with signals_raise():
+        mill = _Mill(args)
+        try:
+            return command(args, mill)
+        except BaseException:
+            if mill.output is not None:
+                mill.output.safe_stop()
+            raise
+        finally:
+            mill.close()
 
 
 def _print_steps(title: str, steps) -> None:

@@ -69,6 +69,12 @@ def cmd_machines(args) -> int:
 
 
 def cmd_demo(args) -> int:
+    from ..failsafe import signals_raise
+    with signals_raise():              # SIGHUP, SIGTERM: the outputs go safe, as on Ctrl-C
+        return _demo(args)
+
+
+def _demo(args) -> int:
     from ..config import load_machine
     from ..demo import circle_targets
     from ..motion.errorloop import PositionErrorLoop
