@@ -57,6 +57,17 @@ def test_the_record_is_found_from_any_folder(tmp_path, capsys, monkeypatch):
     assert (STATE() / "tul-mill").is_dir()
 
 
+def test_the_state_folder_never_depends_on_the_working_folder(monkeypatch):
+    from retrofit.atc.state import default_state_dir, state_dir
+    tul = load_machine("tul-mill")
+    assert state_dir(tul) == STATE() / "tul-mill"               # the tests' own, not the home's
+    assert not str(state_dir(tul)).startswith(str(Path.home() / ".local"))
+    monkeypatch.setenv("XDG_STATE_HOME", "relative/state")          # ignored, as XDG says
+    assert default_state_dir() == Path.home() / ".local" / "state" / "retrofit"
+    monkeypatch.setenv("RETROFIT_STATE_DIR", "/srv/mill-state")
+    assert state_dir(tul) == Path("/srv/mill-state/tul-mill")
+
+
 def test_a_users_machine_keeps_its_record_beside_its_file_from_any_folder(tmp_path, capsys, monkeypatch):
     a, b, files = tmp_path / "a", tmp_path / "b", tmp_path / "machines"
     for d in (a, b, files):

@@ -38,11 +38,13 @@ SIMULATED_SCHEMES = ("sim", "vcd", "parport+record")
 
 def default_state_dir() -> Path:
     """Where state files live: $RETROFIT_STATE_DIR, else $XDG_STATE_HOME/retrofit, else
-    ~/.local/state/retrofit."""
-    if os.environ.get("RETROFIT_STATE_DIR"):
-        return Path(os.environ["RETROFIT_STATE_DIR"])
-    base = os.environ.get("XDG_STATE_HOME") or Path.home() / ".local" / "state"
-    return Path(base) / "retrofit"
+    ~/.local/state/retrofit. A relative path in either variable is ignored (as the XDG base
+    directory rules say): the state must not depend on the working folder."""
+    own = os.environ.get("RETROFIT_STATE_DIR", "")
+    if os.path.isabs(own):
+        return Path(own)
+    base = os.environ.get("XDG_STATE_HOME", "")
+    return (Path(base) if os.path.isabs(base) else Path.home() / ".local" / "state") / "retrofit"
 
 
 def is_shipped(machine) -> bool:
