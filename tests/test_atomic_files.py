@@ -92,3 +92,17 @@ def test_an_error_inside_leaves_no_file_and_no_temporary(tmp_path):
             tmp.write_text("half")
             raise RuntimeError("boom")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_recording_opened_without_staging_is_not_written_through_a_link(tmp_path):
+    from retrofit.config import load_machine
+    from retrofit.frames import PortFrames
+    from retrofit.outputs import open_output
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious\n")
+    (tmp_path / "rec.bin").symlink_to(victim)
+    out = open_output(f"parport+record://{tmp_path / 'rec.bin'}?paced=0", load_machine("chivu-lathe"))
+    with pytest.raises(atomic.OutputError, match="cannot write the recording .*rec.bin"):
+        with out:
+            out.write(PortFrames([0], [1], 3))
+    assert victim.read_text() == "precious\n"
