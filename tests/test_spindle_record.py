@@ -212,5 +212,7 @@ def test_ctrl_c_in_a_simulated_run_leaves_a_record_the_next_run_accepts(tmp_path
         proc.kill()
     assert proc.returncode == 130
     assert not (tmp_path / "r.json").exists()
+    assert not list(tmp_path.glob("mymill2.spindle*.json"))       # no record: the spindle is empty
     again = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
     assert again.returncode == 0, again.stderr
+    assert "paused: manual tool change (M6): put T1 in the spindle" in " ".join(again.stdout.split())
