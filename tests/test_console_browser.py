@@ -6,44 +6,19 @@ from __future__ import annotations
 
 import re
 import shutil
-import socket
 import subprocess
-import threading
 import time
 from pathlib import Path
 
 import pytest
 
+from console_kit import LONG_MOVE, Served
 from retrofit.config import load_machine
 from retrofit.runprogram import resolve_program
 
 CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
 pytestmark = pytest.mark.skipif(not (Path(CHROMIUM).exists() and Path(CHROMEDRIVER).exists()),
                                 reason="needs Debian's chromium and chromium-driver")
-
-#: a long cut at F150 (16 s of machine time) between two rapids
-LONG_MOVE = "G21 G90\nG0 X5 Z1\nG1 Z-39 F150\nG0 X10\nG0 Z5\nM30\n"
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def start_server(app):
-    """Serve ``app`` with uvicorn in a thread; (base URL, server) once it answers."""
-    import uvicorn
-    port = free_port()
-    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning"))
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
-    for _ in range(200):
-        if server.started:
-            break
-        time.sleep(0.02)
-    return f"http://127.0.0.1:{port}", server, thread
-
 
 def chromium(user_dir: Path):
     """Headless Chromium with a fresh profile and its network log on."""
@@ -70,14 +45,14 @@ def browser(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def console(browser):
-    from retrofit.console.server import Console, create_app
-    con = Console(load_machine("chivu-lathe"))
-    base, server, thread = start_server(create_app(con))
-    browser.get(base + "/")
-    wait_for(browser, "return document.getElementById('example').options.length > 0")
-    yield con
-    server.should_exit = True
-    thread.join(10)
+    from retrofit.console.server import Console
+    served = Served(Console(load_machine("chivu-lathe")))
+    browser.get(served.url)
+    wait_for(browser, "return document.getElementById('example').options.length > 0 && "
+                      "document.body.dataset.control === 'yours'")
+    assert "token" not in browser.current_url                # the page took it out of the address bar
+    yield served.console
+    served.close()
 
 
 @pytest.fixture(scope="module")
@@ -245,15 +220,15 @@ def ten_million_step_run(machine):
 
 @pytest.mark.slow
 def test_ten_million_step_run_zooms_within_a_second_per_step(browser, tmp_path):
-    from retrofit.console.server import Console, create_app
+    from retrofit.console.server import Console
     machine = load_machine("chivu-lathe")
     log = ten_million_step_run(machine)
     assert sum(log.steps_emitted.values()) >= 10_000_000
     con = Console(machine)
     con.show_run(log)
-    base, server, thread = start_server(create_app(con))
+    served = Served(con)
     try:
-        browser.get(base + "/")
+        browser.get(served.url)
         wait_for(browser, "return document.body.dataset.views === 'ready'", timeout=120)
         end = log.frames.end_tick
         centre = int(axis_steps_mid(log))
@@ -278,8 +253,7 @@ def test_ten_million_step_run_zooms_within_a_second_per_step(browser, tmp_path):
         single = browser.execute_script("return document.getElementById('pulses').data[0].name")
         assert not single.endswith("(busy)")              # the last window shows single pulses
     finally:
-        server.should_exit = True
-        thread.join(10)
+        served.close()
 
 
 def axis_steps_mid(log) -> int:
@@ -289,10 +263,10 @@ def axis_steps_mid(log) -> int:
 
 @pytest.mark.skipif(shutil.which("rs274") is None, reason="needs LinuxCNC's rs274")
 def test_a_mill_program_is_previewed_in_3d_inside_its_work_envelope(browser, tmp_path):
-    from retrofit.console.server import Console, create_app
-    base, server, thread = start_server(create_app(Console(load_machine("engraver"))))
+    from retrofit.console.server import Console
+    served = Served(Console(load_machine("engraver")))
     try:
-        browser.get(base + "/")
+        browser.get(served.url)
         wait_for(browser, "return document.getElementById('example').options.length > 0")
         browser.execute_script("document.getElementById('example').value = 'engraving.ngc'")
         browser.find_element("id", "open").click()
@@ -310,8 +284,7 @@ def test_a_mill_program_is_previewed_in_3d_inside_its_work_envelope(browser, tmp
         assert drawn["box"] == [machine.axis("X").min_mm, machine.axis("X").max_mm]
         browser.save_screenshot(str(tmp_path / "mill-preview.png"))
     finally:
-        server.should_exit = True
-        thread.join(10)
+        served.close()
 
 
 def count_null_traverses(path: Path) -> int:
