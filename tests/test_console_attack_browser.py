@@ -22,7 +22,7 @@ pytestmark = pytest.mark.skipif(not (Path(CHROMIUM).exists() and Path(CHROMEDRIV
 ATTACKER = """<!DOCTYPE html><html><body><iframe name="sink" id="sink"></iframe><script>
 function formPost(url, body) {          // a plain form: text/plain, "name=value", shaped as JSON
   return new Promise(done => {
-    const cut = body.length - 2, f = document.createElement("form");
+    const cut = body.lastIndexOf("}"), f = document.createElement("form");
     f.method = "POST"; f.enctype = "text/plain"; f.action = url; f.target = "sink";
     const i = document.createElement("input");
     i.name = body.slice(0, cut) + ',"p":"'; i.value = '"}';

@@ -127,3 +127,15 @@ def test_an_exception_in_the_run_stops_it_puts_the_outputs_safe_and_stop_still_a
         served.wait(lambda s: s["state"] == "done")
     finally:
         served.close()
+
+
+def test_a_controller_fault_puts_the_outputs_safe(tmp_path):
+    record = tmp_path / "port.bin"
+    con = Console(load_machine("chivu-lathe"), [f"parport+record://{record}?paced=0"])
+    con.open(name="limit.cmds", text="FMOV X5 Z1\nFMOV X100 Z0\n")
+    con.start(0)
+    con.run.join(60)
+    state = con.state()
+    assert state["state"] == "error" and "outside the soft limits" in state["error"]
+    assert con.run.outputs == [] and record.exists()          # closed (the recording is written)
+    assert np.fromfile(record, dtype=np.uint8)[-1] == PinMap(con.machine).invert

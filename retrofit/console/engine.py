@@ -5,7 +5,9 @@ on a simulated machine in a thread of its own, a chunk of ticks at a time. Betwe
 hands the operator's actions to the controller as 002's immediate commands -- STOP, MFDR and
 FFDR act on the tick they arrive, mid-move -- and publishes a snapshot (DRO, line, flags) for
 the page. Host commands (TOOL, PAUS) wait for the machine to stand still, then for the
-operator's answer. Time inside is the tick; only the paced mode compares it with the clock.
+operator's answer. Any exception in the run STOPs the controller and puts every output safe
+(:meth:`SteeredRun.fail`); STOP acts in every state. Time inside is the tick; only the paced
+mode compares it with the clock.
 """
 
 from __future__ import annotations
@@ -13,8 +15,9 @@ from __future__ import annotations
 import threading
 import time
 from collections import deque
+from contextlib import suppress
 
-from ..commands import PAUSE_REASONS, Command, FFdr, FMov, MFdr, PFdr, Stop, Tool
+from ..commands import PAUSE_REASONS, Command, FFdr, MFdr, PFdr, Stop, Tool
 from ..config import Machine
 from ..errors import MotionError
 
@@ -137,28 +140,23 @@ class SteeredRun:
 
     def fail(self, exc: BaseException) -> None:
         """STOP the controller and put every output safe, then say what went wrong (state error)."""
-        try:
+        with suppress(BaseException):               # the outputs go safe whatever the controller does
             self.ctl.submit(Stop())
-        except BaseException:                       # noqa: BLE001 -- the outputs go safe regardless
-            pass
         self.make_outputs_safe()
         self.error = f"{type(exc).__name__}: {exc}".replace("\n", " ")
         self.state, self.dialog = "error", None
         self._halted.set()
-        try:
+        self._snap = dict(self._snap, state="error", error=self.error)
+        with suppress(BaseException):
             self._event("error", f"the run stopped on an error: {self.error}")
             self._publish()
-        except BaseException:                       # noqa: BLE001 -- the page still sees the error
-            self._snap = dict(self._snap, state="error", error=self.error)
 
     def make_outputs_safe(self) -> None:
         """Every output at once in its safe state (drivers off, data pins at rest), then closed."""
         outputs, self.outputs = self.outputs, []
         for out in outputs:
-            try:
+            with suppress(Exception):               # the next output goes safe all the same
                 out.abort()
-            except Exception:                       # noqa: BLE001 -- the next output still goes safe
-                pass
 
     def stop(self) -> None:
         """STOP in every state: through the run's thread when it steps, else here and now; a thread
@@ -204,8 +202,10 @@ class SteeredRun:
         self._send_frames()
         going = True
         if self.ctl.fault:
+            self.make_outputs_safe()
             self._event("error", self.ctl.fault)
-            self.state, going = "error", False
+            self.state, self.error, going = "error", str(self.ctl.fault), False
+            self._halted.set()
         elif idle:
             with self._lock:
                 if not self._after_idle():
@@ -396,8 +396,3 @@ def programmed_feeds(commands: list[Command], default: float) -> list[float]:
         feeds.append(feed)
     return feeds
 
-
-def jog_command(machine: Machine, position_mm: dict, axis: str, step_mm: float) -> Command:
-    """A jog of ``step_mm`` on ``axis`` from ``position_mm``, as an FMOV."""
-    target = position_mm[axis.upper()] + step_mm
-    return FMov(axes=((axis.upper(), round(target, 6)),))

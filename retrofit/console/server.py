@@ -7,6 +7,7 @@ One run at a time, started under a lock; STOP in every state; the programs it ma
 from __future__ import annotations
 
 import threading
+from contextlib import contextmanager
 from pathlib import Path
 
 from ..config import Machine
@@ -83,11 +84,15 @@ class Console:
                 self.run.stop()
             return self.state()
 
+    @contextmanager
     def _exclusive(self):
         """The run lock, taken at once or Busy (409)."""
         if not self._run_lock.acquire(blocking=False):
             raise Busy("another start, jog, home or MDI is under way")
-        return _Release(self._run_lock)
+        try:
+            yield
+        finally:
+            self._run_lock.release()
 
     def stop(self) -> dict:
         """STOP, in every state: the run stops (or its outputs go safe if its thread is gone)."""
@@ -145,14 +150,13 @@ class Console:
         """The commands of a jog (within the soft limits), a home or an MDI line, from ``here`` (mm)."""
         from ..commands import FMov
         from ..gcode.program import compile_program
-        from .engine import jog_command
         if kind == "jog":
             axis = self.machine.axis(args["axis"])
             target = here[axis.name] + args["step"]
             if not axis.min_mm <= target <= axis.max_mm:
                 raise RetrofitError(f"jog {axis.name} {args['step']:+g} mm from {here[axis.name]:g} mm to "
                                     f"{target:g} mm: beyond the soft limits {axis.min_mm:g}..{axis.max_mm:g} mm")
-            return [jog_command(self.machine, here, axis.name, args["step"])]
+            return [FMov(axes=((axis.name, round(target, 6)),))]
         if kind == "home":
             return [FMov(axes=tuple((a.name, 0.0) for a in self.machine.axes))]
         return compile_program(args["text"], self.machine, "MDI", start_mm=here).commands
@@ -221,9 +225,9 @@ class Console:
 
     def timeline(self, t0: int, t1: int) -> dict:
         from .views import timeline
+        steps = self.steps()                   # first: refused until a run has ended
         sim = self._recorded[1] if self._recorded is not None else self.run.sim
         machine = self.machine
-        steps = self.steps()
 
         def carriage(i, ticks):
             import numpy as np
@@ -261,18 +265,6 @@ class Busy(RetrofitError):
     """The console is starting or running another run (status 409)."""
 
     status = 409
-
-
-class _Release:
-    def __init__(self, lock):
-        self.lock = lock
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.lock.release()
-        return False
 
 
 def check_output(url: str) -> None:
