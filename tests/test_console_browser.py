@@ -300,3 +300,41 @@ def count_null_traverses(path: Path) -> int:
             null += 1
         here = values[:3]
     return null
+
+
+def test_a_second_tab_watches_and_takes_control_only_when_asked(browser):
+    """Two tabs on one console: the second shows who holds control and cannot act; its STOP says
+    it takes control, and does; the first tab then watches."""
+    from retrofit.console.server import Console
+    served = Served(Console(load_machine("chivu-lathe")))
+    first = browser.current_window_handle
+    try:
+        browser.switch_to.new_window("tab")
+        operator = browser.current_window_handle
+        browser.get(served.url)
+        wait_for(browser, "return document.body.dataset.control === 'yours'")
+        open_text(browser, "long-move.ngc", LONG_MOVE)
+        run(browser, "1")
+        browser.switch_to.new_window("tab")
+        browser.get(served.url)
+        wait_for(browser, "return document.body.dataset.control === 'watching' && "
+                          "document.getElementById('state').textContent === 'running'", timeout=20)
+        assert "operator 1" in browser.find_element("id", "control").text
+        assert browser.find_element("id", "stop").text == "Take control + STOP"
+        refusal = browser.execute_async_script("act('hold').then(() => 'acted', e => e.message)"
+                                                ".then(arguments[arguments.length - 1])")
+        assert "held by operator 1" in refusal
+        assert served.state()["state"] == "running"              # the watcher's hold was refused
+        browser.find_element("id", "stop").click()
+        wait_for(browser, "return document.getElementById('state').textContent === 'stopped' && "
+                          "document.body.dataset.control === 'yours'")
+        browser.switch_to.window(operator)
+        wait_for(browser, "return document.body.dataset.control === 'watching' && "
+                          "document.getElementById('control').textContent.includes('operator 2')")
+    finally:
+        for handle in browser.window_handles:
+            if handle != first:
+                browser.switch_to.window(handle)
+                browser.close()
+        browser.switch_to.window(first)
+        served.close()

@@ -30,10 +30,10 @@ def step_mask(machine) -> int:
 class ConsoleProcess:
     """``retrofit console`` in a process of its own, driven over its API as the page drives it."""
 
-    def __init__(self, *args: str):
+    def __init__(self, *args: str, listen: str = "127.0.0.1"):
         self.port = free_port()
         self.proc = subprocess.Popen([sys.executable, "-m", "retrofit.cli", "console", "--listen",
-                                      f"127.0.0.1:{self.port}", *args],
+                                      f"{listen}:{self.port}", *args],
                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         line = self.proc.stdout.readline()
         found = re.search(r"http://127\.0\.0\.1:(\d+)/\?token=([A-Za-z0-9_-]+)", line)
@@ -96,6 +96,18 @@ def test_a_non_loopback_listen_needs_allow_remote():
     proc = subprocess.run([sys.executable, "-m", "retrofit.cli", "console", "--listen", "0.0.0.0:0"],
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2 and "--allow-remote" in proc.stderr and proc.stdout == ""
+
+
+def test_allow_remote_serves_every_interface_with_a_warning_and_still_checks_host():
+    con = ConsoleProcess("--allow-remote", listen="0.0.0.0")
+    try:
+        assert con.client.state()["state"] == "ready"
+        status, _ = con.client.call("GET", "/api/state", headers={"Host": f"rebind.example:{con.port}"})
+        assert status == 403
+    finally:
+        con.end(signal.SIGTERM)
+    warning = con.proc.stderr.read()
+    assert "WARNING" in warning and "reachable from other computers" in warning
 
 
 def test_an_exception_in_the_run_stops_it_puts_the_outputs_safe_and_stop_still_answers(tmp_path):

@@ -44,8 +44,8 @@ class _Body(BaseModel):
 
 def _pace(value: float) -> float:
     if value != 0 and not SPEED_RANGE[0] <= value <= SPEED_RANGE[1]:
-        raise ValueError(f"must be 0 (as fast as possible) or {SPEED_RANGE[0]:g}..{SPEED_RANGE[1]:g} "
-                         "(x machine time)")
+        raise ValueError(f"pace {value:g}: must be 0 (as fast as possible) or {SPEED_RANGE[0]:g}.."
+                         f"{SPEED_RANGE[1]:g} (x machine time)")
     return value
 
 

@@ -69,7 +69,7 @@ class Console:
         from .engine import SteeredRun
         with self._exclusive():
             if self.program is None:
-                raise RetrofitError("no program open; open one first (a path or a shipped example)")
+                raise RetrofitError("no program open; open one first (a program the console lists, or an uploaded file)")
             if self.run is not None and not self.run.finished:
                 raise Busy("a run is under way; STOP it or wait for its end")
             stops = self._stops
