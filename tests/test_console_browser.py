@@ -338,3 +338,29 @@ def test_a_second_tab_watches_and_takes_control_only_when_asked(browser):
                 browser.close()
         browser.switch_to.window(first)
         served.close()
+
+
+def test_an_error_in_the_run_is_shown_and_stop_still_answers(browser):
+    from retrofit.console.server import Console
+    served = Served(Console(load_machine("chivu-lathe")))
+    first = browser.current_window_handle
+    try:
+        browser.switch_to.new_window("tab")
+        browser.get(served.url)
+        wait_for(browser, "return document.body.dataset.control === 'yours'")
+        open_text(browser, "long-move.ngc", LONG_MOVE)
+        run(browser, "1")
+        wait_for(browser, "return +document.getElementById('time').textContent > 0.5")
+
+        def broken(limit):
+            raise RuntimeError("a fault in the planner")
+        served.console.run.ctl.run_until_idle = broken
+        wait_for(browser, "return document.getElementById('state').textContent === 'error' && "
+                          "document.getElementById('message').textContent.includes('a fault in the planner')")
+        browser.find_element("id", "stop").click()
+        wait_for(browser, "return document.getElementById('message').textContent.includes('a fault in the planner')")
+        assert served.console.run.outputs == [] and served.state()["state"] == "error"
+    finally:
+        browser.close()
+        browser.switch_to.window(first)
+        served.close()

@@ -117,7 +117,7 @@ def refused(served, path, body=None, raw=None):
 def test_bad_bodies_get_400_change_nothing_and_stop_still_stops(served):
     served.take_control()
     served.ok("POST", "/api/open", {"name": "long.ngc", "text": LONG_MOVE})
-    served.ok("POST", "/api/run", {"speed": 5})
+    served.ok("POST", "/api/run", {"speed": 1})           # 19 s of machine time: long enough for the bodies
     before = served.wait(moving)
     for path, body in BAD_WHILE_RUNNING:
         refused(served, path, body)
@@ -135,7 +135,7 @@ def test_bad_bodies_get_400_change_nothing_and_stop_still_stops(served):
     assert served.state()["commanded_mm"] == at                            # nothing moved
     served.ok("POST", "/api/action", {"kind": "jog", "axis": "X", "step": 1})
     served.wait(lambda s: s["state"] == "done" and s["commanded_mm"]["X"] == 1.0)
-    served.ok("POST", "/api/run", {"speed": 5})                             # a new run starts
+    served.ok("POST", "/api/run", {"speed": 1})                             # a new run starts
     served.wait(moving)
     stop_and_check(served)
 
@@ -165,7 +165,7 @@ def test_sixteen_racing_starts_make_one_run(served):
 
     def start():
         gate.wait()
-        answers.append(served.call("POST", "/api/run", {"speed": 5})[0])
+        answers.append(served.call("POST", "/api/run", {"speed": 1})[0])
     threads = [threading.Thread(target=start) for _ in range(16)]
     for t in threads:
         t.start()

@@ -129,7 +129,7 @@ def test_an_exception_in_the_run_stops_it_puts_the_outputs_safe_and_stop_still_a
             raise RuntimeError("a fault in the planner")
         run.ctl.run_until_idle = broken
         state = served.wait(lambda s: s["state"] == "error")
-        assert "a fault in the planner" in state["error"]
+        assert "a fault in the planner" in state["fault"]
         assert port.control_register & 0b10 == 0             # pin 14 high: the drivers are disabled
         data = np.fromfile(record, dtype=np.uint8)
         assert (data & step_mask(machine)).any() and data[-1] == PinMap(machine).invert
@@ -148,6 +148,6 @@ def test_a_controller_fault_puts_the_outputs_safe(tmp_path):
     con.start(0)
     con.run.join(60)
     state = con.state()
-    assert state["state"] == "error" and "outside the soft limits" in state["error"]
+    assert state["state"] == "error" and "outside the soft limits" in state["fault"]
     assert con.run.outputs == [] and record.exists()          # closed (the recording is written)
     assert np.fromfile(record, dtype=np.uint8)[-1] == PinMap(con.machine).invert

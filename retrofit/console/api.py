@@ -14,7 +14,7 @@ are JSON, checked by the schemas of :mod:`.schema`.
 ``POST /api/run``          ``{"speed": 0}`` as fast as possible, ``{"speed": f}`` paced at f x machine time
 ``POST /api/action``       ``{"kind": "stop" | "hold" | "resume" | "feed" | "rapid" | "answer" |
                            "speed" | "jog" | "home" | "mdi", ...}``
-``GET  /api/state``        DRO, line, flags, dialog, error, control; ``?since=n``: the backplot from n on
+``GET  /api/state``        DRO, line, flags, dialog, fault, control; ``?since=n``: the backplot from n on
 ``GET  /api/report``       the run's report (docs/report.md, plus ``events`` and ``moves``)
 ``GET  /api/timeline``     ``?t0=&t1=`` (ticks): position, velocity, acceleration, carriage error
 ``GET  /api/pulses``       ``?t0=&t1=`` (ticks): the step and direction lines

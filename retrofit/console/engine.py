@@ -146,7 +146,7 @@ class SteeredRun:
         self.error = f"{type(exc).__name__}: {exc}".replace("\n", " ")
         self.state, self.dialog = "error", None
         self._halted.set()
-        self._snap = dict(self._snap, state="error", error=self.error)
+        self._snap = dict(self._snap, state="error", fault=self.error)
         with suppress(BaseException):
             self._event("error", f"the run stopped on an error: {self.error}")
             self._publish()
@@ -355,7 +355,7 @@ class SteeredRun:
             "flags": [f.name for f in type(status.flags) if f in status.flags],
             "spindle": list(ctl.processor.spindle_cmd), "coolant": ctl.processor.coolant,
             "tool": self.tool, "feed_pct": self.feed_pct, "rapid_pct": self.rapid_pct,
-            "dialog": self.dialog, "events": len(self.events), "error": self.error,
+            "dialog": self.dialog, "events": len(self.events), "fault": self.error,
         }
 
     def _event(self, kind: str, text: str, line: int | None = None) -> None:

@@ -144,7 +144,7 @@ function showControl(c) {
 
 function show(s) {
   if (s.control) showControl(s.control);
-  if (s.error) $("message").textContent = s.error;
+  if (s.fault) $("message").textContent = s.fault;
   $("state").textContent = s.state;
   document.body.dataset.state = s.state;
   if (s.commanded_mm) for (const a of C.machine.axes) {
