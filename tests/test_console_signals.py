@@ -110,10 +110,35 @@ def test_allow_remote_serves_every_interface_with_a_warning_and_still_checks_hos
     assert "WARNING" in warning and "reachable from other computers" in warning
 
 
-def test_an_exception_in_the_run_stops_it_puts_the_outputs_safe_and_stop_still_answers(tmp_path):
+def enable_lathe(tmp_path):
+    """chivu-lathe with its drivers' enable on pin 14, active low (the [parport] section)."""
     user = tmp_path / "lathe-enable.toml"
     user.write_text(Path(load_machine("chivu-lathe").source).read_text() + ENABLE_LOW)
-    machine = load_machine(str(user))
+    return load_machine(str(user))
+
+
+def test_what_a_signal_does_turns_the_enable_off_and_rests_the_pins(tmp_path):
+    """The signals' handler calls Console.make_safe: here mid-run, with the drivers' enable on pin 14."""
+    machine = enable_lathe(tmp_path)
+    record = tmp_path / "port.bin"
+    con = Console(machine, [f"parport+record://{record}?paced=0"])
+    con.open(name="long.ngc", text=LONG_MOVE)
+    con.start(1.0)
+    port = con.run.outputs[0].port
+    for _ in range(3000):
+        if con.state()["time_s"] > 0.5:
+            break
+        time.sleep(0.01)
+    assert port.control_register & 0b10                      # pin 14 low (its inverted register bit set): enabled
+    con.make_safe()
+    assert port.control_register & 0b10 == 0                 # pin 14 high: the drivers are disabled
+    data = np.fromfile(record, dtype=np.uint8)
+    assert (data & step_mask(machine)).any() and data[-1] == PinMap(machine).invert
+    assert con.state()["state"] == "stopped" and con.run.outputs == []
+
+
+def test_an_exception_in_the_run_stops_it_puts_the_outputs_safe_and_stop_still_answers(tmp_path):
+    machine = enable_lathe(tmp_path)
     record = tmp_path / "port.bin"
     served = Served(Console(machine, [f"parport+record://{record}?paced=0"]))
     try:

@@ -8,6 +8,8 @@ from ..errors import RetrofitError
 
 #: how much a console that drives only sim:// lowers its own priority
 CONSOLE_NICENESS = 10
+#: how long the server waits for open requests when it ends (s); the outputs are safe before
+SHUTDOWN_S = 5
 
 
 def add_commands(sub) -> None:
@@ -63,7 +65,8 @@ def cmd_console(args) -> int:
     shown = "127.0.0.1" if host in ("0.0.0.0", "::", "[::]") else host
     print(f"retrofit console for {machine.name}: http://{shown}:{port}/?token={token}  (Ctrl-C ends it)", flush=True)
     app = create_app(console, token=token, remote=remote, listen_host=host)
-    server = safe_server(uvicorn.Config(app, host=host.strip("[]"), port=port, log_level="warning"), console)
+    server = safe_server(uvicorn.Config(app, host=host.strip("[]"), port=port, log_level="warning",
+                                        timeout_graceful_shutdown=SHUTDOWN_S), console)
     try:
         server.run()
     finally:
