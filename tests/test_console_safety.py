@@ -186,7 +186,7 @@ def test_a_second_browser_watches_until_it_takes_control_explicitly(served):
     served.ok("POST", "/api/run", {"speed": 0})
     served.wait(lambda s: s["dialog"] is not None)
     status, answer = served.call("POST", "/api/control", {"take": False}, control=None)
-    assert status == 409 and "held by" in answer["error"]
+    assert status == 409 and "held by operator 1" in answer["error"] and answer["holder"]["name"] == "operator 1"
     second = "not-the-holders-id"
     for body in ({"kind": "answer"}, {"kind": "stop"}, {"kind": "feed", "pct": 10}, {"kind": "resume"}):
         status, answer = served.call("POST", "/api/action", body, control=second)
@@ -225,3 +225,20 @@ def test_files_outside_the_programs_folder_get_one_refusal(served, tmp_path):
     assert served.ok("POST", "/api/open", {"name": "lathe-profile.ngc"})["name"] == "lathe-profile.ngc"
     info = served.ok("GET", "/api/machine")
     assert "part.ngc" in info["programs"] and "link.ngc" not in info["programs"]
+
+
+def test_control_lapses_only_when_its_holder_has_gone_quiet():
+    from retrofit.console.guard import CONTROL_LAPSE_S, Control, Held
+    now = [0.0]
+    control = Control(clock=lambda: now[0])
+    first, _ = control.claim(None, False, "127.0.0.1")
+    now[0] += CONTROL_LAPSE_S * 0.9
+    control.view(first)                                      # the holder's page polls
+    now[0] += CONTROL_LAPSE_S * 0.9
+    with pytest.raises(Held):
+        control.claim(None, False, "127.0.0.2")
+    now[0] += CONTROL_LAPSE_S * 1.1                          # its page closed: no poll since
+    second, holder = control.claim(None, False, "127.0.0.2")
+    assert second != first and holder["name"] == "operator 2"
+    with pytest.raises(Held):
+        control.check(first)

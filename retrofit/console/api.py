@@ -100,12 +100,15 @@ def endpoint(fn, schema=None, control=None, limit: int = 0):
         try:
             body = None
             if request.method == "POST":
-                body = parse(schema, await read_body(request, limit or ACTION_BYTES), request.url.path)
+                raw = await read_body(request, limit or ACTION_BYTES)
                 if control is not None:
                     control.check(request.headers.get(CONTROL_HEADER))
+                body = parse(schema, raw, request.url.path)
             return JSONResponse(await run_in_threadpool(fn, request, body))
-        except (BadRequest, Held) as exc:
-            return JSONResponse({"error": str(exc), **held_by(exc, control)}, status_code=exc.status)
+        except Held as exc:
+            return JSONResponse({"error": str(exc), "holder": exc.holder}, status_code=exc.status)
+        except BadRequest as exc:
+            return JSONResponse({"error": str(exc)}, status_code=exc.status)
         except (RetrofitError, KeyError, ValueError) as exc:
             return JSONResponse({"error": one_line(exc)}, status_code=getattr(exc, "status", 400))
     return route
@@ -124,11 +127,6 @@ async def read_body(request, limit: int) -> bytes:
         if len(body) > limit:
             raise too_long
     return bytes(body)
-
-
-def held_by(exc, control) -> dict:
-    from .guard import Held
-    return {"holder": control.view(None)["holder"]} if isinstance(exc, Held) and control else {}
 
 
 def one_line(exc: BaseException) -> str:

@@ -191,7 +191,7 @@ class SteeredRun:
         publish the snapshot; False once the run has ended (done, stopped or in error)."""
         if self._apply_actions():
             self._repace = True
-        if self.state == "stopped":
+        if self.state in ("stopped", "error"):       # error: failed from outside (STOP not taken)
             self._publish()
             return False
         if self.waiting:

@@ -119,7 +119,7 @@ class Control:
                 self._seen = self._clock()
                 return self._id, dict(self._holder)
             if self._id is not None and not take and self._clock() - self._seen < CONTROL_LAPSE_S:
-                raise Held(self.describe())
+                raise Held(self.describe(), 409, self._holder)
             self._count += 1
             self._id = secrets.token_urlsafe(18)
             self._holder = {"name": f"operator {self._count}", "address": address,
@@ -134,8 +134,9 @@ class Control:
             if self._holds(caller):
                 self._seen = self._clock()
                 return
-        raise Held(self.describe() if self._id else "no one holds control; take control first "
-                   '(POST /api/control {"take": false})', status=403)
+            held = self.describe() if self._id else ('no one holds control; take control first '
+                                                     '(POST /api/control {"take": false})')
+            raise Held(held, 403, self._holder)
 
     def view(self, caller: str | None) -> dict:
         """What a page shows: who holds control, and whether it is the caller."""
@@ -157,6 +158,6 @@ class Control:
 class Held(Exception):
     """Control is held by another browser (status 409 for a claim, 403 for an action)."""
 
-    def __init__(self, message: str, status: int = 409):
+    def __init__(self, message: str, status: int, holder: dict | None):
         super().__init__(message)
-        self.status = status
+        self.status, self.holder = status, dict(holder) if holder else None
