@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from console_kit import LONG_MOVE, Served
+from console_kit import DIALOGS, LONG_MOVE, Served
 from retrofit.config import load_machine
 from retrofit.runprogram import resolve_program
 
@@ -313,18 +313,20 @@ def test_a_second_tab_watches_and_takes_control_only_when_asked(browser):
         operator = browser.current_window_handle
         browser.get(served.url)
         wait_for(browser, "return document.body.dataset.control === 'yours'")
-        open_text(browser, "long-move.ngc", LONG_MOVE)
-        run(browser, "1")
+        open_text(browser, "tool-change.cmds", DIALOGS)
+        run(browser, "0")
+        wait_for(browser, "return document.getElementById('dialog').open")
         browser.switch_to.new_window("tab")
         browser.get(served.url)
         wait_for(browser, "return document.body.dataset.control === 'watching' && "
-                          "document.getElementById('state').textContent === 'running'", timeout=20)
+                          "document.getElementById('message').textContent.includes('waiting for the operator')")
+        assert not browser.execute_script("return document.getElementById('dialog').open")   # not the watcher's
         assert "operator 1" in browser.find_element("id", "control").text
         assert browser.find_element("id", "stop").text == "Take control + STOP"
         refusal = browser.execute_async_script("act('hold').then(() => 'acted', e => e.message)"
                                                 ".then(arguments[arguments.length - 1])")
         assert "held by operator 1" in refusal
-        assert served.state()["state"] == "running"              # the watcher's hold was refused
+        assert served.state()["dialog"]["kind"] == "tool"         # the watcher's hold was refused
         browser.find_element("id", "stop").click()
         wait_for(browser, "return document.getElementById('state').textContent === 'stopped' && "
                           "document.body.dataset.control === 'yours'")

@@ -162,6 +162,7 @@ def test_sixteen_racing_starts_make_one_run(served):
     served.take_control()
     served.ok("POST", "/api/open", {"name": "long.ngc", "text": LONG_MOVE})
     gate, answers = threading.Barrier(16), []
+    before = set(threading.enumerate())
 
     def start():
         gate.wait()
@@ -174,10 +175,11 @@ def test_sixteen_racing_starts_make_one_run(served):
     assert sorted(answers) == [200] + [409] * 15
     assert served.state()["run_id"] == 1
     served.wait(moving)
+    runs = [t for t in set(threading.enumerate()) - before if t.name == "retrofit-console-run"]
+    assert len(runs) == 1                                    # one run thread was started, no orphan
     stop_and_check(served)
-    for thread in [t for t in threading.enumerate() if t.name == "retrofit-console-run"]:
-        thread.join(20)
-        assert not thread.is_alive()                         # no run keeps ticking after STOP
+    runs[0].join(20)
+    assert not runs[0].is_alive()                            # and it ticks no more after STOP
 
 
 def test_a_second_browser_watches_until_it_takes_control_explicitly(served):

@@ -167,13 +167,14 @@ function show(s) {
   C.trail = s.trail_len || 0;
   const dlg = $("dialog");
   const key = s.dialog ? s.dialog.kind + ":" + s.dialog.line + ":" + s.events : null;
-  if (s.dialog && key !== C.answered && dlg.dataset.key !== key) {
+  if (s.dialog && !C.you) $("message").textContent = "waiting for the operator: " + s.dialog.text;
+  if (s.dialog && C.you && key !== C.answered && dlg.dataset.key !== key) {
     $("dialog-text").textContent = s.dialog.text;
     dlg.dataset.kind = s.dialog.kind;
     dlg.dataset.key = key;
     if (!dlg.open) dlg.showModal();
   }
-  if (!s.dialog && dlg.open) dlg.close();
+  if ((!s.dialog || !C.you) && dlg.open) { dlg.close(); dlg.dataset.key = ""; }
   if (["done", "stopped", "error"].includes(s.state) && C.shownId !== s.run_id) {
     C.shownId = s.run_id;
     showRun().catch(() => { C.shownId = null; });
