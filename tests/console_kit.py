@@ -27,7 +27,7 @@ class Served:
 
     def __init__(self, console, **app_options):
         import uvicorn
-        from retrofit.console.server import create_app
+        from retrofit.console.api import create_app
         self.console = console
         self.token = secrets.token_urlsafe(16)
         self.port = free_port()

@@ -48,7 +48,8 @@ def cmd_console(args) -> int:
     import uvicorn
     from ..config import load_machine
     from ..console.guard import is_loopback
-    from ..console.server import Console, create_app
+    from ..console.api import create_app
+    from ..console.server import Console
     host, port = listen_address(args.listen)
     remote = not is_loopback(host)
     if remote and not args.allow_remote:

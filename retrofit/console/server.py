@@ -1,7 +1,7 @@
 """The state behind the console's page: the machine, the program opened, the run and its views.
 
 One run at a time, started under a lock; STOP in every state; the programs it may open come from
-:mod:`.programs`; the web app in front of it is :mod:`.api` (``create_app``, importable from here).
+:mod:`.programs`; the web app in front of it is :mod:`.api` (``create_app``).
 """
 
 from __future__ import annotations
@@ -276,5 +276,3 @@ def check_output(url: str) -> None:
         raise OutputError(f"{url}: the console drives outputs that take port frames (sim, parport, "
                           "parport+record, vcd); a command-level output is driven by 'retrofit run'")
 
-
-from .api import create_app  # noqa: E402,F401 -- the app of a Console, importable from here too
