@@ -40,7 +40,8 @@ class Output(ABC):
 
     Contract: ``open()`` before the first ``write()``; ``write(frames)`` takes port frames in
     tick order (it may be called several times, each chunk continuing the last); ``close()``
-    finishes and releases everything, and is safe to call twice. Use as a context manager.
+    finishes and releases everything, and is safe to call twice; ``abort()`` puts the machine side
+    in its safe state at once and closes. Use as a context manager.
     """
 
     scheme: ClassVar[str] = ""
@@ -79,6 +80,11 @@ class Output(ABC):
 
     def close(self) -> None:
         self.is_open = False
+
+    def abort(self) -> None:
+        """The machine side safe at once (drivers off, every pin at rest), then closed, without
+        finishing what was scheduled: what a fault or a signal calls. Safe on a closed output."""
+        self.close()
 
     def observe(self) -> dict | None:
         """What this output knows of the machine after the run (the simulator answers; others None)."""

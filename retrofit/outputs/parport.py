@@ -21,7 +21,7 @@ import sys
 from dataclasses import dataclass, field
 
 from ..errors import OutputError
-from ..frames import PortFrames
+from ..frames import PinMap, PortFrames
 from ..tomlreader import Section
 from .base import Output
 from .pacer import ENGINES, Calibration, Lateness, Pacer, RealtimeMode, calibrate
@@ -228,6 +228,19 @@ class ParportOutput(Output):
         if not self.quiet and self.timing.writes:
             for line in self.report_lines():
                 print(f"{self.url.text}: {line}", file=sys.stderr)
+
+    def abort(self) -> None:
+        """The drivers' enable off, then every data pin at rest (step lines inactive, directions and
+        spare outputs low) at once, then close: the port's latch holds that byte."""
+        if not self.is_open:
+            return
+        try:
+            self._set_enable(False)
+            self.port.write(getattr(self.port, "next_tick", 0), PinMap(self.machine).invert)
+        finally:
+            self.realtime.leave()
+            self.port.close()
+            Output.close(self)
 
     def report_lines(self) -> list[str]:
         """Calibration, real-time mode and lateness, one line each (what was measured)."""
