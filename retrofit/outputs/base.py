@@ -40,9 +40,10 @@ class Output(ABC):
 
     Contract: ``open()`` before the first ``write()``; ``write(frames)`` takes port frames in
     tick order (it may be called several times, each chunk continuing the last); ``close()``
-    finishes and releases everything, and is safe to call twice; ``safe_stop()`` puts the
-    outputs in a safe state when a run fails or is stopped. Use as a context manager (an
-    exception in the block calls ``safe_stop()`` before ``close()``).
+    finishes and releases everything, and is safe to call twice; ``safe_stop()`` puts the machine
+    side in its safe state at once (drivers off, every pin at rest) and leaves the output to be
+    closed; ``abort()`` does that and closes, without finishing what was scheduled. Use as a
+    context manager (an exception in the block calls ``safe_stop()`` before ``close()``).
     """
 
     scheme: ClassVar[str] = ""
@@ -83,11 +84,20 @@ class Output(ABC):
         self.is_open = False
 
     def safe_stop(self) -> None:
-        """Put the outputs in a safe state at once: drivers' enable off, step bits low, then flush.
+        """The machine side safe at once: drivers' enable off, every pin at rest, flushed.
 
         Called when a run fails or is told to end, before ``close()`` and before anything else
         (reports, files). The base has nothing that moves a machine; outputs that do override it.
         """
+
+    def abort(self) -> None:
+        """The machine side safe at once (drivers off, every pin at rest), then closed, without
+        finishing what was scheduled: what a fault or a signal calls. Safe on a closed output."""
+        try:
+            if self.is_open:
+                self.safe_stop()
+        finally:
+            self.close()
 
     def observe(self) -> dict | None:
         """What this output knows of the machine after the run (the simulator answers; others None)."""

@@ -21,7 +21,7 @@ import sys
 from dataclasses import dataclass, field
 
 from ..errors import OutputError
-from ..frames import PortFrames
+from ..frames import PinMap, PortFrames
 from ..tomlreader import Section
 from .base import Output
 from .pacer import ENGINES, Calibration, Lateness, Pacer, RealtimeMode, calibrate
@@ -101,7 +101,6 @@ class PpdevPort:
         import parallel                       # lazily: only a real port needs pyparallel
         self._port = parallel.Parallel(port=device)
         self._set_data = self._port.setData
-        self.held = 0                         # the byte on the data pins
 
     @property
     def fd(self) -> int | None:
@@ -111,7 +110,6 @@ class PpdevPort:
 
     def write(self, tick: int, value: int) -> None:
         self._set_data(value)
-        self.held = value
 
     def frob_control(self, mask: int, bits: int) -> None:
         self._port.PPFCONTROL(mask, bits)
@@ -127,15 +125,6 @@ class PpdevPort:
         self._port = None                     # pyparallel releases the port and closes it
 
     discard = close                           # a port that failed to start: just let it go
-
-
-def safe_byte(machine, held: int) -> int:
-    """The byte that stops a machine on this port: every step bit at its resting level (the level
-    of no step, after the pin's inversion), the ``[io]`` outputs off, the direction bits of
-    ``held`` (the byte on the port) kept: without a step edge a driver does not move."""
-    rest = sum(a.invert_step << a.step_bit for a in machine.axes)
-    dirs = sum(1 << a.dir_bit for a in machine.axes)
-    return (held & dirs) | rest
 
 
 def open_error(url: str, device: str, exc: BaseException) -> OutputError:
@@ -225,20 +214,17 @@ class ParportOutput(Output):
 
     def write(self, frames: PortFrames) -> None:
         self.pacer.play(frames, self.port.write, getattr(self.port, "fd", None))
-        if len(frames):                       # (the compiled writer writes past port.write)
-            self.port.held = int(frames.values[-1])
 
     def safe_stop(self) -> None:
-        """Stop now: the safe byte on the data pins at once (step bits at rest, digital outputs
-        off, directions kept), then the drivers' enable off; ``close()`` then holds nothing."""
+        """Stop now: the drivers' enable off, then every data pin at rest (step lines inactive,
+        directions and spare outputs low) at once; ``close()`` then finishes nothing scheduled."""
         if not self.is_open or self.stopped:
             return
         self.stopped = True
         try:
-            self.port.write(getattr(self.port, "next_tick", 0),
-                            safe_byte(self.machine, getattr(self.port, "held", 0)))
-        finally:
             self._set_enable(False)
+        finally:
+            self.port.write(getattr(self.port, "next_tick", 0), PinMap(self.machine).invert)
 
     def close(self) -> None:
         if not self.is_open:
@@ -255,6 +241,17 @@ class ParportOutput(Output):
         if not self.quiet and self.timing.writes:
             for line in self.report_lines():
                 print(f"{self.url.text}: {line}", file=sys.stderr)
+
+    def abort(self) -> None:
+        """:meth:`safe_stop`, then close at once: the port's latch holds the byte at rest."""
+        if not self.is_open:
+            return
+        try:
+            self.safe_stop()
+        finally:
+            self.realtime.leave()
+            self.port.close()
+            Output.close(self)
 
     def report_lines(self) -> list[str]:
         """Calibration, real-time mode and lateness, one line each (what was measured)."""
