@@ -148,6 +148,26 @@ def test_a_second_host_on_a_served_tcp_port_gets_no_answer_and_the_first_goes_on
     assert where == {"X": 2000, "Z": -240} and not st.flags & (F.STOPPED | F.ERROR | F.HOST_LOST)
 
 
+def test_a_serial_run_that_fails_sends_stop_before_it_closes():
+    """safe_stop() (what a failing or interrupted run calls first) stops the far end at once,
+    without waiting for the heartbeat."""
+    machine = load_machine(MACHINE)
+    with McuTarget() as mcu:
+        out = open_output(mcu.output_url, machine)
+        out.open()
+        for text in ("INIT", "PFDR F60", "PMOV X30"):             # 30 s of machine time
+            out.link.request(parse_command(text))
+        out.safe_stop()
+        out.close()
+        after = RawLink(mcu.url, machine)
+        after.sync_both()
+        st = after.wait_idle()
+        where = after.position()
+        after.close()
+    assert st.flags & F.STOPPED and not st.flags & F.HOST_LOST     # STOP, not the heartbeat
+    assert where["X"] < 3000
+
+
 # -- replayed bytes ---------------------------------------------------------------------------------
 
 class Recording(RawLink):

@@ -39,7 +39,7 @@ import time
 from dataclasses import dataclass
 from typing import Iterable
 
-from ..commands import Command, FMov, Init, PMov, Prob, Pstn, Rdps, Rdst, ZMov
+from ..commands import Command, FMov, Init, PMov, Prob, Pstn, Rdps, Rdst, Stop, ZMov
 from ..errors import LinkError, OutputError
 from ..frames import PortFrames
 from ..link.codec import HEARTBEAT_MS
@@ -168,6 +168,16 @@ class SerialOutput(Output):
 
     def observe(self) -> dict | None:
         return {"remote": self.remote} if self.remote is not None else None
+
+    def safe_stop(self) -> None:
+        """STOP on the immediate channel, at once (a run that fails or is told to end). Best
+        effort: a link that does not answer leaves it to the device's heartbeat (500 ms)."""
+        if self.link is None:
+            return
+        try:
+            self.link.request(Stop(), urgent=True)
+        except (LinkError, OSError):
+            pass
 
     def close(self) -> None:
         if self.link is not None:
