@@ -22,7 +22,7 @@ SYNC = bytes((0x7F,))        # then the host's 32-bit nonce; answered SESS with 
 class RawLink:
     """A connection to a device with per-channel sequence numbers kept by hand."""
 
-    def __init__(self, url: str, machine: Machine, answer_timeout_s: float = 2.0):
+    def __init__(self, url: str, machine: Machine, answer_timeout_s: float = 15.0):
         self.machine = machine
         self.port = _connect(url)
         self.timeout_s = answer_timeout_s
