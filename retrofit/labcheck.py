@@ -39,13 +39,15 @@ def seed_note() -> str:
     return f"cases drawn with seed {seed()} ({SEED_ENV}={seed()} draws them again)"
 
 
-def borrowed(path: str | Path, answers: dict[str, set[str]]) -> list[str]:
+def borrowed(path: str | Path, answers: dict[str, set[str]], within: set[str] | None = None) -> list[str]:
     """Where the file at ``path`` reaches for a library function that is the answer itself.
 
     ``answers`` maps a module to the names in it a student must not call (``{"retrofit.demo":
     {"circle_targets"}}``); an empty set forbids the whole module. Found: ``from M import name``,
     ``import M`` (or its package) followed by ``M.name``, and the module's name in a string (an
-    ``importlib`` call). Returns one 'line N: ...' per place.
+    ``importlib`` call). With ``within`` (names of the file's functions and classes), only those and
+    what they call of the file's own are read: the lab's given code may import the library for its
+    plots. Returns one 'line N: ...' per place.
     """
     try:
         tree = ast.parse(Path(path).read_text(encoding="utf-8"))
@@ -53,7 +55,7 @@ def borrowed(path: str | Path, answers: dict[str, set[str]]) -> list[str]:
         return []
     aliases = _aliases(tree)
     places = []
-    for node in ast.walk(tree):
+    for node in _nodes(tree, within):
         if isinstance(node, ast.ImportFrom) and node.module:
             for alias in node.names:
                 if _forbidden(node.module, alias.name, answers) or _forbidden(f"{node.module}.{alias.name}", "*",
@@ -66,9 +68,34 @@ def borrowed(path: str | Path, answers: dict[str, set[str]]) -> list[str]:
             module, _, name = dotted.rpartition(".")
             if module and _forbidden(module, name, answers):
                 places.append(f"line {node.lineno}: {dotted}")
+        elif isinstance(node, ast.Name) and node.id in aliases:
+            module, _, name = aliases[node.id].rpartition(".")
+            if module and _forbidden(module, name, answers):
+                places.append(f"line {node.lineno}: {node.id} ({aliases[node.id]})")
         elif isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in answers:
             places.append(f"line {node.lineno}: {node.value!r}")
     return sorted(set(places), key=lambda p: int(p.split(":")[0][5:]))
+
+
+def _nodes(tree: ast.Module, within: set[str] | None):
+    """Every node of the file, or of the named top-level functions and classes and those they use."""
+    if within is None:
+        yield from ast.walk(tree)
+        return
+    defs = {node.name: node for node in tree.body
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef))}
+    defs.update({target.id: node for node in tree.body if isinstance(node, ast.Assign)
+                 for target in node.targets if isinstance(target, ast.Name)})
+    todo, seen = [name for name in within if name in defs], set()
+    while todo:
+        name = todo.pop()
+        if name in seen:
+            continue
+        seen.add(name)
+        for node in ast.walk(defs[name]):
+            if isinstance(node, ast.Name) and node.id in defs and node.id not in seen:
+                todo.append(node.id)
+            yield node
 
 
 def _aliases(tree: ast.AST) -> dict[str, str]:
