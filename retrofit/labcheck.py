@@ -39,7 +39,8 @@ def seed_note() -> str:
     return f"cases drawn with seed {seed()} ({SEED_ENV}={seed()} draws them again)"
 
 
-def borrowed(path: str | Path, answers: dict[str, set[str]], within: set[str] | None = None) -> list[str]:
+def borrowed(path: str | Path, answers: dict[str, set[str]], within: set[str] | None = None,
+             methods: frozenset[str] = frozenset()) -> list[str]:
     """Where the file at ``path`` reaches for a library function that is the answer itself.
 
     ``answers`` maps a module to the names in it a student must not call (``{"retrofit.demo":
@@ -47,7 +48,8 @@ def borrowed(path: str | Path, answers: dict[str, set[str]], within: set[str] | 
     ``import M`` (or its package) followed by ``M.name``, and the module's name in a string (an
     ``importlib`` call). With ``within`` (names of the file's functions and classes), only those and
     what they call of the file's own are read: the lab's given code may import the library for its
-    plots. Returns one 'line N: ...' per place.
+    plots. ``methods`` are attribute names that are answers on whatever object they are read
+    (``motor.max_accel_steps_s2``). Returns one 'line N: ...' per place.
     """
     try:
         tree = ast.parse(Path(path).read_text(encoding="utf-8"))
@@ -63,6 +65,8 @@ def borrowed(path: str | Path, answers: dict[str, set[str]], within: set[str] | 
                     places.append(f"line {node.lineno}: from {node.module} import {alias.name}")
         elif isinstance(node, ast.Import):
             places += [f"line {node.lineno}: import {a.name}" for a in node.names if _forbidden(a.name, "*", answers)]
+        elif isinstance(node, ast.Attribute) and node.attr in methods:
+            places.append(f"line {node.lineno}: .{node.attr}")
         elif isinstance(node, ast.Attribute):
             dotted = _dotted(node, aliases)
             module, _, name = dotted.rpartition(".")
@@ -72,7 +76,8 @@ def borrowed(path: str | Path, answers: dict[str, set[str]], within: set[str] | 
             module, _, name = aliases[node.id].rpartition(".")
             if module and _forbidden(module, name, answers):
                 places.append(f"line {node.lineno}: {node.id} ({aliases[node.id]})")
-        elif isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in answers:
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str) and (node.value in answers
+                                                                                 or node.value in methods):
             places.append(f"line {node.lineno}: {node.value!r}")
     return sorted(set(places), key=lambda p: int(p.split(":")[0][5:]))
 
