@@ -117,7 +117,10 @@ def _aliases(tree: ast.AST) -> dict[str, str]:
 
 
 def _forbidden(module: str, name: str, answers: dict[str, set[str]]) -> bool:
-    """``name`` of ``module`` is an answer ("*", the module itself: only when the whole module is)."""
+    """``name`` of ``module`` is an answer ("*", the module itself: only when the whole module is); a module
+    forbidden whole forbids its submodules too."""
+    if any(not names and module.startswith(whole + ".") for whole, names in answers.items()):
+        return True
     return module in answers and (not answers[module] or name in answers[module])
 
 
