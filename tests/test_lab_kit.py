@@ -150,7 +150,7 @@ def test_export_holds_no_solution_code(lab, tmp_path):
     names = {p.relative_to(tmp_path).as_posix() for p in written}
     assert f"{lab.path.name}/student.py" in names and f"{lab.path.name}/checks.py" in names
     assert f"{lab.path.name}/README.md" in names
-    assert not any(n.endswith(("solution.py", "teacher.md")) or "/wrong/" in n for n in names), names
+    assert not any(n.endswith(("solution.py", "teacher.md")) or "/wrong/" in n or "/right/" in n for n in names), names
     bodies = _solution_bodies(lab.path / "solution.py", lab.path / "student.py")
     assert len(bodies) >= 3, f"{lab.path.name}: the solution should differ from the stub"
     code = (_code(line) for p in written for line in p.read_text(encoding="utf-8", errors="replace").splitlines())

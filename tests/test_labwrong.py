@@ -84,3 +84,11 @@ def test_every_labs_variants_apply_and_change_its_solution(kind):
             assert changed != reference, variant.path
             compile(changed, str(variant.path), "exec")
             assert len(variant.path.read_text(encoding="utf-8").splitlines()) <= 60, f"{variant.path}: not small"
+
+
+def test_a_patch_written_by_diff_u_with_its_dates_is_read(tmp_path):
+    path = tmp_path / "dated.patch"
+    path.write_text("Wrong in TODO 1: line 3 is gone.\n--- solution.py\t2026-11-27 09:00:00.000000000 +0000\n"
+                    "+++ mine.py\t2026-11-27 09:01:00.000000000 +0000\n@@ -2,3 +2,2 @@\n line 2\n-line 3\n line 4\n",
+                    encoding="utf-8")
+    assert apply_variant(read_variant(path), REFERENCE) == REFERENCE.replace("line 3\n", "")
