@@ -44,13 +44,13 @@ def experiment(rng, machine, axis):
     """Targets of a dial experiment that starts away from 0 and goes back by 1 to 4 steps a reading, past the
     play or (2 times in 5) not as far."""
     i = machine.axis_names.index(axis)
-    band_steps = int(machine.sim.dead_band_mm[axis] * machine.axis(axis).steps_per_mm) + 1
+    band_steps = int(machine.sim.dead_band_mm.get(axis, 0.0) * machine.axis(axis).steps_per_mm) + 1
     start = rng.randint(-40, 40)
     approach = start + rng.randint(10, 30)
     others = [rng.randint(-20, 20) for _ in machine.axes]
     point = lambda s: tuple(s if j == i else others[j] for j in range(len(machine.axes)))   # noqa: E731
     targets, at = [point(start), point(approach)], approach
-    back = band_steps + 6 if rng.random() < 0.6 else rng.randint(1, band_steps - 1)   # or stop inside the play
+    back = band_steps + 6 if rng.random() < 0.6 else rng.randint(1, max(band_steps - 1, 1))   # or inside the play
     while approach - at < back:
         at -= rng.randint(1, 4)
         targets.append(point(at))
@@ -79,10 +79,15 @@ def test_dial_targets(lab):
                     f"other axes; in the machine's axis order {machine.axis_names}")
 
 
-def test_dial_readings(lab):
+FAMILIES = {"lathes": ["chivu-lathe", "mitic-lathe"], "mills": ["tul-mill", "grenoble-mill"]}
+
+
+@pytest.mark.parametrize("family", list(FAMILIES))
+def test_dial_readings(lab, family):
     """TODO 2: one (motor steps, carriage mm) reading at every reached target, compensation off"""
-    rng = cases("04 dial readings")
-    for machine in [load_machine("chivu-lathe")] + [random_machine(rng) for _ in range(4)]:
+    rng = cases(f"04 dial readings {family}")
+    first = load_machine(FAMILIES[family][0])
+    for machine in [first] + [random_machine(rng, rng.choice(FAMILIES[family])) for _ in range(3)]:
         axis = rng.choice(machine.axis_names)
         targets = experiment(rng, machine, axis)
         want = reference_readings(machine, axis, targets)
@@ -95,10 +100,12 @@ def test_dial_readings(lab):
                     "drive with backlash_comp=False so the controller adds no steps")
 
 
-def test_dead_band_from_readings(lab):
+@pytest.mark.parametrize("family", list(FAMILIES))
+def test_dead_band_from_readings(lab, family):
     """TODO 3: the dead band from the readings: motor travel minus carriage travel, in mm"""
-    rng = cases("04 dead band")
-    for machine in [load_machine("chivu-lathe")] + [random_machine(rng) for _ in range(5)]:
+    rng = cases(f"04 dead band {family}")
+    first = load_machine(FAMILIES[family][0])
+    for machine in [first] + [random_machine(rng, rng.choice(FAMILIES[family])) for _ in range(3)]:
         for axis in machine.axis_names[:2]:
             readings = reference_readings(machine, axis, experiment(rng, machine, axis))[1:]
             step = machine.axis(axis).step_mm
