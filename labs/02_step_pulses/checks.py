@@ -55,13 +55,11 @@ class PaperCounters:
 
 def paper_bits(high, low, requests, counters=None):
     """The step bit of every tick when each tick runs PasAvans, then SetPasAvans while steps are wanted."""
-    counters = counters or PaperCounters(high, low)
-    bits, pending = [], 0
-    for wanted in requests:
-        bits.append(int(counters.pas_avans()))
-        pending += int(wanted)
-        if pending and counters.set_pas_avans():
-            pending -= 1
+    counters, bits, owed = counters or PaperCounters(high, low), [], 0
+    for tick in range(len(requests)):
+        bits += [int(counters.pas_avans())]
+        owed += 1 if requests[tick] else 0
+        owed -= 1 if owed > 0 and counters.set_pas_avans() else 0
     return bits
 
 

@@ -131,15 +131,15 @@ def test_raw_sending_loses_what_the_wire_damages(lab):
 
 def recount(seq, payload):
     """The checks' own count of the flips the receiver refuses, by reason (see the handout, task 4)."""
-    good, counts = framed(seq, payload), {}
-    for bit in range(8 * len(good)):
-        damaged = bytearray(good)
-        damaged[bit // 8] ^= 1 << (bit % 8)
-        events = FrameDecoder().feed(bytes(damaged) + bytes((SOF,)))
-        if Frame(seq, payload) not in events:
-            reason = next((e.reason for e in events if isinstance(e, BadFrame)), "lost")
-            counts[reason] = counts.get(reason, 0) + 1
-    return counts, 8 * len(good)
+    wire, counts, sent = framed(seq, payload), {}, Frame(seq, payload)
+    for byte_index, mask in ((k, 1 << b) for k in range(len(wire)) for b in range(8)):
+        flipped = wire[:byte_index] + bytes((wire[byte_index] ^ mask,)) + wire[byte_index + 1:]
+        heard = FrameDecoder().feed(flipped + bytes((SOF,)))
+        if sent in heard:
+            continue
+        bad = [event.reason for event in heard if isinstance(event, BadFrame)]
+        counts[bad[0] if bad else "lost"] = counts.get(bad[0] if bad else "lost", 0) + 1
+    return counts, 8 * len(wire)
 
 
 def test_refusals_by_reason(lab):
@@ -163,15 +163,15 @@ def test_refusals_by_reason(lab):
 
 def reference_run(commands, flip, seed):
     """The checks' own protocol run, as the handout builds it: (delivered, the host's stats)."""
-    delivered = []
-    host = HostEndpoint(LATHE, max_tries=MAX_TRIES)
-    device = DeviceEndpoint(LATHE, delivered.append)
-    rng = random.Random(seed)
-    bench = LinkBench(host, device, to_device=FaultyWire(rng, flip=flip), to_host=FaultyWire(rng, flip=flip), rng=rng)
-    for cmd in commands:
-        host.send(cmd, bench.now)
+    noise, arrived = random.Random(seed), []
+    wires = {"to_device": FaultyWire(noise, flip=flip)}
+    wires["to_host"] = FaultyWire(noise, flip=flip)
+    sender = HostEndpoint(LATHE, max_tries=MAX_TRIES)
+    bench = LinkBench(sender, DeviceEndpoint(LATHE, arrived.append), rng=noise, **wires)
+    for command in commands:
+        sender.send(command, bench.now)
     bench.run()
-    return delivered, host.stats
+    return arrived, sender.stats
 
 
 def _stats(stats):
