@@ -40,7 +40,7 @@ def seed_note() -> str:
 
 
 def borrowed(path: str | Path, answers: dict[str, set[str]], within: set[str] | None = None,
-             methods: frozenset[str] = frozenset()) -> list[str]:
+             methods: frozenset[str] = frozenset(), strings: bool = True) -> list[str]:
     """Where the file at ``path`` reaches for a library function that is the answer itself.
 
     ``answers`` maps a module to the names in it a student must not call (``{"retrofit.demo":
@@ -49,7 +49,8 @@ def borrowed(path: str | Path, answers: dict[str, set[str]], within: set[str] | 
     ``importlib`` call). With ``within`` (names of the file's functions and classes), only those and
     what they call of the file's own are read: the lab's given code may import the library for its
     plots. ``methods`` are attribute names that are answers on whatever object they are read
-    (``motor.max_accel_steps_s2``). Returns one 'line N: ...' per place.
+    (``motor.max_accel_steps_s2``); ``strings=False`` leaves names written in strings alone (a file
+    that lists the answers, as the checks do). Returns one 'line N: ...' per place.
     """
     try:
         tree = ast.parse(Path(path).read_text(encoding="utf-8"))
@@ -76,8 +77,8 @@ def borrowed(path: str | Path, answers: dict[str, set[str]], within: set[str] | 
             module, _, name = aliases[node.id].rpartition(".")
             if module and _forbidden(module, name, answers):
                 places.append(f"line {node.lineno}: {node.id} ({aliases[node.id]})")
-        elif isinstance(node, ast.Constant) and isinstance(node.value, str) and (node.value in answers
-                                                                                 or node.value in methods):
+        elif strings and isinstance(node, ast.Constant) and isinstance(node.value, str) \
+                and (node.value in answers or node.value in methods):
             places.append(f"line {node.lineno}: {node.value!r}")
     return sorted(set(places), key=lambda p: int(p.split(":")[0][5:]))
 

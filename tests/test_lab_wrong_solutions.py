@@ -87,3 +87,27 @@ def test_a_solution_that_never_returns_fails_naming_its_todo(monkeypatch, tmp_pa
     message = failed[0].message
     assert message.startswith("TODO 2") and "did not finish within 1 s" in message and "\n" not in message
     assert "waits_for_the_pulse.py line" in message and "in set_pas_avans" in message
+
+
+#: per lab, the library functions that would hand over the answer: no check may take its expected
+#: values from them (a student's file could call them too); an empty set forbids the whole module
+ANSWERS = {"01": ({"retrofit.demo": set()}, frozenset()),
+           "02": ({"retrofit.motion.stepgen": set()}, frozenset()),
+           "03": ({"retrofit.motion.bresenham": set(), "retrofit.motion.dda": set()}, frozenset()),
+           "05": ({}, frozenset({"max_accel_steps_s2", "max_rate_steps_s"})),
+           "07": ({"retrofit.camlink.model": {"Comparison", "compare"}}, frozenset({"overshoot", "following_error"})),
+           "08": ({}, frozenset({"pocket_position"})),
+           "09": ({"retrofit.link": {"encode_frame"}, "retrofit.link.framing": {"encode_frame", "stuff"}}, frozenset()),
+           "10": ({"retrofit.gcode": set()}, frozenset())}
+#: the checks of the checks, worth no points, may compare the checks' oracle with the library's
+CHECKS_OF_CHECKS = {"by_retrofit", "test_recorded_and_retrofit_agree_where_both_run"}
+
+
+@pytest.mark.parametrize("lab", [lab for lab in LABS if lab.number in ANSWERS], ids=lambda lab: lab.number)
+def test_no_check_takes_its_expected_values_from_the_library(lab):
+    import ast
+    from retrofit.labcheck import borrowed
+    tree = ast.parse(lab.checks.read_text(encoding="utf-8"))
+    names = {node.name for node in tree.body if isinstance(node, (ast.FunctionDef, ast.ClassDef))} - CHECKS_OF_CHECKS
+    modules, methods = ANSWERS[lab.number]
+    assert borrowed(lab.checks, modules, within=names, methods=methods, strings=False) == []

@@ -199,7 +199,7 @@ def test_chosen_gain_is_good_in_the_simulation(lab, mill):
     sim = lab.metrics_of(runs, "sim")
     best = lab.best_gain(sim)
     c = step_comparison(lab.with_gains(mill, best), "X", 0.2, 300)
-    over = 100 * max(c.overshoot("sim"), 0.0)
+    over = overshoot_reference(c.setpoint, c.sim)
     settled = np.abs(c.setpoint - c.sim)[-50:].max() <= 0.02 * 200
     expect(over <= 5.0 + 1e-9 and settled, f"the simulated step with your best gain kp = {best}",
            expected="overshoot at most 5 % and within 2 % of the step over the last 50 ms",
@@ -209,6 +209,6 @@ def test_chosen_gain_is_good_in_the_simulation(lab, mill):
 def test_model_agrees_with_simulation(lab, mill):
     """With the shipped gain, the python-control model and the simulation overshoot alike (within 3 points)"""
     c = step_comparison(lab.with_gains(mill, 0.5), "X", 0.2, 200)
-    model, sim = 100 * c.overshoot("model"), 100 * c.overshoot("sim")
+    model, sim = overshoot_reference(c.setpoint, c.model), overshoot_reference(c.setpoint, c.sim)
     expect(abs(model - sim) <= 3.0, "overshoot of model and simulation at kp 0.5", expected="within 3 points",
            got=f"model {model:.1f} %, simulation {sim:.1f} %")

@@ -1,7 +1,7 @@
 """Checks of lab 10 (G-code to motion): run with `retrofit lab check 10`, or pytest on this file.
 
 The oracles: for the lab's programs, the moves LinuxCNC's interpreter gave (recorded in
-programs/*.canon) and retrofit's interpreter where it runs them; for programs drawn at random
+programs/*.canon; retrofit's interpreter agrees where it runs them); for programs drawn at random
 (seeded: RETROFIT_CHECK_SEED draws them again) and written in every spacing and case RS274NGC
 allows, an interpreter of the lab's words written here, which agrees with LinuxCNC on the lab's
 programs (a check of the checks).
@@ -115,10 +115,8 @@ def test_one_hole_worked_by_hand(lab, start, hole, want):
 
 @pytest.mark.parametrize("name", NAMES)
 def test_program_moves_match_the_interpreter(lab, name):
-    """TODO 4: interpret() gives the moves of each program, as retrofit's or LinuxCNC's interpreter"""
-    want, oracle = by_retrofit(name), "retrofit's interpreter"
-    if want is None:
-        want, oracle = recorded(name), "LinuxCNC's interpreter (programs/*.canon)"
+    """TODO 4: interpret() gives the moves of each program, as LinuxCNC's interpreter gave them"""
+    want, oracle = recorded(name), "LinuxCNC's interpreter (programs/*.canon)"
     got = _moves(lab, name)
     first = next((i for i, (g, w) in enumerate(zip(got, want)) if not _same([g], [w])), min(len(got), len(want)))
     expect(_same(got, want), f"the moves of {name}.ngc against {oracle}",
