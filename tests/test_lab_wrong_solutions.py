@@ -9,10 +9,13 @@ in, swapped axes, closed forms that skip the algorithm the lab teaches, inputs a
 answer instead of computing it (``oracle_*``). The reference passing is proved in tests/test_labs.py.
 """
 
+import ast
+import re
 from pathlib import Path
 
 import pytest
 
+from retrofit.labcheck import borrowed
 from retrofit.labs import CHECK_SECONDS_ENV as SECONDS_ENV, check_lab, list_labs, result_lines
 from retrofit.labwrong import materialise, variants
 
@@ -29,7 +32,6 @@ def _ids(cases):
 
 def todos_named(title: str) -> set[int]:
     """The TODO numbers a check's title names: 'TODO 1, 2: ...' -> {1, 2}; 'TODOs 1-3: ...' -> {1, 2, 3}."""
-    import re
     match = re.match(r"TODOs? ([\d, -]+(?:or TODO \d+)?)", title)
     if not match:
         return set()
@@ -105,8 +107,6 @@ CHECKS_OF_CHECKS = {"by_retrofit", "test_recorded_and_retrofit_agree_where_both_
 
 @pytest.mark.parametrize("lab", [lab for lab in LABS if lab.number in ANSWERS], ids=lambda lab: lab.number)
 def test_no_check_takes_its_expected_values_from_the_library(lab):
-    import ast
-    from retrofit.labcheck import borrowed
     tree = ast.parse(lab.checks.read_text(encoding="utf-8"))
     names = {node.name for node in tree.body if isinstance(node, (ast.FunctionDef, ast.ClassDef))} - CHECKS_OF_CHECKS
     modules, methods = ANSWERS[lab.number]
