@@ -4,6 +4,7 @@ when lines are added above it, and says which patch and hunk no longer fit; ever
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from retrofit.errors import ConfigError
 from retrofit.labs import list_labs
@@ -92,3 +93,23 @@ def test_a_patch_written_by_diff_u_with_its_dates_is_read(tmp_path):
                     "+++ mine.py\t2026-11-27 09:01:00.000000000 +0000\n@@ -2,3 +2,2 @@\n line 2\n-line 3\n line 4\n",
                     encoding="utf-8")
     assert apply_variant(read_variant(path), REFERENCE) == REFERENCE.replace("line 3\n", "")
+
+
+LINES = st.lists(st.sampled_from(["a = 1", "b = 2", "", "    return a", "def f():", "x += 1", "# note"]),
+                 min_size=1, max_size=40)
+
+
+@settings(derandomize=True, max_examples=300, deadline=None)
+@given(reference=LINES, changed=LINES)
+def test_any_change_made_into_a_patch_gives_the_changed_file_back(tmp_path_factory, reference, changed):
+    """Files of few distinct lines, so hunks often look alike: found at the right place or refused, never
+    applied at the wrong one."""
+    ref_text, new_text = "\n".join(reference) + "\n", "\n".join(changed) + "\n"
+    if ref_text == new_text:
+        return
+    path = tmp_path_factory.mktemp("p") / "v.patch"
+    path.write_text(make_variant("Right: another file.", ref_text, new_text, "v"), encoding="utf-8")
+    try:
+        assert apply_variant(read_variant(path), ref_text) == new_text
+    except ConfigError as exc:
+        assert "as near as each other" in str(exc)
