@@ -16,8 +16,8 @@ import pytest
 from retrofit.labs import CHECK_SECONDS_ENV as SECONDS_ENV, check_lab, list_labs
 
 ROOT = Path(__file__).resolve().parent.parent / "labs"
-# labs 01-08 (labs 09 and 10 prove their own wrong solutions in tests/test_lab_09.py and _10.py)
-LABS = [lab for lab in list_labs(ROOT) if (lab.path / "wrong").is_dir() and int(lab.number) <= 8]
+# every lab but 09 and 10, which prove their own wrong solutions in tests/test_lab_09.py and _10.py
+LABS = [lab for lab in list_labs(ROOT) if (lab.path / "wrong").is_dir() and lab.number not in ("09", "10")]
 DOC = re.compile(r"^Wrong in TODO (\d+): .+\.$")
 HANGS = {"waits_for_the_pulse.py"}     # never returns: proved with a short time limit below
 
