@@ -60,6 +60,8 @@ class Model:
     def prepare(self, text):
         head, words, letters = _words(text)
         names, ip = self.m.axis_names, self.interp
+        if head == "PFDR" and words[0][1] <= 0:
+            return {"kind": "refused", "cmd": text}
         if head == "PFDR":
             ip["feed"], ip["group"] = words[0][1], ip["group"] + 1
         elif head == "DELY":
@@ -109,7 +111,7 @@ class Model:
         if head in ("STOP", "INIT"):
             return self.halt(False) if head == "STOP" else self.reset()
         if head in ("FFDR", "MFDR"):
-            return self.override(head, words[0][1])
+            return self.override(head, words[0][1]) if words[0][1] > 0 else "ERR"
         if self.stopped or self.error:
             return "ERR"
         if len(self.queue) == 3:
@@ -211,12 +213,12 @@ def _command(rng, machine, queued_only=False):
             mm = hi + rng.uniform(0.5, 3) if limit and rng.random() < 0.02 else rng.uniform(lo, hi)
             out.append(f"{name}{round(mm, rng.choice([0, 1, 2, 3])):g}")
         return " ".join(out)
-    table = [("PMOV ", 28, axes), ("FMOV ", 14, axes), ("PFDR F", 7, lambda: f"{rng.choice([120, 250.5, 640])}"),
+    table = [("PMOV ", 28, axes), ("FMOV ", 14, axes), ("PFDR F", 7, lambda: f"{rng.choice([120, 250.5, 640, 640, 640, 0])}"),
              ("DELY P", 5, lambda: f"{rng.choice([0, 1, 3, 40, 250]) * machine.tick_s:.6g}"), ("PSTN ", 5, lambda: axes(limit=False)),
              ("CSTP", 3, str), ("ZMOV", 0 if "homing" in machine.parts else 3,
                                  lambda: rng.choice(["", " " + rng.choice(names)]))]
     if not queued_only:
-        table += [("RDST", 6, str), ("RDPS", 6, str), ("MFDR F", 5, lambda: f"{rng.choice([60, 400, 900.5])}"),
+        table += [("RDST", 6, str), ("RDPS", 6, str), ("MFDR F", 5, lambda: f"{rng.choice([60, 400, 900.5, 0])}"),
                   ("FFDR F", 4, lambda: f"{rng.choice([500, 2000])}"), ("STOP", 1, str), ("INIT", 2, str)]
     head, _, tail = rng.choices(table, weights=[w for _, w, _ in table])[0]
     return (head + tail()).strip()
@@ -291,7 +293,7 @@ def test_prepare(lab, name):
             interp, mine = lab.prepare(interp, machine, text)
             if entry is not None and entry["kind"] == "refused":
                 expect(mine is not None and mine.get("kind") == "refused", f"prepare({text!r}) on {name} (seed {seed})",
-                       expected="an entry of kind 'refused' (outside the soft limits)", got=mine)
+                       expected="an entry of kind 'refused' (a target outside the soft limits, or a feed not above 0)", got=mine)
                 break
             expect(_plain(mine) == entry, f"prepare(interp, {name}, {text!r}), command {k} of seed {seed}",
                    expected=entry, got=mine, hint="targets: round(mm x steps/mm) + the PSTN offset; FMOV and ZMOV "

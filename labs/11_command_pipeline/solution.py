@@ -51,11 +51,13 @@ def prepare(interp: dict, machine, text: str) -> tuple[dict, dict | None]:
     """002's first phase for one command taken from the queue: (the new interpreter state, its entry).
 
     Set-up commands (PFDR, CSTP) change the state and give no entry; a target outside the soft
-    limits gives an entry of kind "refused".
+    limits, or a PFDR feed that is not above 0, gives an entry of kind "refused".
     """
     cmd = parse_command(text)
     interp = {**interp, "position": list(interp["position"]), "offset": list(interp["offset"])}
     if isinstance(cmd, PFdr):
+        if not cmd.feed > 0:
+            return interp, {"kind": "refused", "cmd": text, "why": "the feed must be above 0"}
         interp["feed"] = cmd.feed
         interp["group"] += 1
         return interp, None
@@ -157,7 +159,7 @@ def submit(ctl: dict, machine, text: str):
     if isinstance(cmd, Init):
         return new_controller(machine), "OK"
     if isinstance(cmd, (FFdr, MFdr)):
-        return override(ctl, cmd), "OK"
+        return (override(ctl, cmd), "OK") if cmd.feed > 0 else (ctl, "ERR")
     if ctl["stopped"] or ctl["error"]:
         return ctl, "ERR"
     if len(ctl["queue"]) >= QUEUE_DEPTH:

@@ -52,7 +52,7 @@ def prepare(interp: dict, machine, text: str) -> tuple[dict, dict | None]:
     """002's first phase for one command taken from the queue: (the new interpreter state, its entry).
 
     Set-up commands (PFDR, CSTP) change the state and give no entry; a target outside the soft
-    limits gives an entry of kind "refused".
+    limits, or a PFDR feed that is not above 0, gives an entry of kind "refused".
     """
     # TODO 1 (README, task 1): the hints there open one at a time.
     raise NotImplementedError("TODO 1: write prepare(interp, machine, text): the entry of one command, the interpreter's new state")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +14,7 @@ from retrofit.labs import pyplot, save_figure
 from retrofit.motion.bresenham import bresenham_cycles, prepare_line
 
 MACHINE = "mitic-lathe"
+LOOKAHEAD = 1               # the plots' window: lookahead + 1 = two moves prepared, as the queue fills
 QUEUE_DEPTH = 3             # 002: "a pipelined command queue, which could accept three commands in advance"
 EXTRA_ACTIONS = 16          # PSTN entries the window may hold besides its moves
 #: the program of the plots: a host sends it as fast as the controller takes it
@@ -49,11 +51,13 @@ def prepare(interp: dict, machine, text: str) -> tuple[dict, dict | None]:
     """002's first phase for one command taken from the queue: (the new interpreter state, its entry).
 
     Set-up commands (PFDR, CSTP) change the state and give no entry; a target outside the soft
-    limits gives an entry of kind "refused".
+    limits, or a PFDR feed that is not above 0, gives an entry of kind "refused".
     """
     cmd = parse_command(text)
     interp = {**interp, "position": list(interp["position"]), "offset": list(interp["offset"])}
     if isinstance(cmd, PFdr):
+        if not cmd.feed > 0:
+            return interp, {"kind": "refused", "cmd": text, "why": "the feed must be above 0"}
         interp["feed"] = cmd.feed
         interp["group"] += 1
         return interp, None
@@ -155,7 +159,7 @@ def submit(ctl: dict, machine, text: str):
     if isinstance(cmd, Init):
         return new_controller(machine), "OK"
     if isinstance(cmd, (FFdr, MFdr)):
-        return override(ctl, cmd), "OK"
+        return (override(ctl, cmd), "OK") if cmd.feed > 0 else (ctl, "ERR")
     if ctl["stopped"] or ctl["error"]:
         return ctl, "ERR"
     if len(ctl["queue"]) >= QUEUE_DEPTH:
@@ -267,6 +271,7 @@ def plot_path(machine, states, out_dir) -> Path:
 def main(out_dir="out") -> list[Path]:
     """Stream the program through your controller and plot its pipeline and its position."""
     machine = load_machine(MACHINE)
+    machine = replace(machine, motion=replace(machine.motion, lookahead=LOOKAHEAD))
     states = stream(machine, PROGRAM)
     print(f"{len(PROGRAM)} commands in {len(states)} ticks; position at the end "
           f"{states[-1]['position']} steps")
