@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from copy import deepcopy
 from dataclasses import replace
 from pathlib import Path
 
@@ -203,17 +204,27 @@ def tick(ctl: dict, machine) -> dict:
 
 def run(machine, events) -> list:
     """Play ``events`` -- ("submit", text) or ("tick", count) -- and record (reply, state) after each
-    command and after every tick (reply None for a tick)."""
+    command and after every tick (reply None for a tick; each state a copy, so a function that
+    changes the state it was given in place still leaves a true record)."""
     ctl, records = new_controller(machine), []
     for kind, value in events:
         if kind == "submit":
             ctl, reply = submit(ctl, machine, value)
-            records.append((reply, ctl))
+            records.append((reply, deepcopy(ctl)))
         else:
             for _ in range(value):
                 ctl = tick(ctl, machine)
-                records.append((None, ctl))
+                records.append((None, deepcopy(ctl)))
     return records
+
+
+def run_ticks(ctl: dict, machine, count: int) -> list:
+    """``count`` ticks from the state ``ctl``: the state after each."""
+    states = []
+    for _ in range(count):
+        ctl = tick(ctl, machine)
+        states.append(deepcopy(ctl))
+    return states
 
 
 def stream(machine, program, max_ticks: int = 200_000) -> list:
@@ -227,7 +238,7 @@ def stream(machine, program, max_ticks: int = 200_000) -> list:
                 break
             waiting.pop(0)
         ctl = tick(ctl, machine)
-        states.append(ctl)
+        states.append(deepcopy(ctl))
         if not waiting and ctl["executing"] is None and not ctl["prepared"] and not ctl["queue"]:
             return states
     raise RuntimeError(f"the program did not end within {max_ticks} ticks")
