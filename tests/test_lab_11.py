@@ -101,7 +101,8 @@ def play(seed, machine, events=120):
             want = got = None
             event = "until the next entry starts"
         if want != got or model_view(model) != controller_view(ctl):
-            return f"seed {seed}, event {k} ({event}): reply {want} != {got}\n{model_view(model)}\n{controller_view(ctl)}"
+            return (f"seed {seed}, event {k} ({event}): reply {want} != {got}\n"
+                    f"{model_view(model)}\n{controller_view(ctl)}")
     return None
 
 

@@ -227,8 +227,10 @@ def _command(rng, machine, queued_only=False):
             mm = hi + rng.uniform(0.5, 3) if limit and rng.random() < 0.02 else rng.uniform(lo, hi)
             out.append(f"{name}{round(mm, rng.choice([0, 1, 2, 3])):g}")
         return " ".join(out)
-    table = [("PMOV ", 28, axes), ("FMOV ", 14, axes), ("PFDR F", 7, lambda: f"{rng.choice([120, 250.5, 640, 640, 640, 0])}"),
-             ("DELY P", 5, lambda: f"{rng.choice([0, 1, 3, 40, 250]) * machine.tick_s:.6g}"), ("PSTN ", 5, lambda: axes(limit=False)),
+    table = [("PMOV ", 28, axes), ("FMOV ", 14, axes),
+             ("PFDR F", 7, lambda: f"{rng.choice([120, 250.5, 640, 640, 640, 0])}"),
+             ("DELY P", 5, lambda: f"{rng.choice([0, 1, 3, 40, 250]) * machine.tick_s:.6g}"),
+             ("PSTN ", 5, lambda: axes(limit=False)),
              ("CSTP", 3, str), ("ZMOV", 0 if "homing" in machine.parts else 3,
                                  lambda: rng.choice(["", " " + rng.choice(names)]))]
     if not queued_only:
@@ -306,12 +308,14 @@ def test_prepare(lab, name):
             entry = model.prepare(text)
             interp, mine = lab.prepare(interp, machine, text)
             if entry is not None and entry["kind"] == "refused":
-                expect(mine is not None and mine.get("kind") == "refused", f"prepare({text!r}) on {name} (seed {seed})",
-                       expected="an entry of kind 'refused' (a target outside the soft limits, or a feed not above 0)", got=mine)
+                expect(mine is not None and mine.get("kind") == "refused",
+                       f"prepare({text!r}) on {name} (seed {seed})", got=mine,
+                       expected="an entry of kind 'refused' (a target outside the soft limits, or a feed not above 0)")
                 break
             expect(_plain(mine) == _plain(entry), f"prepare(interp, {name}, {text!r}), command {k} of seed {seed}",
                    expected=entry, got=mine, hint="targets: round(mm x steps/mm) + the PSTN offset; FMOV and ZMOV "
-                   "at the rapid feed, PMOV at the program feed (PFDR, counted in group); n = steps of the longest axis")
+                   "at the rapid feed, PMOV at the program feed (PFDR, counted in group); n = steps of the "
+                   "longest axis")
             expect(_plain(interp) == model.interp, f"the interpreter after prepare({text!r}) on {name} (seed {seed})",
                    expected=model.interp, got=interp, hint=HINTS["interp"])
 

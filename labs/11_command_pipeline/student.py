@@ -56,7 +56,7 @@ def prepare(interp: dict, machine, text: str) -> tuple[dict, dict | None]:
     limits, or a PFDR feed that is not above 0, gives an entry of kind "refused".
     """
     # TODO 1 (README, task 1): the hints there open one at a time.
-    raise NotImplementedError("TODO 1: write prepare(interp, machine, text): the entry of one command, the interpreter's new state")
+    raise NotImplementedError("TODO 1: write prepare(interp, machine, text): one command's entry and the new state")
 
 
 def halt(ctl: dict, error: bool) -> dict:
@@ -96,7 +96,7 @@ def submit(ctl: dict, machine, text: str):
     steps (a list), RDST: :func:`status`.
     """
     # TODO 3 (README, task 3): the hints there open one at a time.
-    raise NotImplementedError("TODO 3: write submit(ctl, machine, text): the immediate scan, the queue of three, BUSY and ERR")
+    raise NotImplementedError("TODO 3: write submit(ctl, machine, text): immediate commands, the queue, BUSY, ERR")
 
 
 def start_next(ctl: dict, machine) -> dict:

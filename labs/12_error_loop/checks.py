@@ -156,7 +156,8 @@ def test_turn(lab):
 def test_evaluate_axis(lab):
     """TODO 2: evaluate_axis turns when the error's sign asks for it and asks for a step while there is an error"""
     rng = random.Random(22)
-    cases = [(5, 5, 1, 3, True), (9, 10, 1, 3, True), (9, 10, 1, 3, False), (12, 10, -1, 2, True), (11, 10, 1, 2, False)]
+    cases = [(5, 5, 1, 3, True), (9, 10, 1, 3, True), (9, 10, 1, 3, False), (12, 10, -1, 2, True),
+             (11, 10, 1, 2, False)]
     cases += [(rng.randint(-40, 40), rng.randint(-40, 40), rng.choice((1, -1)), rng.randint(0, 6), rng.random() < 0.7)
               for _ in range(400)]
     for desired, position, direction, clearance, can_turn in cases:
@@ -202,8 +203,10 @@ def test_carriage_on_the_screw(lab, name):
             mm = [a.to_mm(s) for a, s in zip(machine.axes, t)]
             off = [round(c - m, 4) for c, m in zip(g, mm)]
             expect(all(abs(a - b) < 1e-9 for a, b in zip(w, g)),
-                   f"carriage at target {k} {t} steps = {[round(m, 4) for m in mm]} mm on {_where(machine, seed, comp)}",
-                   expected=f"{[round(c, 4) for c in w]} mm ({[round(c - m, 4) for c, m in zip(w, mm)]} from the target)",
+                   f"carriage at target {k} {t} steps = {[round(m, 4) for m in mm]} mm on "
+                   f"{_where(machine, seed, comp)}",
+                   expected=f"{[round(c, 4) for c in w]} mm "
+                            f"({[round(c - m, 4) for c, m in zip(w, mm)]} from the target)",
                    got=f"{[round(c, 4) for c in g]} mm ({off} from the target)",
                    hint="with compensation each reversal must add the clearance's steps; without, none")
             if comp and all(round(machine.sim.dead_band_mm[a.name] * a.steps_per_mm) == a.backlash_steps

@@ -24,7 +24,7 @@ def turn(position: int, direction: int, new_direction: int, clearance: int) -> t
     by the clearance against the new direction, so the loop issues that many extra steps.
     """
     # TODO 1 (README, task 1): the hints there open one at a time.
-    raise NotImplementedError("TODO 1: write turn(position, direction, new_direction, clearance): the shift of a reversal")
+    raise NotImplementedError("TODO 1: write turn(position, direction, new_direction, clearance): a reversal")
 
 
 def evaluate_axis(desired: int, position: int, direction: int, clearance: int,
@@ -35,7 +35,7 @@ def evaluate_axis(desired: int, position: int, direction: int, clearance: int,
     a step): then nothing happens this tick.
     """
     # TODO 2 (README, task 2): the hints there open one at a time.
-    raise NotImplementedError("TODO 2: write evaluate_axis(desired, position, direction, clearance, can_turn): one axis of EvaluateEroare")
+    raise NotImplementedError("TODO 2: write evaluate_axis(desired, position, direction, clearance, can_turn)")
 
 
 def run_loop(machine, targets, backlash_comp: bool = True, start_steps=None) -> dict:
@@ -51,7 +51,7 @@ def run_loop(machine, targets, backlash_comp: bool = True, start_steps=None) -> 
     ``readout``: ``[tick, axis name, instantaneous position]`` every time that position changes.
     """
     # TODO 3 (README, task 3): the hints there open one at a time.
-    raise NotImplementedError("TODO 3: write run_loop(machine, targets, backlash_comp, start_steps): the timer loop through every target")
+    raise NotImplementedError("TODO 3: write run_loop(machine, targets, backlash_comp, start_steps): the timer loop")
 
 
 def carriages(machine, run: dict, start_steps=None) -> list[list[float]]:
