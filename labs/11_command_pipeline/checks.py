@@ -330,6 +330,9 @@ def test_interpret_fills_the_window(lab, name):
         model.queue = [_command(rng, machine, queued_only=True) for _ in range(rng.randint(1, 3))]
         model.prepared = [e for e in (model.prepare(_command(rng, machine, True)) for _ in range(rng.randint(0, 5)))
                           if e and e["kind"] != "refused"]
+        if seed == 215:                    # a window of PSTNs: they ride along, 16 at most
+            model.prepared = [model.prepare("PSTN X1") for _ in range(model.window + 15)]
+            model.queue = ["PSTN X2", "PMOV X0"]
         before = model.state()
         model.interpret()
         mine = _plain(lab.interpret(before, machine))
@@ -363,6 +366,10 @@ def test_tick_executes_one_cycle_at_a_time(lab, name):
             if len(model.queue) < 3:
                 model.queue.append(_command(rng, machine, queued_only=True))
                 model.interpret()
+        if seed == 403:                    # zero dwells ahead of a queued move: all start and end in one tick
+            model.reset()
+            model.prepared = [model.prepare("DELY P0") for _ in range(model.window)]
+            model.queue = ["FMOV " + " ".join(f"{n}0" for n in machine.axis_names)]
         state, want = model.state(), []
         while (model.executing or model.prepared or model.queue) and len(want) < 3000:
             model.tick()
