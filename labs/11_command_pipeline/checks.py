@@ -180,16 +180,19 @@ FIELDS = {"move": ("kind", "cmd", "start", "end", "n", "feed", "rapid", "group")
 def _plain(value):
     """Tuples as lists, numbers as int / float, dicts key by key (entries, the interpreter and RDST's
     answer by the keys the handout names): what a comparison should see."""
-    if isinstance(value, dict):
-        kind = value.get("kind") if value.get("kind") in FIELDS else \
-            "interp" if "rapid" in value and "kind" not in value else "status" if "queue_full" in value else None
-        keys = FIELDS[kind] if kind else value
-        return {k: _plain(value[k]) if k in value else "(missing)" for k in keys}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, bool) or value is None or isinstance(value, str):
+    kind = type(value)
+    if kind is int or kind is str or kind is bool or value is None:
         return value
-    return float(value) if isinstance(value, float) or not float(value).is_integer() else int(value)
+    if kind is dict:
+        name = value.get("kind") if value.get("kind") in FIELDS else \
+            "interp" if "rapid" in value and "kind" not in value else "status" if "queue_full" in value else None
+        keys = FIELDS[name] if name else value
+        return {k: _plain(value[k]) if k in value else "(missing)" for k in keys}
+    if kind is list or kind is tuple:
+        return [_plain(v) for v in value]
+    if isinstance(value, bool):
+        return bool(value)
+    return float(value) if not float(value).is_integer() else int(value)
 
 
 # -- machines and streams -------------------------------------------------------------------------
