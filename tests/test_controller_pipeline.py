@@ -4,6 +4,8 @@ Step times are read from the port frames, as a driver decodes them; positions fr
 machine the controller drove.
 """
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -200,6 +202,19 @@ def test_a_move_outside_the_soft_limits_is_refused_with_an_error():
     assert st.flags & F.ERROR and not st.flags & F.MOVING
     assert "X 55.000 mm is outside the soft limits -40..40 mm" in ctl.fault
     assert ctl.submit(Init()) is None and not ctl.submit(Rdst()).flags & F.ERROR
+
+
+def test_a_refused_command_met_as_the_next_move_starts_stops_the_carriage_there():
+    """The queue refills when a move starts; a command refused then halts everything, the move
+    that was about to start included: the carriage stays where the last move ended."""
+    lathe = replace(LATHE, motion=replace(LATHE.motion, lookahead=1))     # two moves prepared, two queued
+    ctl = Controller(lathe, backlash_comp=False, sim=SimMachine(lathe))
+    feed(ctl, [FMov((("X", 1.0),)), FMov((("X", 2.0),)), FMov((("X", 3.0),)), FMov((("X", 99.0),))])
+    ctl.run_until_idle(1_000_000)
+    assert "X 99.000 mm is outside the soft limits" in ctl.fault
+    x = ctl.position_steps[0]
+    assert 39 <= x <= 40                    # X 1 mm (its last step may be cut by the halt), no step of X 2
+    assert ctl.sim.state_at(ctl.ticks)["X"][0] == x
 
 
 def test_istp_without_a_spindle_stops_with_a_clear_error():

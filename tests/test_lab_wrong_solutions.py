@@ -20,7 +20,7 @@ from retrofit.labs import CHECK_SECONDS_ENV as SECONDS_ENV, check_lab, list_labs
 from retrofit.labwrong import materialise, variants
 
 ROOT = Path(__file__).resolve().parent.parent / "labs"
-LABS = [lab for lab in list_labs(ROOT) if int(lab.number) <= 10]
+LABS = list_labs(ROOT)
 HANGS = {"waits_for_the_pulse"}     # never returns: proved with a short time limit below
 WRONG = [(lab, v) for lab in LABS for v in variants(lab.path, "wrong") if v.name not in HANGS]
 RIGHT = [(lab, v) for lab in LABS for v in variants(lab.path, "right")]
@@ -43,12 +43,13 @@ def todos_named(title: str) -> set[int]:
 
 
 def test_every_lab_keeps_wrong_and_right_variants_of_its_own():
-    assert len(LABS) == 10
+    assert len(LABS) == 12
     for lab in LABS:
         assert not list((lab.path / "wrong").glob("*.py")), f"{lab.path.name}: wrong/ holds patches, not copies"
         wrong, right = variants(lab.path, "wrong"), variants(lab.path, "right")
         assert len(wrong) >= 12, f"{lab.path.name}: {len(wrong)} wrong variants"
-        assert len(right) >= 3, f"{lab.path.name}: {len(right)} right variants"
+        # labs 11 and 12 check against a model of their own, tick by tick (tests/test_lab_11.py, _12.py)
+        assert len(right) >= 3 or int(lab.number) >= 11, f"{lab.path.name}: {len(right)} right variants"
         assert all(not v.right for v in wrong) and all(v.right for v in right)
         assert any(v.name.startswith("oracle_") for v in wrong), f"{lab.path.name}: no file calling the library's answer"
 

@@ -182,6 +182,8 @@ class Processor(FeedOverrides):
                 return False
             self.window.popleft()
             self.refill()
+            if self.error or self.stopped:        # a command refused while refilling halted it all
+                return False
             self._serial_now = entry.serial
             self.run = self._begin(entry, tick)
             return True
