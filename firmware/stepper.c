@@ -305,3 +305,5 @@ uint8_t stepper_index_seen(void) { return st_index_seen; }
 
 void stepper_clear_index_seen(void) { st_index_seen = 0; }
 
+uint8_t stepper_waiting_index(void) { return st_state == ENCODER && st_index_wait; }
+

@@ -24,6 +24,10 @@ from ..errors import MotionError
 from ..motion.bresenham import LineMove
 from ..motion.indexer import IndexerExecutor, IndexerTrack, lead_in_counts, steps_per_rev
 
+#: a pass that sees no index pulse this long while it waits to synchronise stops with an error
+#: (the firmware's INDEX_TIMEOUT_MS too)
+INDEX_TIMEOUT_S = 5.0
+
 
 class IndexRun:
     """One ISTP move executing."""
@@ -42,6 +46,8 @@ class IndexRun:
         self.origin = chained_from            # where the previous ISTP move's line ended
         self.phase = "takeup"
         self.seen = None                      # the index count last seen while waiting
+        self.index_at = None                  # the tick it was last seen to change
+        self.timeout_ticks = round(INDEX_TIMEOUT_S * self.rate)
         self.track: IndexerTrack | None = None
         self.executor: IndexerExecutor | None = None
         self.s = steps_per_rev(entry.feed_mm_rev, entry.path.length_mm, line.n) if line.n else Fraction(0)
@@ -67,7 +73,7 @@ class IndexRun:
             else:
                 self.phase = "sync"
         if self.phase == "sync":
-            self._synchronise(inputs, pulses)
+            self._synchronise(tick, inputs, pulses)
         if self.phase == "armed" and inputs.count >= self.track.start_count:
             self.phase = "run"
         if self.phase == "run":
@@ -86,8 +92,15 @@ class IndexRun:
                 pulses.request(axis, tick + 1 + math.ceil(math.sqrt(2.0 * k / accel) * self.rate),
                                1 if steps > 0 else -1)
 
-    def _synchronise(self, inputs, pulses) -> None:
-        """Wait for the take-up to finish, the spindle to be at speed and a fresh index pulse."""
+    def _synchronise(self, tick: int, inputs, pulses) -> None:
+        """Wait for the take-up to finish, the spindle to be at speed and a fresh index pulse;
+        MotionError when no index pulse comes for INDEX_TIMEOUT_S."""
+        if self.index_at is None or inputs.index_count != self._last_index:
+            self.index_at, self._last_index = tick, inputs.index_count
+        elif tick - self.index_at > self.timeout_ticks:
+            raise MotionError(f"{self.entry.cmd} under ISTP: no spindle index pulse for "
+                              f"{INDEX_TIMEOUT_S:g} s; the spindle is not turning (stalled, or not "
+                              "started); motion halted")
         if pulses.pending or not inputs.at_speed or self.seen is None:
             self.seen = inputs.index_count
             return
