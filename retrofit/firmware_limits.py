@@ -221,8 +221,8 @@ def plan_within_limits(expanded, machine: Machine, limits: Limits | None = None)
         for c in walk.clamps.values():
             c.feeds = [feed if n in fast_lines else f for n, f in zip(c.lines, c.feeds)]
     where.append(len(out))
-    for e in expanded.events:               # each pause and tool change stays before its command
-        e.index = where[e.index]
+    expanded.events[:] = [dataclasses.replace(e, index=where[e.index])   # each pause and tool
+                          for e in expanded.events]                       # change stays in place
     expanded.commands, expanded.lines = out, lines
     return [c.note() for c in walk.clamps.values()]
 

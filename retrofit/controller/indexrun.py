@@ -92,6 +92,10 @@ class IndexRun:
                 pulses.request(axis, tick + 1 + math.ceil(math.sqrt(2.0 * k / accel) * self.rate),
                                1 if steps > 0 else -1)
 
+    def sync_deadline(self) -> int:
+        """The tick after which, with no new index pulse, the wait ends in an error."""
+        return (self.index_at if self.index_at is not None else 0) + self.timeout_ticks + 1
+
     def _synchronise(self, tick: int, inputs, pulses) -> None:
         """Wait for the take-up to finish, the spindle to be at speed and a fresh index pulse;
         MotionError when no index pulse comes for INDEX_TIMEOUT_S."""
