@@ -182,3 +182,13 @@ def test_retrofit_firmware_limits_prints_the_table_and_the_shipped_machines(caps
     assert re.search(rf"3:bresenham\s+{limits.measured['3:bresenham']:.0f}\s+{limits.steps['3:bresenham']:.0f}", out)
     assert "mitic-lathe encoder: 15333 counts/s at max_rpm, within" in out
     assert "ABOVE" not in out and "REFUSED" not in out
+
+
+def test_a_pause_stays_between_the_moves_it_stood_between_when_feeds_are_clamped(tmp_path):
+    machine = load_machine(fast_mill(tmp_path))
+    exp, notes = planned("G21 G90\nG0 X20\nM0\nG1 X40 F30000\nM2\n", machine)
+    (pause,) = exp.pauses
+    before = [str(c) for c in exp.commands[:pause.index]]
+    after = [str(c) for c in exp.commands[pause.index:]]
+    assert before[-1].startswith("FMOV X20") and after[0].startswith("PFDR F")
+    assert after[1].startswith("PMOV X40") and pause.line == 3
