@@ -289,7 +289,8 @@ def send_naming_line(out, device, lines, file: str, start: int, end: int) -> dic
 
 
 def _index_timeout_line(out, device, lines, end: int):
-    """The line of the ISTP pass that starts where the controller stands, if it timed out."""
+    """The line of the ISTP pass the controller stands on (at its start, or part-way along it,
+    but not at its end), if it stopped for want of an index pulse."""
     from .commands import Rdps, Rdst
     from .errors import LinkError
     from .link.replies import flag_names
@@ -302,14 +303,27 @@ def _index_timeout_line(out, device, lines, end: int):
         return None
     m = out.machine
     pos = {a.name: 0 for a in m.axes}            # INIT, then the program's moves
+    here = {**pos, **position}
     indexer = False
     for k, cmd in enumerate(device[:end]):
         if isinstance(cmd, (IStp, CStp)):
             indexer = isinstance(cmd, IStp)
-        elif isinstance(cmd, (PMov, Prob)) and indexer and pos == {**pos, **position}:
-            return lines[k] if k < len(lines) else None
-        if isinstance(cmd, (FMov, PMov, Prob, Pstn)):
-            pos.update({m.axis(n).name: m.axis(n).to_steps(mm) for n, mm in cmd.axes})
         elif isinstance(cmd, Init):
             pos = dict.fromkeys(pos, 0)
+        if not isinstance(cmd, (FMov, PMov, Prob, Pstn)):
+            continue
+        to = {**pos, **{m.axis(n).name: m.axis(n).to_steps(mm) for n, mm in cmd.axes}}
+        if isinstance(cmd, PMov) and indexer and here != to and _on_line(here, pos, to):
+            return lines[k] if k < len(lines) else None
+        pos = to
     return None
+
+
+def _on_line(p: dict, a: dict, b: dict) -> bool:
+    """Whether ``p`` lies on the line from ``a`` to ``b`` (steps, within a step of it)."""
+    d = {n: b[n] - a[n] for n in a}
+    length2 = sum(v * v for v in d.values())
+    if length2 == 0:
+        return p == a
+    t = sum((p[n] - a[n]) * d[n] for n in a) / length2
+    return -1e-9 <= t <= 1 and all(abs(a[n] + t * d[n] - p[n]) <= 1.0 for n in a)

@@ -330,10 +330,10 @@ class Harness:
                  vcd: Path | None = None, stats: bool = False, speed: float | None = None,
                  boot_ms: float = 0.0, stall: tuple[int, bool] | None = None,
                  glitches: list[tuple[str, int, int, int]] = (),
-                 tool: tuple[float, float] | None = None, spindle_stalled: bool = False):
+                 tool: tuple[float, float] | None = None, spindle_stalled: bool | int = False):
         """``spindle_rpm``: an encoder at that fixed speed, else the spindle in the loop
-        (retrofit.firmware_spindle; ``spindle_stalled`` jams it); ``tool``: (length, diameter) mm
-        of the tool in the spindle, for the setter's beam; ``boot_ms``: a bootloader's time before
+        (retrofit.firmware_spindle; ``spindle_stalled``: jammed, or from a cycle on); ``tool``:
+        (length, diameter) mm of the tool in the spindle; ``boot_ms``: a bootloader's time before
         the firmware starts (bytes sent meanwhile are lost); ``stall``: (cycle, interrupts off?)
         the main loop hangs; ``glitches``: (connector or pin such as "XMAX" / "E4", cycle, cycles,
         level) an input driven for a while."""

@@ -15,11 +15,12 @@ from .firmware_sim import F_CPU
 from .sim.spindle import SimSpindle
 
 
-def spindle_model_args(machine: Machine, draws_path: Path, stalled: bool = False) -> list[str]:
+def spindle_model_args(machine: Machine, draws_path: Path, stalled: bool | int = False) -> list[str]:
     """The harness's spindle in the loop (``--spindle-model``): the drive of ``sim://``
     (:class:`retrofit.sim.spindle.SimSpindle`: ramp, load noise of ``[spindle.sim]``) driven by
     the firmware's PWM and direction pins; its load factors drawn here from the machine file's
-    seed, in the order SimSpindle draws them, into ``draws_path``; ``stalled``: it never turns."""
+    seed, in the order SimSpindle draws them, into ``draws_path``; ``stalled``: it never turns
+    (True), or stops dead at that AVR cycle (a number) and stays jammed."""
     from array import array
     spindle = machine.parts.get("spindle")
     if spindle is None:
@@ -31,6 +32,8 @@ def spindle_model_args(machine: Machine, draws_path: Path, stalled: bool = False
     ramp = model.physics.accel_rpm_s * model.tick_s
     args = ["--spindle-model", f"{spindle.encoder_counts_per_rev},{spindle.max_rpm!r},"
             f"{round(machine.tick_us * F_CPU / 1e6)},{ramp!r},{model.tick_s!r},{model.interval},{draws_path}"]
+    if stalled is not True and stalled:
+        return args + ["--spindle-stall-at", str(int(stalled))]
     return args + (["--spindle-stall"] if stalled or spindle.sim.stalled else [])
 
 

@@ -192,3 +192,11 @@ def test_a_pause_stays_between_the_moves_it_stood_between_when_feeds_are_clamped
     after = [str(c) for c in exp.commands[pause.index:]]
     assert before[-1].startswith("FMOV X20") and after[0].startswith("PFDR F")
     assert after[1].startswith("PMOV X40") and pause.line == 3
+
+
+def test_the_pass_a_stopped_controller_stands_on_is_found_part_way_along_it():
+    a, b = {"X": 1120, "Z": 240}, {"X": 1120, "Z": -480}
+    assert fl._on_line({"X": 1120, "Z": 240}, a, b) and fl._on_line({"X": 1120, "Z": -77}, a, b)
+    assert not fl._on_line({"X": 1100, "Z": -77}, a, b) and not fl._on_line({"X": 1120, "Z": 250}, a, b)
+    taper = {"X": 1000, "Z": -480}
+    assert fl._on_line({"X": 1060, "Z": -120}, a, taper) and not fl._on_line({"X": 1060, "Z": -200}, a, taper)

@@ -152,3 +152,66 @@ def test_the_firmware_sim_refuses_a_machine_whose_encoder_it_cannot_follow(tmp_p
     err = capsys.readouterr().err
     assert re.search(r"\[spindle\]: encoder_counts_per_rev = 4000 at max_rpm = 2000 .* is 153333 "
                      r"counts/s; the firmware follows at most 16000 counts/s", err), err
+
+
+def statuses(log, machine) -> list[tuple[int, list[str]]]:
+    """(cycle of its last byte, flag names) of every STAT the firmware sent."""
+    from retrofit.link import FrameDecoder, decode_reply
+    from retrofit.link.replies import Status, flag_names
+    out, decoder = [], FrameDecoder()
+    for cycle, byte in log.uart:
+        for frame in decoder.feed(bytes([byte])):
+            reply = decode_reply(frame.payload, machine)
+            if isinstance(reply, Status):
+                out.append((cycle, flag_names(reply.flags)))
+    return out
+
+
+@needs_avr
+def test_a_spindle_that_jams_during_a_pass_stops_it_with_error_5_s_after_its_last_index():
+    """SPIN S600, ISTP, PMOV Z-5 (400 steps over 10 turns); the spindle stops dead 0.5 s into the
+    pass: the steps stop with it, and ERROR (SPINDLE_ON, no INDEX_SEEN) comes 5 s after the last
+    index pulse, not before; nothing waits for ever."""
+    machine = load_machine("mitic-lathe")
+    S = fs.F_CPU
+    jam = int(1.0 * S)
+    polls = [(c, "RDST") for c in range(int(0.3 * S), int(7.0 * S), int(0.05 * S))]
+    script = frames(machine, [(2_000_000, "SPIN S600 D1"), (3_000_000, "ISTP"), (3_100_000, "PFDR F0.5"),
+                              (3_200_000, "PMOV Z-5")] + polls)
+    log = fs.Harness(fs.build("mitic-lathe"), machine, script=script, cycles=int(7.2 * S),
+                     spindle_stalled=jam).run()
+    sind = [c for c, p, b, level in log.inputs if (p, b, level) == ("D", 1, 1)]
+    rises, _, _ = fs.step_times(log, machine, "Z")
+    assert sind[-1] < jam and 0 < len(rises) < 400 and rises[-1] < jam + S // 100
+    stats = statuses(log, machine)
+    first_error = next(c for c, names in stats if "ERROR" in names)
+    assert 5.0 <= (first_error - sind[-1]) / S <= 5.0 + 0.05 + 0.002
+    names = stats[-1][1]
+    assert "ERROR" in names and "SPINDLE_ON" in names and "INDEX_SEEN" not in names
+
+
+def test_a_spindle_that_jams_during_a_pass_stops_it_on_the_python_controller(monkeypatch):
+    """The 002 controller (sim://'s), ticking every tick itself: the same pass, the simulated
+    spindle stopped dead 0.5 s into it: a ProgramError naming the PMOV."""
+    import retrofit.controller.spans as spans
+    monkeypatch.setattr(spans, "compiled", lambda work=None: False)   # the jam is set per tick
+    from retrofit.commands import parse_command
+    from retrofit.controller.program import ProgramError, run_commands
+    from retrofit.sim import SimMachine
+    machine = load_machine("mitic-lathe")
+    sim = SimMachine(machine)
+    spindle = sim.spindle
+    commands = [parse_command(t) for t in ("SPIN S600 D1", "DELY P0.3", "ISTP", "PFDR F0.5", "PMOV Z-5")]
+    jam_tick = round(0.8 / machine.tick_s)               # 0.5 s into the pass
+
+    def advance(tick, _orig=spindle.advance_to):
+        if tick >= jam_tick and spindle.target_rpm:
+            _orig(jam_tick - 1)
+            spindle.rpm = spindle.target_rpm = 0.0       # stops dead
+        _orig(tick)
+    spindle.advance_to = advance
+    with pytest.raises(ProgramError, match=r"PMOV Z-5 under ISTP: no spindle index pulse for 5 s") as exc:
+        run_commands(commands, machine, sim=sim)
+    assert exc.value.command_index == 4
+    z = sim.traces["Z"]
+    assert 0 < abs(z.motor_steps[-1]) < 400                           # stopped in the pass

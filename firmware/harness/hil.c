@@ -233,11 +233,13 @@ static void port_changed(struct avr_irq_t *irq, uint32_t value, void *param)
  * (PWM_WINDOW cycles), its duty a share of max_rpm, and the direction on D11 (PB5, high: M4).
  * The load factors are drawn by the Python side from the machine file's seed and given in a file
  * of doubles (used in turn, from the start again when used up). --spindle-stall: the spindle is
- * jammed and never turns, whatever the firmware asks. */
+ * jammed and never turns, whatever the firmware asks; --spindle-stall-at CYCLE: it stops dead
+ * then and stays jammed. */
 #define PWM_WINDOW (256UL * 64UL)
 #define MAX_EDGES 64
 static struct {
     int on, stalled;
+    unsigned long long stall_at;          /* --spindle-stall CYCLE: jammed from then on */
     long counts, tick_cycles, interval;
     double max_rpm, ramp, tick_s, rpm, target, knot0, knot1, drive_target;
     double *draws;
@@ -300,6 +302,10 @@ static avr_cycle_count_t drive_tick(avr_t *a, avr_cycle_count_t when, void *para
 {
     (void)param;
     long t = ++sm.tick;
+    if (sm.stall_at && when >= sm.stall_at && !sm.stalled) {
+        sm.stalled = 1;                   /* jammed: it stops dead */
+        sm.rpm = sm.drive_target = 0.0;
+    }
     if (sm.drive_target != sm.target) {
         sm.target = sm.drive_target;
         if (log_file)
@@ -780,6 +786,9 @@ int main(int argc, char **argv)
             i++;
         } else if (!strcmp(a, "--spindle-stall")) {
             sm.stalled = 1;
+        } else if (!strcmp(a, "--spindle-stall-at")) {
+            sm.stall_at = strtoull(v, NULL, 10);
+            i++;
         } else if (!strcmp(a, "--spindle")) {
             sscanf(v, "%lf,%ld", &spindle_rpm, &spindle_counts);
             i++;

@@ -72,8 +72,10 @@ class IndexRun:
                 self._arm(self.origin, 0)
             else:
                 self.phase = "sync"
+        if self.phase != "takeup":
+            self._watch_index(tick, inputs)
         if self.phase == "sync":
-            self._synchronise(tick, inputs, pulses)
+            self._synchronise(inputs, pulses)
         if self.phase == "armed" and inputs.count >= self.track.start_count:
             self.phase = "run"
         if self.phase == "run":
@@ -92,19 +94,21 @@ class IndexRun:
                 pulses.request(axis, tick + 1 + math.ceil(math.sqrt(2.0 * k / accel) * self.rate),
                                1 if steps > 0 else -1)
 
-    def sync_deadline(self) -> int:
-        """The tick after which, with no new index pulse, the wait ends in an error."""
+    def index_deadline(self) -> int:
+        """The tick after which, with no new index pulse, the pass ends in an error."""
         return (self.index_at if self.index_at is not None else 0) + self.timeout_ticks + 1
 
-    def _synchronise(self, tick: int, inputs, pulses) -> None:
-        """Wait for the take-up to finish, the spindle to be at speed and a fresh index pulse;
-        MotionError when no index pulse comes for INDEX_TIMEOUT_S."""
+    def _watch_index(self, tick: int, inputs) -> None:
+        """MotionError when no index pulse has come for INDEX_TIMEOUT_S, waiting or running."""
         if self.index_at is None or inputs.index_count != self._last_index:
             self.index_at, self._last_index = tick, inputs.index_count
         elif tick - self.index_at > self.timeout_ticks:
             raise MotionError(f"{self.entry.cmd} under ISTP: no spindle index pulse for "
                               f"{INDEX_TIMEOUT_S:g} s; the spindle is not turning (stalled, or not "
                               "started); motion halted")
+
+    def _synchronise(self, inputs, pulses) -> None:
+        """Wait for the take-up to finish, the spindle to be at speed and a fresh index pulse."""
         if pulses.pending or not inputs.at_speed or self.seen is None:
             self.seen = inputs.index_count
             return
