@@ -120,8 +120,9 @@ class Clamp:
     def note(self) -> str:
         lo, hi = min(self.feeds), max(self.feeds)
         feeds = f"{lo:.1f}" if math.isclose(lo, hi) else f"{lo:.1f}-{hi:.1f}"
-        lines = ", ".join(str(n) for n in sorted(set(n for n in self.lines if n is not None))) or "-"
-        return (f"feed clamped to {feeds} mm/min on lines {lines}: the firmware keeps "
+        numbers = sorted(set(n for n in self.lines if n is not None))
+        lines = ("line " if len(numbers) == 1 else "lines ") + (", ".join(map(str, numbers)) or "-")
+        return (f"feed clamped to {feeds} mm/min on {lines}: the firmware keeps "
                 f"{self.rate / 1000:g} kHz {self.words}")
 
 
@@ -177,10 +178,14 @@ def plan_within_limits(expanded, machine: Machine, limits: Limits | None = None)
             walk.pos = dict.fromkeys(walk.pos, 0)
         elif isinstance(cmd, Pstn):
             walk.pos.update({machine.axis(n).name: machine.axis(n).to_steps(mm) for n, mm in cmd.axes})
-        elif isinstance(cmd, ZMov):
+        elif isinstance(cmd, ZMov):                    # seeks, one axis at the fast feed
             walk.pos.update({n: walk.home[n] for n in (cmd.names or walk.pos)})
-            fast_need = min(fast_need, limits.step_rate(1, True)[0] / max(
-                a.steps_per_mm for a in machine.axes) * 60.0)
+            walk.case = ("1",) + limits.step_rate(1, True)
+            allowed = walk.case[1] / max(a.steps_per_mm for a in machine.axes) * 60.0
+            if allowed < fast:
+                fast_need = min(fast_need, allowed)
+                walk.clamped(line, _floor_feed(allowed))
+                fast_lines.append(line)
         elif isinstance(cmd, (IStp, CStp)):
             indexer = isinstance(cmd, IStp)
         elif isinstance(cmd, Spin):
@@ -212,7 +217,7 @@ def plan_within_limits(expanded, machine: Machine, limits: Limits | None = None)
         where.append(len(out))
         out.append(cmd)
         lines.append(line)
-    if fast_need < math.inf:
+    if fast_need < math.inf:                            # only ever lowered
         feed = _floor_feed(fast_need)
         out = [FFdr(feed=feed) if isinstance(c, FFdr) and c.feed > feed else c for c in out]
         where = [k + 1 for k in where]

@@ -200,3 +200,25 @@ def test_the_pass_a_stopped_controller_stands_on_is_found_part_way_along_it():
     assert not fl._on_line({"X": 1100, "Z": -77}, a, b) and not fl._on_line({"X": 1120, "Z": 250}, a, b)
     taper = {"X": 1000, "Z": -480}
     assert fl._on_line({"X": 1060, "Z": -120}, a, taper) and not fl._on_line({"X": 1060, "Z": -200}, a, taper)
+
+
+def test_homing_never_raises_the_fast_feed():
+    """G28 on mitic-lathe: its seeks at 1500 mm/min are far below the limit; nothing is sent
+    that was not in the program (an FFDR at the limit's feed would raise the machine's rapid)."""
+    machine = load_machine("mitic-lathe")
+    text = "G21 G90\nG28\nG0 X10 Z5\nM2\n"
+    exp, notes = planned(text, machine)
+    from retrofit.atc.front import expand_host_commands
+    from retrofit.gcode import compile_program
+    plain = expand_host_commands(compile_program(text, machine, file="fast.ngc"), machine)
+    assert notes == [] and [str(c) for c in exp.commands] == [str(c) for c in plain.commands]
+
+
+def test_homing_on_a_fast_machine_is_clamped_and_said(tmp_path):
+    machine = load_machine(fast_mill(tmp_path))
+    one = fl.load().steps["1"]
+    exp, notes = planned("G21 G90\nG28\nM2\n", machine)
+    feed = math.floor(one / 160.0 * 60.0 * 10) / 10          # E: 160 steps/mm, the finest axis
+    assert [str(c) for c in exp.commands][:2] == [f"FFDR F{feed:g}", "ZMOV"]
+    assert notes == [f"feed clamped to {feed:.1f} mm/min on line 2: the firmware keeps "
+                     f"{one / 1000:g} kHz on 1 axis"]
