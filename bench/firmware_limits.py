@@ -10,7 +10,8 @@ link (every 2 ms in one run, every 20 ms in another). Clean: every axis makes ex
 the firmware does not restart (one start line); every interval of the cruise (all but the first
 and last 2 %) within +-1 us of the period and none longer than the period plus 100 us; every
 pulse at least the configured width. Cases: 1 to 4 axes stepping together, and Bresenham
-ratios 1:0.5, 1:0.5:0.25, 1:0.67:0.67 and 1:0.75:0.5:0.25.
+ratios 1:0.5, 1:0.5:0.25, 1:0.67:0.67 and 1:0.75:0.5:0.25; and 1:0.5:0.25 with a 10 us pulse
+(longer than 3 us: ended by compare B's interrupt), the cap for such machines.
 
 Encoder rate: mitic-lathe's build, a thread pass (SPIN S300, ISTP, PFDR F0.5, PMOV Z-5: 400 Z
 steps on 4000 counts) with the harness's encoder turning faster and faster (RDST every 20 ms).
@@ -44,7 +45,18 @@ S = fs.F_CPU
 CASES = {"1": (1000,), "2": (1000, 1000), "3": (1000, 1000, 1000), "4": (1000, 1000, 1000, 1000),
          "2:bresenham": (1000, 500), "3:bresenham": (1000, 500, 250),
          "3:bresenham-b": (1000, 670, 670), "4:bresenham": (1000, 750, 500, 250)}
+#: the same, on a build whose pulse (10 us) the common tick cannot end itself (over 3 us)
+LONG_CASES = {"3:bresenham:long-pulse": (1000, 500, 250)}
 BANNER = b"retrofit firmware machine="
+
+
+def long_pulse(workdir: Path):
+    """The bench machine with a 10 us pulse (compare B's interrupt ends it), period 20 us."""
+    workdir.mkdir(parents=True, exist_ok=True)
+    text = MACHINE.read_text().replace("pulse_high_ticks = 2", "pulse_high_ticks = 10")
+    path = workdir / "steprate10.toml"
+    path.write_text(text.replace('name = "steprate"', 'name = "steprate10"'))
+    return load_machine(path)
 
 
 def restarts(log) -> int:
@@ -127,17 +139,20 @@ def main() -> int:
     step = 5000 if args.quick else 2500
     rates = [float(r) for r in range(5000, 90001, step)]
     measured = {}
-    for case, ratio in CASES.items():
-        def test(rate, ratio=ratio):
-            runs = (step_run(elf, machine, ratio, rate, poll) for poll in (2.0, 20.0))
-            return all(step_clean(log, machine, steps, rate) for log, steps in runs)
-        measured[case] = highest(test, rates)
-        print(f"  {case:<16} clean to {measured[case]:8.0f} steps/s", flush=True)
+    long_machine = long_pulse(Path("/tmp") / f"retrofit-limits-{fl.build_identity()[:12]}")
+    long_elf = fs.build_copy(long_machine, Path("/tmp") / f"retrofit-limits-{fl.build_identity()[:12]}-10us")
+    for cases, m, e in ((CASES, machine, elf), (LONG_CASES, long_machine, long_elf)):
+        for case, ratio in cases.items():
+            def test(rate, ratio=ratio, m=m, e=e):
+                runs = (step_run(e, m, ratio, rate, poll) for poll in (2.0, 20.0))
+                return all(step_clean(log, m, steps, rate) for log, steps in runs)
+            measured[case] = highest(test, rates)
+            print(f"  {case:<24} clean to {measured[case]:8.0f} steps/s", flush=True)
     lathe = load_machine("mitic-lathe")
     lathe_elf = fs.build("mitic-lathe")
     counts = [float(c) for c in range(10_000, 200_001, 10_000 if args.quick else 5_000)]
     encoder = highest(lambda c: encoder_clean(encoder_run(lathe_elf, lathe, c), lathe), counts)
-    print(f"  encoder          clean to {encoder:8.0f} counts/s", flush=True)
+    print(f"  {'encoder':<24} clean to {encoder:8.0f} counts/s", flush=True)
     text = fl.table_text(measured, encoder, args.margin)
     Path(args.out).write_text(text)
     print(text)

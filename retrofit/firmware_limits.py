@@ -69,13 +69,19 @@ class Limits:
     encoder_counts_s: float
     measured: dict[str, float]
 
-    def step_rate(self, moving: int, equal: bool) -> tuple[float, str]:
-        """(steps/s of the base axis, in words) for a move of ``moving`` axes."""
-        if equal and str(moving) in self.steps:
-            return self.steps[str(moving)], f"on {moving} axis" + ("es" if moving > 1 else "")
-        cases = [r for k, r in self.steps.items() if k.split(":")[0] == str(moving) and ":" in k]
-        rate = min(cases) if cases else min(self.steps.values())
-        return rate, f"on {moving} axes in Bresenham ratios"
+    def step_rate(self, moving: int, equal: bool, long_pulse: bool = False) -> tuple[float, str]:
+        """(steps/s of the base axis, in words) for a move of ``moving`` axes; ``long_pulse``: a
+        machine whose pulse is over 3 us (compare B's interrupt ends it): the long-pulse cap too."""
+        short = {k: r for k, r in self.steps.items() if not k.endswith(":long-pulse")}
+        if equal and str(moving) in short:
+            rate, words = short[str(moving)], f"on {moving} axis" + ("es" if moving > 1 else "")
+        else:
+            cases = [r for k, r in short.items() if k.split(":")[0] == str(moving) and ":" in k]
+            rate, words = min(cases) if cases else min(short.values()), f"on {moving} axes in Bresenham ratios"
+        capped = [r for k, r in self.steps.items() if k.endswith(":long-pulse")]
+        if long_pulse and capped and min(capped) < rate:
+            return min(capped), words + " with pulses over 3 us"
+        return rate, words
 
 
 def load(path: Path = TABLE) -> Limits:
@@ -135,6 +141,7 @@ class _Walk:
         self.pos = {a.name: 0 for a in machine.axes}
         self.home = {n: machine.axis(n).to_steps(mm) for n, mm in home_positions_mm(machine).items()}
         self.clamps: dict[str, Clamp] = {}
+        self.long_pulse = any(a.pulse_high_ticks * machine.tick_us > 3.0 for a in machine.axes)
 
     def allowed_mm_min(self, cmd, line) -> float | None:
         """The highest feed at which ``cmd``'s move stays within the limit (None: no motion)."""
@@ -147,7 +154,7 @@ class _Walk:
             return None
         base = max(delta.values())
         length = math.sqrt(sum((d / self.m.axis(n).steps_per_mm) ** 2 for n, d in delta.items()))
-        rate, words = self.limits.step_rate(len(delta), len(set(delta.values())) == 1)
+        rate, words = self.limits.step_rate(len(delta), len(set(delta.values())) == 1, self.long_pulse)
         self.case = (f"{len(delta)}" + ("" if len(set(delta.values())) == 1 else ":b"), rate, words)
         return rate * length / base * 60.0
 
@@ -180,7 +187,7 @@ def plan_within_limits(expanded, machine: Machine, limits: Limits | None = None)
             walk.pos.update({machine.axis(n).name: machine.axis(n).to_steps(mm) for n, mm in cmd.axes})
         elif isinstance(cmd, ZMov):                    # seeks, one axis at the fast feed
             walk.pos.update({n: walk.home[n] for n in (cmd.names or walk.pos)})
-            walk.case = ("1",) + limits.step_rate(1, True)
+            walk.case = ("1",) + limits.step_rate(1, True, walk.long_pulse)
             allowed = walk.case[1] / max(a.steps_per_mm for a in machine.axes) * 60.0
             if allowed < fast:
                 fast_need = min(fast_need, allowed)
@@ -259,11 +266,12 @@ def for_run(expanded, machine: Machine, urls) -> list[str]:
 def machine_lines(machine: Machine, limits: Limits) -> list[str]:
     """How the machine file's own top rates stand against the limits, one line each."""
     out = []
+    long_pulse = any(a.pulse_high_ticks * machine.tick_us > 3.0 for a in machine.axes)
+    most, words = limits.step_rate(1, True, long_pulse)
     for a in machine.axes:
         rate = a.max_velocity_mm_s * a.steps_per_mm
-        most, _ = limits.step_rate(1, True)
         out.append(f"  {machine.name} {a.name}: max {rate:.0f} steps/s "
-                   + ("within" if rate <= most else "ABOVE") + f" the 1-axis limit {most:.0f}")
+                   + ("within" if rate <= most else "ABOVE") + f" the limit {most:.0f} {words}")
     spindle = machine.parts.get("spindle")
     if spindle is not None:
         try:

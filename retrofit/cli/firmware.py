@@ -175,10 +175,10 @@ def _cmd_limits(args) -> int:
     print(f"{fl.TABLE}: build {limits.identity[:16]} "
           + ("(this tree's firmware)" if current else
              f"(STALE: this tree's firmware is {fl.build_identity()[:16]}; run python3 {fl.WRITER})"))
-    print(f"  {'case':<16}{'measured':>12}{'planned':>12}   (steps/s of the base axis; margin {limits.margin:g})")
+    print(f"  {'case':<24}{'measured':>10}{'planned':>10}   (steps/s of the base axis; margin {limits.margin:g})")
     for case, rate in limits.steps.items():
-        print(f"  {case:<16}{limits.measured[case]:>12.0f}{rate:>12.0f}")
-    print(f"  {'encoder':<16}{limits.measured['encoder_counts_s']:>12.0f}{limits.encoder_counts_s:>12.0f}"
+        print(f"  {case:<24}{limits.measured[case]:>10.0f}{rate:>10.0f}")
+    print(f"  {'encoder':<24}{limits.measured['encoder_counts_s']:>10.0f}{limits.encoder_counts_s:>10.0f}"
           "   (counts/s)")
     for name in args.machine or supported_machines():
         print("\n".join(fl.machine_lines(load_machine(name), limits)))
