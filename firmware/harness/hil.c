@@ -8,13 +8,14 @@
  *   P CYCLE PORT VALUE      (port letter, the 8-bit output value in hex)
  *   U CYCLE BYTE            (a byte on the USART's TX, hex)
  *   I CYCLE PORT BIT LEVEL  (an input the harness drove)
+ *   R CYCLE TICK RPM        (the spindle drive's new speed, --spindle-model: signed, M4 negative)
  * so the Python side (retrofit/firmware_sim.py) decodes the step pins with retrofit's own driver
  * model. The harness keeps a step count per axis itself (--axis STEP,DIR,INVERT_DIR) so that
  * switches (--switch PIN,AXIS,<|>,STEPS,ACTIVE_LEVEL) open and close at a step count within the
  * same cycle, drives a tool setter's beam (--beam PIN,LEVEL[,AXIS,LO,HI,AXIS,LO,HI,AXIS,LO,HI]:
  * the pin at LEVEL while every named axis's count lies within LO..HI, at the other level outside
  * or without a box - no tool in the spindle), and drives the spindle encoder (--spindle RPM,COUNTS_PER_REV: ICLK on PD0, SIND on
- * PD1). --stats prints interrupt figures at the end: the longest stretch with interrupts off
+ * PD1; or --spindle-model: the firmware's own spindle outputs drive a model of the spindle). --stats prints interrupt figures at the end: the longest stretch with interrupts off
  * outside and inside ISRs (with the program counter where the longest one outside began, and
  * where the longest one inside began and ended), and
  * the cycles spent in ISRs. The end line names the program counter the run stopped at. --vcd FILE writes the step ports as VCD.
