@@ -30,6 +30,7 @@
 #define ST_COOLANT_ON  0x2000
 #define ST_INDEX_SEEN  0x4000
 #define ST_PROBED      0x8000
+#define ST_HOST_LOST   0x10000UL       /* the heartbeat stopped the machine (docs/protocol.md §5) */
 
 #define FEED_UNITS_PER_MM 10000.0f     /* feeds travel in 0.1 um per minute (or per rev) */
 
@@ -43,7 +44,8 @@ static uint8_t program_feed_waiting;   /* PFDR: applies at the next motion comma
 static uint8_t indexer;                /* ISTP: the spindle encoder is the step source */
 static float spindle_rpm;              /* SPIN's speed: the thread speed is checked against it */
 static uint8_t thread_chain;           /* the last move prepared was an ISTP PMOV */
-static uint16_t flags;                 /* HOMED, ERROR, STOPPED, SPINDLE_ON, COOLANT_ON, PROBED */
+static uint32_t flags;                 /* HOMED, ERROR, STOPPED, SPINDLE_ON, COOLANT_ON, PROBED,
+                                          HOST_LOST */
 static uint8_t dwelling;
 static uint32_t dwell_left_ms;
 static uint8_t home_order[N_AXES], home_count, home_index, home_phase;
@@ -167,7 +169,7 @@ uint8_t interp_position_answer(uint8_t *answer)
 
 uint8_t interp_status_answer(uint8_t *answer)
 {
-    uint16_t s = flags | switch_status();
+    uint32_t s = flags | switch_status();
     if (!idle())
         s |= ST_MOVING;
     if (queue_count() == QUEUE_DEPTH)
@@ -179,10 +181,11 @@ uint8_t interp_status_answer(uint8_t *answer)
     if ((flags & ST_SPINDLE_ON) && stepper_index_seen())
         s |= ST_INDEX_SEEN;
     answer[0] = ANS_STAT;
-    answer[1] = (uint8_t)(s >> 8);
-    answer[2] = (uint8_t)s;
-    answer[3] = queue_count();
-    return 4;
+    answer[1] = (uint8_t)(s >> 16);
+    answer[2] = (uint8_t)(s >> 8);
+    answer[3] = (uint8_t)s;
+    answer[4] = queue_count();
+    return 5;
 }
 
 /* ---- homing (ZMOV) ---------------------------------------------------------------------
@@ -414,6 +417,31 @@ void interp_run(void)
         fetch_at_rest(&cmd);
     else
         fetch_setup(&cmd);
+}
+
+/* ---- the heartbeat's stop (heartbeat.c, docs/protocol.md §5.1) ---------------------------- */
+
+uint8_t interp_has_work(void) { return !idle() || queue_count(); }
+
+uint8_t interp_host_lost(void) { return (flags & ST_HOST_LOST) != 0; }
+
+void interp_brake(float crawl_mm_min)
+{
+    queue_clear();                                     /* nothing more is fetched */
+    home_phase = HOME_IDLE;
+    planner_set_feed(FEED_FAST, crawl_mm_min);         /* every planned move slows down */
+    planner_set_feed(FEED_MACHINING, crawl_mm_min);
+    planner_set_feed(FEED_HOMING, crawl_mm_min);
+    flags |= ST_HOST_LOST | ST_STOPPED;                /* motion refused until INIT */
+}
+
+void interp_halt_outputs(void)
+{
+    forget_motion();
+    spindle_set(0, 0);
+    coolant_set(0);
+    spindle_rpm = 0.0f;
+    flags &= ~(uint32_t)(ST_SPINDLE_ON | ST_COOLANT_ON);
 }
 
 void interp_tick_1ms(void)
