@@ -49,6 +49,7 @@ static uint32_t flags;                 /* HOMED, ERROR, STOPPED, SPINDLE_ON, COO
 static uint8_t dwelling;
 static uint32_t dwell_left_ms;
 static uint8_t home_order[N_AXES], home_count, home_index, home_phase;
+static uint16_t index_wait_ms;         /* how long a thread pass has seen no SIND */
 
 static const uint8_t default_home_order[N_AXES] = HOME_ORDER;
 static const int8_t home_dir[N_AXES] = HOME_DIRS;              /* the seek switch's side */
@@ -451,4 +452,10 @@ void interp_tick_1ms(void)
     }
     stepper_fold();
     led_set(!idle());
+    if (!stepper_index_quiet())        /* an ISTP line without SIND: waiting, or the spindle */
+        index_wait_ms = 0;             /* stopped during the pass */
+    else if (++index_wait_ms >= INDEX_TIMEOUT_MS) {
+        fault();                       /* no index pulse: the spindle is not turning */
+        stepper_clear_index_seen();    /* ERROR, SPINDLE_ON, no INDEX_SEEN (protocol.md) */
+    }
 }

@@ -27,6 +27,7 @@ volatile uint8_t st_ring_head, st_ring_tail;   /* the main loop writes head, the
 
 volatile uint8_t st_state, st_halted, st_events, st_index_seen, st_index_wait, st_pulse_high;
 volatile uint8_t st_stepped_negative = 0xFF;  /* bit i: axis i last stepped towards - */
+static volatile uint8_t st_index_pulse;       /* SIND came since stepper_index_quiet looked */
 int32_t st_position[N_AXES];                 /* 002's actual position, steps, ... */
 volatile int16_t st_moved[N_AXES];           /* ... plus the steps counted since its update, */
 volatile uint16_t st_fired;                   /* and events of the axes that step every one */
@@ -172,7 +173,7 @@ ISR(INT0_vect)
 /* SIND: the indexer start, once a spindle revolution. */
 ISR(INT1_vect)
 {
-    st_index_seen = 1;
+    st_index_seen = st_index_pulse = 1;
     if (st_state == ENCODER)
         st_index_wait = 0;                        /* the thread starts at this spindle angle */
 }
@@ -304,4 +305,11 @@ void stepper_directions(int8_t *dirs)
 uint8_t stepper_index_seen(void) { return st_index_seen; }
 
 void stepper_clear_index_seen(void) { st_index_seen = 0; }
+
+uint8_t stepper_index_quiet(void)
+{
+    uint8_t quiet = st_state == ENCODER && !st_index_pulse;
+    st_index_pulse = 0;
+    return quiet;
+}
 

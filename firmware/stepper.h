@@ -64,5 +64,7 @@ void stepper_set_position(uint8_t axis, int32_t steps);
 void stepper_directions(int8_t *dirs);
 uint8_t stepper_index_seen(void);  /* SIND has pulsed since the last call to clear it */
 void stepper_clear_index_seen(void);
+/* 1 while an ISTP line runs or waits for SIND, if no SIND has come since the last call. */
+uint8_t stepper_index_quiet(void);
 
 #endif

@@ -1,14 +1,11 @@
 """The compiled firmware in simavr with its pins wired to retrofit's simulated machine.
 
 ``firmware/harness/hil.c`` (``make -C firmware harness``) runs ``firmware.elf`` on simavr's
-cycle-exact ATmega2560. This module is its Python side: it builds both, turns a machine file
-into the harness's wiring (the RAMPS sockets of the step / direction pins, the endstop
-connectors of the switches and of the tool setter's beam, the spindle encoder on D21 / D20),
-serves the USART on a TCP port or feeds it a script of timed bytes, and reads back the log of
-every pin change and every byte sent, stamped with the AVR's cycle. :func:`sim_machine` feeds
-the step pins to :class:`retrofit.sim.SimMachine` (the driver model of ``sim://``) at the
-resolution of one cycle, for carriage positions and timing violations; :func:`step_times` gives
-the raw edges, in cycles, for tests that measure pulse widths and intervals (no host clock).
+cycle-exact ATmega2560; this module builds both, turns a machine file into the harness's wiring
+(RAMPS sockets, endstop connectors, the setter's beam, the spindle encoder on D21 / D20), serves
+the USART on TCP or feeds it timed bytes, and reads back every pin change and byte sent, stamped
+with the AVR's cycle. :func:`sim_machine` feeds the step pins to the driver model of ``sim://``
+one tick a cycle; :func:`step_times` gives the raw edges, in cycles (no host clock).
 """
 
 from __future__ import annotations
@@ -152,8 +149,8 @@ def wiring_args(machine: Machine, start_steps: dict[str, int] | None = None,
     return args
 
 
-def _make(*targets: str, machine: str | None = None) -> None:
-    cmd = ["make", "-C", str(FIRMWARE), *targets] + ([f"MACHINE={machine}"] if machine else [])
+def _make(*targets: str, machine: str | None = None, tree: Path = FIRMWARE) -> None:
+    cmd = ["make", "-C", str(tree), *targets] + ([f"MACHINE={machine}"] if machine else [])
     try:
         run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     except FileNotFoundError as exc:
@@ -161,7 +158,7 @@ def _make(*targets: str, machine: str | None = None) -> None:
                            "libsimavr-dev") from None
     if run.returncode != 0:
         tail = (run.stdout + run.stderr).strip().splitlines()[-5:]
-        raise HarnessError(f"{FIRMWARE}/Makefile: `{' '.join(cmd[3:])}` failed: " + " | ".join(tail))
+        raise HarnessError(f"{tree}/Makefile: `{' '.join(cmd[3:])}` failed: " + " | ".join(tail))
 
 
 def build(machine_name: str) -> Path:
@@ -177,8 +174,7 @@ def build(machine_name: str) -> Path:
 def build_copy(machine: Machine, workdir: Path, source: Path = FIRMWARE) -> Path:
     """The ELF for ``machine`` (any machine file), built in a copy of ``source`` (this tree's
     ``firmware/`` or an older one) under ``workdir``: the tree's machine headers stay as they are."""
-    import shutil
-    import sys
+    import shutil, sys  # noqa: E401
     _make("harness")
     copy = Path(workdir) / "firmware"
     if not copy.exists():
@@ -187,11 +183,7 @@ def build_copy(machine: Machine, workdir: Path, source: Path = FIRMWARE) -> Path
     from machine_header import header
     name = machine.name
     (copy / "machines" / f"{name}.h").write_text(header(machine))
-    run = subprocess.run(["make", "-C", str(copy), f"MACHINE={name}", f"build/{name}/firmware.elf"],
-                         capture_output=True, text=True, timeout=300)
-    if run.returncode != 0:
-        tail = (run.stdout + run.stderr).strip().splitlines()[-5:]
-        raise HarnessError(f"{copy}/Makefile: MACHINE={name} failed: " + " | ".join(tail))
+    _make(f"build/{name}/firmware.elf", machine=name, tree=copy)
     return copy / "build" / name / "firmware.elf"
 
 
@@ -207,6 +199,7 @@ class HarnessLog:
     steps: list[int] = field(default_factory=list)      # the harness's own count per axis
     stalled_at: int | None = None                        # the cycle --stall hung the main loop
     spindle_tool: int | None = None                      # the magazine's, at the end
+    drive: list[tuple[int, int, float]] = field(default_factory=list)   # (cycle, tick, rpm) set
 
     @classmethod
     def read(cls, log_path: Path, stdout: str) -> "HarnessLog":
@@ -221,6 +214,8 @@ class HarnessLog:
                 log.inputs.append((int(rest[0]), rest[1], int(rest[2]), int(rest[3])))
             elif kind == "S":
                 log.stalled_at = int(rest[0])
+            elif kind == "R":                            # the spindle drive's new speed
+                log.drive.append((int(rest[0]), int(rest[1]), float(rest[2])))
         for line in stdout.splitlines():
             words = line.split()
             if not words:
@@ -335,15 +330,20 @@ class Harness:
                  vcd: Path | None = None, stats: bool = False, speed: float | None = None,
                  boot_ms: float = 0.0, stall: tuple[int, bool] | None = None,
                  glitches: list[tuple[str, int, int, int]] = (),
-                 tool: tuple[float, float] | None = None):
-        """``tool``: (length, diameter) mm of the tool in the spindle, for the setter's beam;
-        ``boot_ms``: a bootloader's time before the firmware starts (bytes sent meanwhile are
-        lost); ``stall``: (cycle, interrupts off?) the main loop hangs; ``glitches``: (connector or
-        pin such as "XMAX" / "E4", cycle, cycles, level) an input driven for a while."""
+                 tool: tuple[float, float] | None = None, spindle_stalled: bool | int = False):
+        """``spindle_rpm``: an encoder at that fixed speed, else the spindle in the loop
+        (retrofit.firmware_spindle; ``spindle_stalled``: jammed, or from a cycle on); ``tool``:
+        (length, diameter) mm of the tool in the spindle; ``boot_ms``: a bootloader's time before
+        the firmware starts (bytes sent meanwhile are lost); ``stall``: (cycle, interrupts off?)
+        the main loop hangs; ``glitches``: (connector or pin such as "XMAX" / "E4", cycle, cycles,
+        level) an input driven for a while."""
         self.tmp = tempfile.TemporaryDirectory(prefix="retrofit-hil-")
         self.log_path = Path(self.tmp.name) / "pins.log"
         self.args = [str(HARNESS), str(elf), "--log", str(self.log_path),
                      *wiring_args(machine, start_steps, spindle_rpm, tool)]
+        from .firmware_spindle import spindle_model_args
+        self.args += [] if spindle_rpm > 0 else spindle_model_args(
+            machine, Path(self.tmp.name) / "draws.bin", spindle_stalled)
         if listen:
             self.args += ["--listen", listen]
         if script:

@@ -95,6 +95,8 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
         if prober is not None and prober.moves and opened is None:
             refuse_real_probing(opts.urls, name)
         run.expanded = expand_host_commands(run.program, machine, spindle_tool)
+        from .firmware_limits import for_run
+        clamped = for_run(run.expanded, machine, opts.urls)     # a controller on the link: its rates
         run.command_count = len(run.program.commands)
         progress.done("compile")
         # 2. plan and 3. execute: by the planner and the fast path, or through the 002 controller
@@ -133,6 +135,8 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
     # 5. report: the log joined with what the machine did
     from .runreport import run_report
     run.report = run_report(run)
+    for part in run.report.get("remote") or []:
+        part["clamped"] = clamped
     return run
 
 
@@ -273,7 +277,8 @@ def deliver_outputs(run: Run, urls: list[str], wait, progress, opened=None):
         raise OutputError(f"{real[0]}: the program pauses ({pauses[0][2]}) and this output drives a "
                           "machine: run it from a terminal, where Enter resumes after each pause")
     frame_urls, remote = command_outputs(urls, run.machine, exp.commands,
-                                         [(i, says) for _, i, says in pauses], wait, opened)
+                                         [(i, says) for _, i, says in pauses], wait, opened,
+                                         exp.lines, exp.file)
     run.report["remote"] = remote
     total = max(int(run.log.ticks), 1)
     return deliver(run.log, frame_urls, [(t, says) for t, _, says in pauses], wait,
@@ -322,7 +327,7 @@ def pause_tick(run: Run, index: int) -> int:
 
 
 def command_outputs(urls: list[str], machine: Machine, commands, pauses=(), wait=None,
-                    opened=None) -> tuple[list[str], list[dict]]:
+                    opened=None, lines=None, file: str = "") -> tuple[list[str], list[dict]]:
     """Run ``commands`` on the command-level outputs among ``urls`` (``serial://``, ...).
 
     Such outputs (``takes_commands``) get the program's commands, not its port frames, and
@@ -331,6 +336,7 @@ def command_outputs(urls: list[str], machine: Machine, commands, pauses=(), wait
     for the port frames and one report part per command-level output (``remote`` in
     docs/report.md).
     """
+    from .firmware_limits import send_naming_line
     from .outputs import OutputURL, open_output, output_class
     frame_urls, remote = [], []
     for url in urls:
@@ -341,13 +347,14 @@ def command_outputs(urls: list[str], machine: Machine, commands, pauses=(), wait
             raise OutputError(f"{url}: this output runs a program's commands; this run has only "
                               "port frames (use it with retrofit run)")
         device = [c for c in commands if not c.host]
+        device_lines = [n for c, n in zip(commands, lines or [None] * len(commands)) if not c.host]
         refuse_io_on_link(url, device)
         resumed = opened is not None and opened[0] == url
         with (opened[1] if resumed else open_output(url, machine)) as out:
             done, part, sent = (opened[2], None, opened[2]) if resumed else (0, None, 0)
             for index, says in [p for p in pauses if p[0] >= done] + [(len(device), None)]:
                 if index > done or says is None:
-                    part = out.send_program(device[done:index])
+                    part = send_naming_line(out, device, device_lines, file, done, index)
                     sent += part["commands"]
                     part["commands"] = sent
                     out.opts["init"] = False          # INIT once, at the start of the program

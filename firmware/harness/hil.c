@@ -8,13 +8,14 @@
  *   P CYCLE PORT VALUE      (port letter, the 8-bit output value in hex)
  *   U CYCLE BYTE            (a byte on the USART's TX, hex)
  *   I CYCLE PORT BIT LEVEL  (an input the harness drove)
+ *   R CYCLE TICK RPM        (the spindle drive's new speed, --spindle-model: signed, M4 negative)
  * so the Python side (retrofit/firmware_sim.py) decodes the step pins with retrofit's own driver
  * model. The harness keeps a step count per axis itself (--axis STEP,DIR,INVERT_DIR) so that
  * switches (--switch PIN,AXIS,<|>,STEPS,ACTIVE_LEVEL) open and close at a step count within the
  * same cycle, drives a tool setter's beam (--beam PIN,LEVEL[,AXIS,LO,HI,AXIS,LO,HI,AXIS,LO,HI]:
  * the pin at LEVEL while every named axis's count lies within LO..HI, at the other level outside
  * or without a box - no tool in the spindle), and drives the spindle encoder (--spindle RPM,COUNTS_PER_REV: ICLK on PD0, SIND on
- * PD1). --stats prints interrupt figures at the end: the longest stretch with interrupts off
+ * PD1; or --spindle-model: the firmware's own spindle outputs drive a model of the spindle). --stats prints interrupt figures at the end: the longest stretch with interrupts off
  * outside and inside ISRs (with the program counter where the longest one outside began, and
  * where the longest one inside began and ended), and
  * the cycles spent in ISRs. The end line names the program counter the run stopped at. --vcd FILE writes the step ports as VCD.
@@ -31,6 +32,7 @@
 #define _GNU_SOURCE
 #include <arpa/inet.h>
 #include <errno.h>
+#include <math.h>
 #include <fcntl.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
@@ -224,6 +226,140 @@ static void port_changed(struct avr_irq_t *irq, uint32_t value, void *param)
         update_magazine();
         update_beam();
     }
+}
+
+/* The spindle in the loop (--spindle-model): the firmware's own outputs drive the drive model of
+ * retrofit/sim/spindle.py, tick for tick with the same arithmetic, and its encoder feeds ICLK and
+ * SIND back. The drive reads the speed PWM on D10 (OC2A) once a period of Timer2's PWM
+ * (PWM_WINDOW cycles), its duty a share of max_rpm, and the direction on D11 (PB5, high: M4).
+ * The load factors are drawn by the Python side from the machine file's seed and given in a file
+ * of doubles (used in turn, from the start again when used up). --spindle-stall: the spindle is
+ * jammed and never turns, whatever the firmware asks; --spindle-stall-at CYCLE: it stops dead
+ * then and stays jammed. */
+#define PWM_WINDOW (256UL * 64UL)
+#define MAX_EDGES 64
+static struct {
+    int on, stalled;
+    unsigned long long stall_at;          /* --spindle-stall CYCLE: jammed from then on */
+    long counts, tick_cycles, interval;
+    double max_rpm, ramp, tick_s, rpm, target, knot0, knot1, drive_target;
+    double *draws;
+    long n_draws, drawn, tick;
+    long long angle;                      /* 1/65536 counts */
+    unsigned long long edges[MAX_EDGES];
+    int n_edges, next_edge, high;
+    long count;
+} sm;
+
+static double next_draw(void)
+{
+    double d = sm.draws[sm.drawn % sm.n_draws];
+    sm.drawn++;
+    return d;
+}
+
+/* The PWM's duty as the pin has it: (OCR2A + 1) / 256 while OC2A drives the pin (fast PWM,
+ * COM2A1), else the port bit. Read from the timer's registers, not from the pin's changes:
+ * simavr lets any write to PORTB (the LED's, every millisecond) pull the pin to PORTB's bit
+ * within the period, which the chip does not while the timer owns the pin. */
+#define TCCR2A_ADDR 0xB0
+#define OCR2A_ADDR 0xB3
+#define PORTB_ADDR 0x25
+static avr_cycle_count_t pwm_window(avr_t *a, avr_cycle_count_t when, void *param)
+{
+    (void)param;
+    double duty = a->data[TCCR2A_ADDR] & 0x80 ? (a->data[OCR2A_ADDR] + 1) / 256.0
+                                             : (double)((a->data[PORTB_ADDR] >> 4) & 1);
+    int reverse = (a->data[PORTB_ADDR] >> 5) & 1;
+    sm.drive_target = sm.stalled ? 0.0 : duty * sm.max_rpm * (reverse ? -1.0 : 1.0);
+    return when + PWM_WINDOW;
+}
+
+static avr_cycle_count_t encoder_edge(avr_t *a, avr_cycle_count_t when, void *param)
+{
+    (void)a; (void)param;
+    pin_t iclk = {'D', 0}, sind = {'D', 1};
+    if (sm.high) {
+        drive(iclk, 0);
+        drive(sind, 0);
+        sm.high = 0;
+    } else {
+        sm.count++;
+        if (sm.count % sm.counts == 0)
+            drive(sind, 1);
+        drive(iclk, 1);
+        sm.high = 1;
+        sm.next_edge++;
+        return when + 32;
+    }
+    if (sm.next_edge < sm.n_edges)
+        return sm.edges[sm.next_edge] > when ? sm.edges[sm.next_edge] : when + 1;
+    return 0;
+}
+
+/* One tick of SimSpindle._step: the ramp, the load, the angle; the counts it passes become
+ * edges spread evenly over the tick's cycles. */
+static avr_cycle_count_t drive_tick(avr_t *a, avr_cycle_count_t when, void *param)
+{
+    (void)param;
+    long t = ++sm.tick;
+    if (sm.stall_at && when >= sm.stall_at && !sm.stalled) {
+        sm.stalled = 1;                   /* jammed: it stops dead */
+        sm.rpm = sm.drive_target = 0.0;
+    }
+    if (sm.drive_target != sm.target) {
+        sm.target = sm.drive_target;
+        if (log_file)
+            fprintf(log_file, "R %llu %ld %.17g\n", (unsigned long long)when, t, sm.target);
+    }
+    double delta = sm.target - sm.rpm;
+    sm.rpm = fabs(delta) <= sm.ramp ? sm.target : sm.rpm + (delta > 0 ? sm.ramp : -sm.ramp);
+    long phase = t % sm.interval;
+    if (phase == 0 && t > 0) {
+        sm.knot0 = sm.knot1;
+        sm.knot1 = next_draw();
+    }
+    double load = sm.knot0 + (sm.knot1 - sm.knot0) * (double)phase / (double)sm.interval;
+    double per_tick = fabs(sm.rpm) / 60.0 * (double)sm.counts * sm.tick_s * (1.0 + load);
+    long long before = sm.angle;
+    sm.angle += (long long)nearbyint(per_tick * 65536.0);
+    long long first = (before >> 16) + 1, last = sm.angle >> 16;
+    int pending = sm.n_edges - sm.next_edge, alive = pending > 0 || sm.high;
+    memmove(sm.edges, sm.edges + sm.next_edge, (size_t)pending * sizeof sm.edges[0]);
+    sm.n_edges = pending;
+    sm.next_edge = 0;
+    for (long long n = first; n <= last && sm.n_edges < MAX_EDGES; n++) {
+        double f = (double)((n << 16) - before) / (double)(sm.angle - before);
+        sm.edges[sm.n_edges++] = when + (avr_cycle_count_t)ceil(f * (double)sm.tick_cycles);
+    }
+    if (sm.n_edges && !alive)
+        avr_cycle_timer_register(a, sm.edges[0] > a->cycle ? sm.edges[0] - a->cycle : 1, encoder_edge, NULL);
+    return when + (avr_cycle_count_t)sm.tick_cycles;
+}
+
+static int spindle_model_args(const char *v)
+{
+    char path[512];
+    if (sscanf(v, "%ld,%lf,%ld,%lf,%lf,%ld,%511s", &sm.counts, &sm.max_rpm, &sm.tick_cycles, &sm.ramp,
+               &sm.tick_s, &sm.interval, path) != 7 || sm.counts < 1 || sm.tick_cycles < 1 || sm.interval < 1)
+        return 0;
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return 0;
+    fseek(f, 0, SEEK_END);
+    sm.n_draws = ftell(f) / (long)sizeof(double);
+    fseek(f, 0, SEEK_SET);
+    sm.draws = malloc((size_t)(sm.n_draws > 0 ? sm.n_draws : 1) * sizeof(double));
+    if (sm.n_draws < 1 || fread(sm.draws, sizeof(double), (size_t)sm.n_draws, f) != (size_t)sm.n_draws) {
+        fclose(f);
+        return 0;
+    }
+    fclose(f);
+    sm.knot0 = 0.0;
+    sm.knot1 = next_draw();
+    sm.tick = -1;
+    sm.on = 1;
+    return 1;
 }
 
 /* D10 = PB4 = OC2A, the spindle PWM: the timer drives this pin without a write to PORTB, so its
@@ -642,6 +778,18 @@ int main(int argc, char **argv)
                 return 2;
             }
             i++;
+        } else if (!strcmp(a, "--spindle-model")) {
+            if (!spindle_model_args(v)) {
+                fprintf(stderr, "hil: --spindle-model %s: expected COUNTS,MAX_RPM,TICK_CYCLES,RAMP_RPM,"
+                        "TICK_S,NOISE_INTERVAL_TICKS,DRAWS_FILE (a file of doubles)\n", v);
+                return 2;
+            }
+            i++;
+        } else if (!strcmp(a, "--spindle-stall")) {
+            sm.stalled = 1;
+        } else if (!strcmp(a, "--spindle-stall-at")) {
+            sm.stall_at = strtoull(v, NULL, 10);
+            i++;
         } else if (!strcmp(a, "--spindle")) {
             sscanf(v, "%lf,%ld", &spindle_rpm, &spindle_counts);
             i++;
@@ -684,6 +832,10 @@ int main(int argc, char **argv)
     boot_start();
     if (spindle_rpm > 0 && spindle_counts > 0)
         avr_cycle_timer_register(avr, 1000, spindle_edge, NULL);
+    else if (sm.on) {
+        avr_cycle_timer_register(avr, (avr_cycle_count_t)sm.tick_cycles, drive_tick, NULL);
+        avr_cycle_timer_register(avr, PWM_WINDOW, pwm_window, NULL);
+    }
 
     avr_vcd_t vcd;
     if (vcd_path) {

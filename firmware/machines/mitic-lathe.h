@@ -24,6 +24,7 @@
 #define SPINDLE_MAX_RPM     2000UL
 #define SPINDLE_SPEED_TOLERANCE 0.15f   /* a thread is planned for a spindle this much faster */
 #define SYNC_ACCEL_SHARE    0.8f   /* of the acceleration, for a thread's lead-in */
+#define INDEX_TIMEOUT_MS    5000UL   /* a thread pass without an index pulse this long: ERROR */
 /* SWITCH(id, axis, side, kind, RAMPS endstop connector, status bit or -1) */
 #define SWITCHES \
     SWITCH(0, 0, -1, SW_LIMIT, XMIN, 2)   /* NLSX */ \

@@ -24,6 +24,7 @@
 #define SPINDLE_MAX_RPM     3000UL
 #define SPINDLE_SPEED_TOLERANCE 0.0f   /* a thread is planned for a spindle this much faster */
 #define SYNC_ACCEL_SHARE    1.0f   /* of the acceleration, for a thread's lead-in */
+#define INDEX_TIMEOUT_MS    5000UL   /* a thread pass without an index pulse this long: ERROR */
 /* SWITCH(id, axis, side, kind, RAMPS endstop connector, status bit or -1) */
 #define SWITCHES \
 

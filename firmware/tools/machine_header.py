@@ -19,6 +19,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from retrofit.config import Machine, load_machine  # noqa: E402
+from retrofit.controller.indexrun import INDEX_TIMEOUT_S  # noqa: E402
 from retrofit.errors import RetrofitError  # noqa: E402
 from retrofit.firmware_sim import (firmware_axes, probe_connector, sockets,  # noqa: E402
                                    switch_connectors)
@@ -126,8 +127,11 @@ def homing_lines(m: Machine, axes, ids: dict[str, int]) -> list[str]:
 
 
 def header(m: Machine) -> str:
-    """The whole header text."""
+    """The whole header text; SystemExit for a machine the firmware cannot serve (an encoder
+    faster than it follows: firmware/limits.toml)."""
+    from retrofit.firmware_limits import check_encoder
     try:
+        check_encoder(m)
         axes = firmware_axes(m)
         sockets(m)
     except RetrofitError as exc:
@@ -150,6 +154,8 @@ def header(m: Machine) -> str:
         "   /* a thread is planned for a spindle this much faster */",
         f"#define SYNC_ACCEL_SHARE    {_float(spindle.sync_accel_share if spindle else 1.0)}"
         "   /* of the acceleration, for a thread's lead-in */",
+        f"#define INDEX_TIMEOUT_MS    {round(INDEX_TIMEOUT_S * 1000)}UL"
+        "   /* a thread pass without an index pulse this long: ERROR */",
         *switches,
         *homing_lines(m, axes, ids),
         "",

@@ -1,4 +1,5 @@
-"""Sub-command ``retrofit firmware``: the compiled firmware in simavr (``sim``), its size (``size``)."""
+"""Sub-command ``retrofit firmware``: the compiled firmware in simavr (``sim``), its size (``size``),
+the rates it keeps (``limits``)."""
 
 from __future__ import annotations
 
@@ -24,7 +25,12 @@ def add_commands(sub) -> None:
                    help="serve the USART on a TCP port (port 0 picks a free one; it is printed)")
     s.add_argument("--vcd", metavar="FILE", help="write the output ports as VCD")
     s.add_argument("--spindle-rpm", type=float, default=0.0,
-                   help="turn the spindle encoder at this speed (ICLK on D21, SIND on D20)")
+                   help="turn the spindle encoder at this fixed speed (ICLK on D21, SIND on D20); "
+                        "default: the firmware's own spindle outputs (M3/M4/M5, S) drive the "
+                        "spindle of sim:// (ramp, load noise of [spindle.sim]), whose encoder "
+                        "feeds it back")
+    s.add_argument("--spindle-stalled", action="store_true",
+                   help="the spindle is jammed and never turns (as [spindle.sim] stalled = true)")
     s.add_argument("--tool", metavar="Tn|LENGTH,DIAMETER",
                    help="the tool in the spindle for the tool setter's beam (a machine with "
                         "[setter]): Tn, a tool of [tools.sim], with the magazine moving the tools "
@@ -44,6 +50,11 @@ def add_commands(sub) -> None:
     z.add_argument("--machine", action="append", default=[],
                    help="machine name (repeatable); default: every machine the firmware supports")
     z.set_defaults(func=_cmd_size)
+    lim = fsub.add_parser("limits", help="the step and encoder rates this firmware build keeps "
+                                         "(firmware/limits.toml, measured by bench/firmware_limits.py)")
+    lim.add_argument("--machine", action="append", default=[],
+                     help="also check a machine file's top rates (repeatable); default: the shipped ones")
+    lim.set_defaults(func=_cmd_limits)
 
 
 def _start_steps(specs: list[str], machine) -> dict[str, int]:
@@ -88,13 +99,15 @@ def _tool(spec: str | None, machine) -> tuple[float, float] | int | None:
 def _cmd_sim(args) -> int:
     from ..config import load_machine
     from ..firmware_sim import Harness, build, report
+    from ..firmware_limits import check_encoder
     machine = load_machine(args.machine)
+    check_encoder(machine)                       # an encoder faster than the firmware follows
     start = _start_steps(args.start, machine)
     tool = _tool(args.tool, machine)
     elf = build(machine.name)
     harness = Harness(elf, machine, listen=args.listen, start_steps=start, vcd=args.vcd,
                       spindle_rpm=args.spindle_rpm, speed=args.speed, stats=True,
-                      boot_ms=args.boot_ms, tool=tool)
+                      boot_ms=args.boot_ms, tool=tool, spindle_stalled=args.spindle_stalled)
     if args.once:
         harness.args.append("--once")
     harness.start()
@@ -151,3 +164,22 @@ def _cmd_size(args) -> int:
               f"RAM {s['ram']} of {s['ram_of']} bytes ({100 * s['ram'] / s['ram_of']:.1f} %)")
     sys.stdout.flush()
     return 0
+
+
+def _cmd_limits(args) -> int:
+    from .. import firmware_limits as fl
+    from ..config import load_machine
+    from ..firmware_sim import supported_machines
+    limits = fl.load()
+    current = limits.identity == fl.build_identity()
+    print(f"{fl.TABLE}: build {limits.identity[:16]} "
+          + ("(this tree's firmware)" if current else
+             f"(STALE: this tree's firmware is {fl.build_identity()[:16]}; run python3 {fl.WRITER})"))
+    print(f"  {'case':<24}{'measured':>10}{'planned':>10}   (steps/s of the base axis; margin {limits.margin:g})")
+    for case, rate in limits.steps.items():
+        print(f"  {case:<24}{limits.measured[case]:>10.0f}{rate:>10.0f}")
+    print(f"  {'encoder':<24}{limits.measured['encoder_counts_s']:>10.0f}{limits.encoder_counts_s:>10.0f}"
+          "   (counts/s)")
+    for name in args.machine or supported_machines():
+        print("\n".join(fl.machine_lines(load_machine(name), limits)))
+    return 0 if current else 1

@@ -226,5 +226,6 @@ def remote_lines(remote: list[dict]) -> list[str]:
         pos = ", ".join(f"{name} {mm:.3f}" for name, mm in part["position_mm"].items())
         lines.append(f"  remote {part['url']}: RDPS {pos} mm; status {' '.join(part['status']) or '-'}"
                      f"; {part['commands']} commands in {part['wall_s']:.2f} s")
+        lines += [f"  {note}" for note in part.get("clamped", [])]
     return lines
 

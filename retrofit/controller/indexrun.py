@@ -24,6 +24,10 @@ from ..errors import MotionError
 from ..motion.bresenham import LineMove
 from ..motion.indexer import IndexerExecutor, IndexerTrack, lead_in_counts, steps_per_rev
 
+#: a pass that sees no index pulse this long while it waits to synchronise stops with an error
+#: (the firmware's INDEX_TIMEOUT_MS too)
+INDEX_TIMEOUT_S = 5.0
+
 
 class IndexRun:
     """One ISTP move executing."""
@@ -42,6 +46,8 @@ class IndexRun:
         self.origin = chained_from            # where the previous ISTP move's line ended
         self.phase = "takeup"
         self.seen = None                      # the index count last seen while waiting
+        self.index_at = None                  # the tick it was last seen to change
+        self.timeout_ticks = round(INDEX_TIMEOUT_S * self.rate)
         self.track: IndexerTrack | None = None
         self.executor: IndexerExecutor | None = None
         self.s = steps_per_rev(entry.feed_mm_rev, entry.path.length_mm, line.n) if line.n else Fraction(0)
@@ -66,6 +72,8 @@ class IndexRun:
                 self._arm(self.origin, 0)
             else:
                 self.phase = "sync"
+        if self.phase != "takeup":
+            self._watch_index(tick, inputs)
         if self.phase == "sync":
             self._synchronise(inputs, pulses)
         if self.phase == "armed" and inputs.count >= self.track.start_count:
@@ -85,6 +93,19 @@ class IndexRun:
             for k in range(1, abs(steps) + 1):
                 pulses.request(axis, tick + 1 + math.ceil(math.sqrt(2.0 * k / accel) * self.rate),
                                1 if steps > 0 else -1)
+
+    def index_deadline(self) -> int:
+        """The tick after which, with no new index pulse, the pass ends in an error."""
+        return (self.index_at if self.index_at is not None else 0) + self.timeout_ticks + 1
+
+    def _watch_index(self, tick: int, inputs) -> None:
+        """MotionError when no index pulse has come for INDEX_TIMEOUT_S, waiting or running."""
+        if self.index_at is None or inputs.index_count != self._last_index:
+            self.index_at, self._last_index = tick, inputs.index_count
+        elif tick - self.index_at > self.timeout_ticks:
+            raise MotionError(f"{self.entry.cmd} under ISTP: no spindle index pulse for "
+                              f"{INDEX_TIMEOUT_S:g} s; the spindle is not turning (stalled, or not "
+                              "started); motion halted")
 
     def _synchronise(self, inputs, pulses) -> None:
         """Wait for the take-up to finish, the spindle to be at speed and a fresh index pulse."""

@@ -60,6 +60,7 @@ class SpindleSim:
     load_noise: float = 0.0           # speed varies within ±load_noise (fraction) with the load
     noise_interval_ms: float = 200.0  # the load changes smoothly over this time
     seed: int = 1
+    stalled: bool = False             # jammed: it never turns, whatever the drive is told
 
 
 @dataclass(frozen=True)
@@ -138,7 +139,7 @@ def _read_spindle_sim(sec: Section | None) -> SpindleSim:
         accel_rpm_s=sec.get_float("accel_rpm_s", d.accel_rpm_s, above=0.0),
         load_noise=sec.get_float("load_noise", d.load_noise, minval=0.0, maxval=0.5),
         noise_interval_ms=sec.get_float("noise_interval_ms", d.noise_interval_ms, above=0.0),
-        seed=sec.get_int("seed", d.seed))
+        seed=sec.get_int("seed", d.seed), stalled=sec.get_bool("stalled", d.stalled))
     sec.finish()
     return sim
 

@@ -78,6 +78,10 @@ class SpanRunner:
             return False
         t0 = self.ctl._tick
         t_end = min(end, t0 + SPAN_TICKS)
+        if isinstance(run, IndexRun):
+            t_end = min(t_end, run.index_deadline())    # the controller's own tick says "no index"
+            if t_end <= t0:
+                return False
         if isinstance(run, ClockRun):
             self._clock(run, t_end)
         elif isinstance(run, IndexRun):

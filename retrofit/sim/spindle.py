@@ -139,7 +139,7 @@ class SimSpindle:
     def command(self, tick: int, rpm: float, direction: int) -> None:
         """Set the drive (SPIN): ``rpm`` and +1 (M3), -1 (M4) or 0 (M5), from tick ``tick`` on."""
         self.advance_to(tick - 1)
-        self.target_rpm = rpm * direction
+        self.target_rpm = 0.0 if self.physics.stalled else rpm * direction
 
     @property
     def at_speed(self) -> bool:
