@@ -110,4 +110,5 @@ def fit(lines: list[str]) -> list[str]:
 
 def _wrap(text: str) -> list[str]:
     indent = " " * (len(text) - len(text.lstrip()) + 2)
-    return textwrap.wrap(text, WIDTH, subsequent_indent=indent, break_on_hyphens=False) or [""]
+    return textwrap.wrap(text, WIDTH, subsequent_indent=indent, break_on_hyphens=False,
+                         break_long_words=False) or [""]

@@ -84,7 +84,9 @@ def test_every_labs_variants_apply_and_change_its_solution(kind):
             changed = apply_variant(variant, reference)
             assert changed != reference, variant.path
             compile(changed, str(variant.path), "exec")
-            assert len(variant.path.read_text(encoding="utf-8").splitlines()) <= 60, f"{variant.path}: not small"
+            # a file that hands a whole TODO to the library (oracle_*) replaces a function body
+            limit = 80 if variant.name.startswith("oracle_") else 60
+            assert len(variant.path.read_text(encoding="utf-8").splitlines()) <= limit, f"{variant.path}: not small"
 
 
 def test_a_patch_written_by_diff_u_with_its_dates_is_read(tmp_path):

@@ -21,7 +21,22 @@ def add_commands(sub) -> None:
                    help="drive a simulated machine behind the controller: its switches close (ZMOV) "
                         "and its spindle's encoder runs (ISTP); without, nothing is wired")
     m.add_argument("--no-backlash-comp", action="store_true", help="turn backlash compensation off")
+    m.add_argument("--heartbeat-ms", type=_heartbeat_ms, default=None, metavar="MS",
+                   help="brake a moving machine whose host has sent nothing for MS milliseconds "
+                        "(default 500, as the firmware; 50 to 60000)")
     m.set_defaults(func=_cmd_mcu)
+
+
+def _heartbeat_ms(text: str) -> float:
+    import argparse
+    import math
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 50 <= value <= 60000:
+        raise argparse.ArgumentTypeError(f"{text!r}: give milliseconds from 50 to 60000")
+    return value
 
 
 def _cmd_mcu(args) -> int:
@@ -38,7 +53,9 @@ def _cmd_mcu(args) -> int:
         where = (f"listening on {host}:{number} (host: --output serial+socket://{host}:{number})")
     print(f"{machine.name}: motion controller {where}", flush=True)
     try:
-        McuLoop(port, machine, controller, name=where).serve_forever()
+        from ..link.codec import HEARTBEAT_MS
+        McuLoop(port, machine, controller, name=where,
+                heartbeat_ms=args.heartbeat_ms or HEARTBEAT_MS).serve_forever()
     finally:
         port.close()
     return 0
