@@ -17,6 +17,10 @@ Which file the checks test: ``RETROFIT_LAB_TARGET`` = ``student`` (the default),
 or a path to any ``.py`` file; the checks get the module from :func:`load_target`. So
 ``pytest labs/01_circle/checks.py`` checks the student's file and
 ``RETROFIT_LAB_TARGET=solution pytest labs/01_circle/checks.py`` the reference solution.
+
+The file under check runs in a process of its own (:mod:`retrofit.labproxy`): :func:`load_target`
+gives the checks a proxy of its module, and the checks and the score stay in this process.
+``RETROFIT_LAB_SANDBOX=0`` imports it here instead (to debug a lab's checks, never to grade).
 """
 
 from __future__ import annotations
@@ -33,9 +37,12 @@ from pathlib import Path
 
 from .errors import ConfigError
 from .labplot import pyplot, save_figure  # noqa: F401  (the labs draw with these)
+from .labproxy import BUDGET, CheckTimeout, StudentProcessEnded, close_all
 
 LABS_ENV = "RETROFIT_LABS"
 TARGET_ENV = "RETROFIT_LAB_TARGET"
+SANDBOX_ENV = "RETROFIT_LAB_SANDBOX"            # "0": the file under check is imported in this process
+SPEC_ENV = "RETROFIT_LAB_SANDBOX_SPEC"          # the grader's sandbox settings (JSON of labprocess.Sandbox)
 _LAB_DIR = re.compile(r"^(\d\d)_([A-Za-z0-9_]+)$")
 
 
@@ -64,7 +71,7 @@ def labs_dir(root: str | Path | None = None) -> Path:
         if not path.is_dir():
             where = "--labs" if root is not None else LABS_ENV
             raise ConfigError(f"{where} {path}: no such folder; give the folder that holds 01_circle/ ...")
-        return path
+        return path.resolve()
     package = Path(__file__).resolve().parent
     for candidate in (package.parent / "labs", Path.cwd() / "labs"):
         if candidate.is_dir() and list_labs(candidate):
@@ -129,8 +136,20 @@ def target_path(lab_path: str | Path) -> Path:
 
 
 def load_target(checks_file: str | Path):
-    """For a lab's ``checks.py``: the module under check (the student's file by default)."""
-    return load_module(target_path(Path(checks_file).resolve().parent))
+    """For a lab's ``checks.py``: the module under check (the student's file by default).
+
+    A proxy of the module, running in its sandbox; calls on it and on what it returns go to that
+    process (see :mod:`retrofit.labwire` for the values that cross).
+    """
+    lab_path = Path(checks_file).resolve().parent
+    path = target_path(lab_path)
+    if os.environ.get(SANDBOX_ENV, "1") == "0":
+        return load_module(path)
+    from .labprocess import Sandbox, sandbox_uid
+    from .labproxy import open_target
+    spec = os.environ.get(SPEC_ENV)
+    sandbox = Sandbox.from_env(spec) if spec else Sandbox(uid=sandbox_uid(), hide=[str(lab_path.parent)])
+    return open_target(path.resolve(), lab_path, sandbox)
 
 
 class CheckFailed(AssertionError):
@@ -166,6 +185,8 @@ def explain(exc: BaseException, target: Path) -> str:
         return (f"{target.name} line {exc.lineno} does not read as Python: {exc.msg}; "
                 "fix that line, then check again")
     where = _where(exc, target)
+    if isinstance(exc, StudentProcessEnded):
+        return str(exc)
     if isinstance(exc, NotImplementedError):
         return f"not written yet: {exc or 'a TODO'}" + (f" ({where})" if where else "")
     if type(exc) is AssertionError:
@@ -176,8 +197,32 @@ def explain(exc: BaseException, target: Path) -> str:
     return f"the check raised {text} while using your code; look at what your functions return"
 
 
+def failure_reason(exc: BaseException) -> str:
+    """A failure in a few words for a grades table: wrong value, timeout at line 6, did not import ..."""
+    where = getattr(exc, "student_where", "") or ""
+    line = f" at line {where.split(' line ')[1].split(',')[0]}" if " line " in where else ""
+    if getattr(exc, "at_import", False):
+        if isinstance(exc, CheckTimeout):
+            return f"did not import: timeout{line}"
+        return f"did not import: {type(exc).__name__}" + (f" at line {exc.lineno}" if isinstance(exc, SyntaxError)
+                                                         else line)
+    if isinstance(exc, CheckFailed) or type(exc) is AssertionError:
+        return "wrong value"
+    if isinstance(exc, CheckTimeout):
+        return f"timeout{line}"
+    if isinstance(exc, StudentProcessEnded):
+        return "program ended"
+    if isinstance(exc, NotImplementedError):
+        return "not written"
+    if where:
+        return f"raised {type(exc).__name__}{line}"
+    return f"check error: {type(exc).__name__}"
+
+
 def _where(exc: BaseException, target: Path) -> str:
     """'student.py line 42, in calc_next_input' for the deepest frame in the target file."""
+    if getattr(exc, "student_where", ""):
+        return exc.student_where
     frames = [f for f in traceback.extract_tb(exc.__traceback__) if Path(f.filename).name == target.name]
     if not frames:
         return ""
@@ -189,10 +234,7 @@ def _where(exc: BaseException, target: Path) -> str:
 CHECK_SECONDS = 20.0
 CHECK_SECONDS_ENV = "RETROFIT_CHECK_SECONDS"
 _TODO = re.compile(r"\bTODO\s*(\d+)")
-
-
-class CheckTimeout(Exception):
-    """A check ran longer than its time limit (raised inside the student's code by an alarm)."""
+_TODOS = re.compile(r"^TODOs? ([\d, -]+)")
 
 
 @dataclass(frozen=True)
@@ -203,6 +245,7 @@ class CheckResult:
     status: str
     message: str = ""
     points: int = 1             # what the check is worth (``@pytest.mark.points(n)``)
+    reason: str = ""            # a failure in a few words: wrong value, timeout at line 6, did not import
 
     @property
     def todo(self) -> str:
@@ -211,14 +254,26 @@ class CheckResult:
         return f"TODO {match[1]}" if match else ""
 
     @property
+    def todos(self) -> list[str]:
+        """Every TODO the title names: "TODO 1, 2: ..." and "TODOs 1-3: ..." name them all."""
+        match = _TODOS.match(self.title)
+        if not match:
+            return [self.todo] if self.todo else []
+        numbers = []
+        for part in re.findall(r"\d+-\d+|\d+", match[1]):
+            low, _, high = part.partition("-")
+            numbers += range(int(low), int(high or low) + 1)
+        return [f"TODO {n}" for n in dict.fromkeys(numbers)]
+
+    @property
     def scored(self) -> int:
         """Points earned: all of them when the check passed, none otherwise."""
         return self.points if self.status == "passed" else 0
 
     def as_dict(self) -> dict:
         """The result as plain data for ``--json``: title, TODO, status, message, points."""
-        return {"title": self.title, "todo": self.todo, "status": self.status, "message": self.message,
-                "points": self.scored, "max_points": self.points}
+        return {"title": self.title, "todo": self.todo, "todos": self.todos, "status": self.status,
+                "message": self.message, "reason": self.reason, "points": self.scored, "max_points": self.points}
 
 
 def check_seconds() -> float:
@@ -240,7 +295,7 @@ class _Alarm:
     elsewhere the check runs without a limit (the grader's process limits still hold).
     """
 
-    TIMERS = (("ITIMER_PROF", "SIGPROF", 1), ("ITIMER_REAL", "SIGALRM", 10))
+    TIMERS = (("ITIMER_PROF", "SIGPROF", 1), ("ITIMER_REAL", "SIGALRM", 12))
 
     def __init__(self, seconds: float, title: str):
         self.seconds, self.title = seconds, title
@@ -251,6 +306,8 @@ class _Alarm:
         raise CheckTimeout(f"{self.title}: did not finish within {self.seconds:g} s")
 
     def __enter__(self):
+        if self.seconds > 0:
+            BUDGET.begin(self.seconds, self.title)   # the student's process is timed by labproxy
         if self.usable:
             self.saved = []
             for timer, sig, times in self.TIMERS:
@@ -259,6 +316,7 @@ class _Alarm:
         return self
 
     def __exit__(self, *exc):
+        BUDGET.end()
         if self.usable:
             for (timer, sig, _), handler in zip(self.TIMERS, self.saved):
                 signal.setitimer(getattr(signal, timer), 0)
@@ -297,8 +355,8 @@ def _collector(target: Path):
                     reason = report.longrepr[2] if isinstance(report.longrepr, tuple) else ""
                     self.results.append(CheckResult(title, "skipped", reason.removeprefix("Skipped: "), points))
                 elif report.failed:
-                    message = explain(call.excinfo.value, target)
-                    self.results.append(CheckResult(title, "failed", message, points))
+                    exc = call.excinfo.value
+                    self.results.append(CheckResult(title, "failed", explain(exc, target), points, failure_reason(exc)))
                 else:
                     self.results.append(CheckResult(title, "passed", "", points))
             return report
@@ -347,6 +405,7 @@ def check_lab(lab: Lab, solution: bool = False, target: str | Path | None = None
                             "-W", "ignore::DeprecationWarning", *_QUIET, *(["-x"] if first_failure else [])],
                            plugins=[collector])
     finally:
+        close_all()
         if saved is None:
             os.environ.pop(TARGET_ENV, None)
         else:
