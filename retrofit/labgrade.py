@@ -136,14 +136,25 @@ def _copy_lab(lab, private: Path) -> Path:
 
 
 def count_points(lab_path: Path) -> int:
-    """What the lab's checks are worth, counted by the grader (never by a student's run)."""
-    done = subprocess.run([sys.executable, "-m", "retrofit.labgrade", "--count", str(lab_path)],
-                          capture_output=True, text=True, env=_env(), cwd=lab_path.parent)
-    try:
-        return int(json.loads(done.stdout.strip().splitlines()[-1])["max_points"])
-    except (ValueError, KeyError, IndexError, TypeError):
-        raise ConfigError(f"{lab_path / 'checks.py'}: could not count its checks: "
-                          f"{(done.stderr.strip().splitlines() or ['no output'])[-1]}") from None
+    """What the lab's checks are worth, counted here by collecting them (never by a student's run)."""
+    import pytest
+
+    from .labs import _QUIET, _forget_checks
+
+    class Count:
+        points = checks = 0
+
+        def pytest_collection_modifyitems(self, items):
+            for item in items:
+                marker = item.get_closest_marker("points")
+                Count.points += int(marker.args[0]) if marker and marker.args else 1
+                Count.checks += 1
+    _forget_checks()
+    code = pytest.main([str(lab_path / "checks.py"), "--collect-only", "--import-mode=importlib",
+                        "--rootdir", str(lab_path.parent), *_QUIET], plugins=[Count()])
+    if code != 0 or not Count.checks:
+        raise ConfigError(f"{lab_path / 'checks.py'}: its checks could not be collected (pytest exit code {int(code)})")
+    return Count.points
 
 
 def _env(**extra) -> dict:
@@ -167,7 +178,8 @@ def _grade_one(name, data, index, slot, lab_copy, private, limits, hidden, most)
     box = Sandbox(uid=uid, gid=uid, hide=hidden, cpu_seconds=limits.cpu_seconds, memory_mb=limits.memory_mb,
                   processes=limits.processes, file_mb=limits.file_mb)
     from .labs import CHECK_SECONDS_ENV, SPEC_ENV
-    env = _env(**{SPEC_ENV: box.to_env(), CHECK_SECONDS_ENV: str(limits.check_seconds)})
+    env = _env(**{SPEC_ENV: box.to_env(), CHECK_SECONDS_ENV: str(limits.check_seconds),
+                  "PYTEST_DISABLE_PLUGIN_AUTOLOAD": "1"})    # the checks need no installed pytest plugin
     command = [sys.executable, "-m", "retrofit.labgrade", str(lab_copy), str(target), str(result)]
     proc = subprocess.Popen(command, env=env, cwd=folder, start_new_session=True,
                             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
@@ -225,30 +237,5 @@ def _worker(lab_path: str, target: str, result: str) -> int:
     return 0
 
 
-def _count(lab_path: str) -> int:
-    """Collect the lab's checks without running them; print what they are worth."""
-    import pytest
-
-    class Count:
-        points = 0
-        checks = 0
-
-        def pytest_collection_modifyitems(self, items):
-            for item in items:
-                marker = item.get_closest_marker("points")
-                Count.points += int(marker.args[0]) if marker and marker.args else 1
-                Count.checks += 1
-    from .labs import _QUIET
-    code = pytest.main([str(Path(lab_path) / "checks.py"), "--collect-only", "--import-mode=importlib",
-                        "--rootdir", str(Path(lab_path).parent), *_QUIET], plugins=[Count()])
-    if code != 0 or not Count.checks:
-        print(f"pytest exit code {int(code)}, {Count.checks} checks collected", file=sys.stderr)
-        return 1
-    print(json.dumps({"checks": Count.checks, "max_points": Count.points}))
-    return 0
-
-
 if __name__ == "__main__":
-    if sys.argv[1:2] == ["--count"]:
-        sys.exit(_count(sys.argv[2]))
     sys.exit(_worker(*sys.argv[1:4]))

@@ -118,6 +118,27 @@ class RemoteObject(labwire.Proxy):
     def _request(self, op, name, args, kwargs=None):
         return self._session.request(self._gen, self._id, op, name, args, kwargs or {})
 
+    # Comparisons are the checks' to make: an object of the student's is equal only to itself, and
+    # ``in`` looks through its items here (a student's __eq__ could say yes to anything).
+    def __eq__(self, other):
+        return isinstance(other, RemoteObject) and (other._session, other._gen, other._id) == (
+            self._session, self._gen, self._id)
+
+    def __ne__(self, other):
+        return not self == other
+
+    def __hash__(self):
+        return hash((id(self._session), self._gen, self._id))
+
+    def __contains__(self, item):
+        return any(item == x for x in self._request("op", "iter", []))
+
+    def _compare(self, other):
+        raise TypeError(f"an object of type {self._type} from the student's code is not ordered by the checks; "
+                        "compare plain values (float(x), list(x), tuple(x))")
+
+    __lt__ = __le__ = __gt__ = __ge__ = _compare
+
 
 class RemoteMethod(RemoteObject):
     """A function or method of the student's: ``__call__`` asks for it by name, in one request."""
