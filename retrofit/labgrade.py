@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import os
 import queue
+import select
 import shutil
 import subprocess
 import sys
@@ -105,19 +106,24 @@ def grade(lab, submissions: str | Path, limits: Limits | None = None, jobs: int 
         lab_copy = _copy_lab(lab, private)
         most = count_points(lab_copy)
         hidden = sorted({str(Path(lab.path).resolve().parent), str(root), *(str(Path(h).resolve()) for h in hide)})
+        checkers = [_Checker(slot, lab_copy, private, limits, hidden) for slot in range(jobs)]
         slots: queue.Queue = queue.Queue()
-        for slot in range(jobs):
-            slots.put(slot)
+        for checker in checkers:
+            slots.put(checker)
 
         def one(item):
             index, (name, data) = item
-            slot = slots.get()
+            checker = slots.get()
             try:
-                return _grade_one(name, data, index, slot, lab_copy, private, limits, hidden, most)
+                return _grade_one(name, data, index, checker, private, limits, most)
             finally:
-                slots.put(slot)
-        with ThreadPoolExecutor(max_workers=jobs) as pool:
-            grades = list(pool.map(one, enumerate(handed_in.items())))
+                slots.put(checker)
+        try:
+            with ThreadPoolExecutor(max_workers=jobs) as pool:
+                grades = list(pool.map(one, enumerate(handed_in.items())))
+        finally:
+            for checker in checkers:
+                checker.close()
         _all_gone([sandbox_uid(slot) for slot in range(jobs)])
         return grades
     finally:
@@ -164,8 +170,71 @@ def _env(**extra) -> dict:
     return env
 
 
-def _grade_one(name, data, index, slot, lab_copy, private, limits, hidden, most) -> Grade:
-    """Check one student's file in a checking process of its own; kill everything it left behind."""
+class _Checker:
+    """The checking process of one job slot: it checks one student after another, each in the
+    slot's sandbox uid; it is started afresh when a student's checks outlive the wall-clock limit."""
+
+    def __init__(self, slot, lab_copy, private, limits, hidden):
+        self.uid = sandbox_uid(slot)
+        box = Sandbox(uid=self.uid, gid=self.uid, hide=hidden, cpu_seconds=limits.cpu_seconds,
+                      memory_mb=limits.memory_mb, processes=limits.processes, file_mb=limits.file_mb)
+        from .labs import CHECK_SECONDS_ENV, SPEC_ENV
+        self.env = _env(**{SPEC_ENV: box.to_env(), CHECK_SECONDS_ENV: str(limits.check_seconds),
+                           "PYTEST_DISABLE_PLUGIN_AUTOLOAD": "1"})   # the checks need no installed pytest plugin
+        self.lab_copy, self.private, self.proc = lab_copy, private, None
+
+    def _start(self):
+        done_read, done_write = os.pipe()
+        self.stderr = tempfile.TemporaryFile()
+        command = [sys.executable, "-m", "retrofit.labgrade", str(self.lab_copy), str(done_write)]
+        try:
+            self.proc = subprocess.Popen(command, env=self.env, cwd=self.private, start_new_session=True,
+                                         stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=self.stderr,
+                                         pass_fds=(done_write,))
+        finally:
+            os.close(done_write)
+        self.done = done_read
+
+    def check(self, target: Path, result: Path, wall_seconds: float):
+        """Check one file; None when done, else why not (the wall-clock limit, the process ended)."""
+        if self.proc is None:
+            self._start()
+        try:
+            self.proc.stdin.write((json.dumps({"target": str(target), "result": str(result)}) + "\n").encode())
+            self.proc.stdin.flush()
+            ready, _, _ = select.select([self.done], [], [], wall_seconds)
+            answer = os.read(self.done, 64) if ready else None
+        except OSError:
+            answer = b""
+        if answer:
+            return None
+        code = self.proc.poll()
+        self.close()
+        if answer is None:
+            return f"stopped after {wall_seconds:g} s (wall-clock limit)"
+        return f"the checks did not finish (exit code {code}; {self.tail})"
+
+    def close(self):
+        if self.proc is None:
+            return
+        try:
+            self.proc.stdin.close()
+            self.proc.wait(timeout=10)
+        except (OSError, subprocess.TimeoutExpired):
+            pass
+        kill_group(self.proc)
+        os.close(self.done)
+        self.stderr.seek(0)
+        lines = [ln for ln in self.stderr.read().decode("utf-8", "replace").splitlines() if ln.strip()]
+        self.tail = lines[-1][:200] if lines else "no message"
+        self.stderr.close()
+        self.proc = None
+        if self.uid is not None:
+            sweep_uid(self.uid, self.uid)
+
+
+def _grade_one(name, data, index, checker, private, limits, most) -> Grade:
+    """Check one student's file; kill everything it left behind."""
     grade = Grade(name, max_points=most)
     if data is None:
         grade.note = "no student.py handed in"
@@ -174,30 +243,17 @@ def _grade_one(name, data, index, slot, lab_copy, private, limits, hidden, most)
     folder.mkdir(parents=True)
     target, result = folder / "student.py", folder / "result.json"
     target.write_bytes(data)
-    uid = sandbox_uid(slot)
-    box = Sandbox(uid=uid, gid=uid, hide=hidden, cpu_seconds=limits.cpu_seconds, memory_mb=limits.memory_mb,
-                  processes=limits.processes, file_mb=limits.file_mb)
-    from .labs import CHECK_SECONDS_ENV, SPEC_ENV
-    env = _env(**{SPEC_ENV: box.to_env(), CHECK_SECONDS_ENV: str(limits.check_seconds),
-                  "PYTEST_DISABLE_PLUGIN_AUTOLOAD": "1"})    # the checks need no installed pytest plugin
-    command = [sys.executable, "-m", "retrofit.labgrade", str(lab_copy), str(target), str(result)]
-    proc = subprocess.Popen(command, env=env, cwd=folder, start_new_session=True,
-                            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
-        _, stderr = proc.communicate(timeout=limits.wall_seconds)
-    except subprocess.TimeoutExpired:
-        grade.note = f"stopped after {limits.wall_seconds:g} s (wall-clock limit)"
-        stderr = b""
+        grade.note = checker.check(target, result, limits.wall_seconds) or ""
     finally:
-        kill_group(proc)
-        if uid is not None:
-            sweep_uid(uid, uid)
+        if checker.uid is not None:
+            sweep_uid(checker.uid, checker.uid)
     if not grade.note:
-        grade.checks, grade.note = _read_result(result, proc.returncode, stderr)
+        grade.checks, grade.note = _read_result(result)
     return grade
 
 
-def _read_result(result: Path, code, stderr: bytes) -> tuple[list[dict], str]:
+def _read_result(result: Path) -> tuple[list[dict], str]:
     """The checking process's results, checked for shape; or why there are none."""
     try:
         checks = json.loads(result.read_text(encoding="utf-8"))["checks"]
@@ -211,8 +267,7 @@ def _read_result(result: Path, code, stderr: bytes) -> tuple[list[dict], str]:
             clean.append(row)
         return clean, ""
     except (OSError, ValueError, KeyError, TypeError) as exc:
-        last = [ln for ln in stderr.decode("utf-8", "replace").splitlines() if ln.strip()]
-        return [], f"the checks did not finish (exit code {code}; {last[-1][:200] if last else exc})"
+        return [], f"the checks gave no usable result ({exc})"
 
 
 def _all_gone(uids) -> None:
@@ -227,15 +282,19 @@ def _all_gone(uids) -> None:
                               "no grades written")
 
 
-def _worker(lab_path: str, target: str, result: str) -> int:
-    """The checking process: check ``target`` with the lab's checks, write the results as JSON."""
+def _worker(lab_path: str, done_fd: str) -> int:
+    """A checking process: for each job read on stdin, check its file with the lab's checks, write
+    the results as JSON, then say so on ``done_fd``."""
     from .atomic import write_text_atomic
     from .labs import check_lab, find_lab
     lab = find_lab(Path(lab_path).parent, Path(lab_path).name)
-    results = check_lab(lab, target=target)
-    write_text_atomic(result, json.dumps({"checks": [r.as_dict() for r in results]}))
+    for line in sys.stdin:
+        job = json.loads(line)
+        results = check_lab(lab, target=job["target"])
+        write_text_atomic(job["result"], json.dumps({"checks": [r.as_dict() for r in results]}))
+        os.write(int(done_fd), b"done\n")
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(_worker(*sys.argv[1:4]))
+    sys.exit(_worker(*sys.argv[1:3]))

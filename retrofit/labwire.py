@@ -26,6 +26,7 @@ import math
 import os
 import re
 import struct
+import sys
 
 MAX_MESSAGE = 64 << 20            # bytes one message may hold; a bigger one is an error, not a memory blow-up
 _HEADER = struct.Struct(">IB")
@@ -83,7 +84,7 @@ def _is_retrofit_type(cls) -> bool:
 
 def encode(value, handle):
     """``value`` as tagged JSON data; ``handle(obj)`` gives the tag of an object that stays behind."""
-    import numpy as np
+    np = sys.modules.get("numpy")           # no NumPy value can exist before NumPy is imported
     if value is None or isinstance(value, (bool, str)):
         return value
     if isinstance(value, int) and type(value) is int:
@@ -99,10 +100,10 @@ def encode(value, handle):
         return items if type(value) is list else {"$": {tuple: "t", set: "s", frozenset: "fs"}[type(value)], "v": items}
     if type(value) is dict:
         return {"$": "d", "v": [[encode(k, handle), encode(v, handle)] for k, v in value.items()]}
-    if isinstance(value, np.ndarray) and type(value) is np.ndarray and _DTYPE.match(value.dtype.str):
+    if np is not None and type(value) is np.ndarray and _DTYPE.match(value.dtype.str):
         return {"$": "nd", "dt": value.dtype.str, "sh": list(value.shape),
                 "v": base64.b64encode(np.ascontiguousarray(value).tobytes()).decode("ascii")}
-    if isinstance(value, np.generic) and _DTYPE.match(value.dtype.str):
+    if np is not None and isinstance(value, np.generic) and _DTYPE.match(value.dtype.str):
         return {"$": "ns", "dt": value.dtype.str, "v": base64.b64encode(value.tobytes()).decode("ascii")}
     cls = type(value)
     if _is_retrofit_type(cls) and isinstance(value, enum.Enum):
