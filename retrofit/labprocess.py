@@ -13,6 +13,8 @@ import os
 import signal
 import subprocess
 import sys
+import time
+import types
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -166,3 +168,65 @@ def processes_of(uid: int) -> list[int]:
     return pids
 
 
+def needs_handle(obj) -> bool:
+    """Does ``obj`` stay here (a handle), or can the student's process rebuild it from a pickle?
+
+    Classes and functions of modules the student's process imports too (Python's own, installed
+    packages, retrofit) go by reference, their instances by value; those of the checks' own
+    files, lambdas and local functions stay here.
+    """
+    if isinstance(obj, (type, types.FunctionType, types.BuiltinFunctionType)):
+        if "<" in getattr(obj, "__qualname__", "<"):
+            return True
+        return not _importable(getattr(obj, "__module__", None))
+    if isinstance(obj, types.MethodType):
+        return needs_handle(obj.__func__) or needs_handle(obj.__self__)
+    return not _importable(type(obj).__module__)
+
+
+_IMPORTABLE: dict[str, bool] = {}
+
+
+def _importable(name) -> bool:
+    if not isinstance(name, str):
+        return False
+    if name not in _IMPORTABLE:
+        module = sys.modules.get(name)
+        where = getattr(module, "__file__", None) if module is not None else ""
+        roots = _library_roots()
+        _IMPORTABLE[name] = module is not None and (where is None or any(where.startswith(r) for r in roots))
+    return _IMPORTABLE[name]
+
+
+def child_path() -> list[str]:
+    """The student's process's import path: retrofit's folder, then the installed packages (it starts
+    without ``site``, which saves a fifth of its start-up)."""
+    import site
+    import sysconfig
+    paths = sysconfig.get_paths()
+    extra = [*site.getsitepackages(), site.getusersitepackages()] if hasattr(site, "getsitepackages") else []
+    found = [str(Path(__file__).resolve().parent.parent), paths["purelib"], paths["platlib"], *extra]
+    return [p for p in dict.fromkeys(found) if os.path.isdir(p)]
+
+
+def _library_roots() -> tuple[str, ...]:
+    import sysconfig
+    paths = sysconfig.get_paths()
+    return tuple({paths["stdlib"], paths["platstdlib"], paths["purelib"], paths["platlib"],
+                  str(Path(__file__).resolve().parent) + os.sep})
+
+
+class Budget:
+    """The running check's time limit, set by the checks' runner (``labs._collector``)."""
+
+    def __init__(self):
+        self.seconds, self.title, self.epoch, self.wall0 = None, "", 0, 0.0
+
+    def begin(self, seconds: float, title: str) -> None:
+        self.seconds, self.title, self.epoch, self.wall0 = seconds, title, self.epoch + 1, time.monotonic()
+
+    def end(self) -> None:
+        self.seconds = None
+
+
+BUDGET = Budget()

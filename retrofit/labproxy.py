@@ -29,87 +29,12 @@ import types
 from pathlib import Path
 
 from . import labwire
-from .labprocess import (Sandbox, cpu_seconds, data_files, ended_text, kill_group, library_paths, send_signal,
-                          sweep_uid)
-from .labwire import WireError
+from .labprocess import (BUDGET, Sandbox, child_path, cpu_seconds, data_files, ended_text, kill_group, library_paths,
+                          needs_handle, send_signal, sweep_uid)
+from .labwire import CheckTimeout, StudentProcessEnded, WireError, again, rebuild, where_text
 
 GRACE_S = 2.0                       # wall seconds the student's process has to say where it was
 MAX_STARTS = 8                      # starts of one student's process before the checks give up
-
-class Budget:
-    """The running check's time limit, set by the checks' runner (``labs._collector``)."""
-
-    def __init__(self):
-        self.seconds, self.title, self.epoch, self.wall0 = None, "", 0, 0.0
-
-    def begin(self, seconds: float, title: str) -> None:
-        self.seconds, self.title, self.epoch, self.wall0 = seconds, title, self.epoch + 1, time.monotonic()
-
-    def end(self) -> None:
-        self.seconds = None
-
-
-BUDGET = Budget()
-
-
-class CheckTimeout(Exception):
-    """A check ran longer than its time limit."""
-
-
-class StudentProcessEnded(Exception):
-    """The student's process ended (or was killed) while a check was using it."""
-
-
-class StudentError(Exception):
-    """An exception of the student's code of a type the grader does not rebuild (named like it)."""
-
-
-def _needs_handle(obj) -> bool:
-    """Does ``obj`` stay here (a handle), or can the student's process rebuild it from a pickle?
-
-    Classes and functions of modules the student's process imports too (Python's own, installed
-    packages, retrofit) go by reference, their instances by value; those of the checks' own
-    files, lambdas and local functions stay here.
-    """
-    if isinstance(obj, (type, types.FunctionType, types.BuiltinFunctionType)):
-        if "<" in getattr(obj, "__qualname__", "<"):
-            return True
-        return not _importable(getattr(obj, "__module__", None))
-    if isinstance(obj, types.MethodType):
-        return _needs_handle(obj.__func__) or _needs_handle(obj.__self__)
-    return not _importable(type(obj).__module__)
-
-
-_IMPORTABLE: dict[str, bool] = {}
-
-
-def _importable(name) -> bool:
-    if not isinstance(name, str):
-        return False
-    if name not in _IMPORTABLE:
-        module = sys.modules.get(name)
-        where = getattr(module, "__file__", None) if module is not None else ""
-        roots = _library_roots()
-        _IMPORTABLE[name] = module is not None and (where is None or any(where.startswith(r) for r in roots))
-    return _IMPORTABLE[name]
-
-
-def _child_path() -> list[str]:
-    """The student's process's import path: retrofit's folder, then the installed packages (it starts
-    without ``site``, which saves a fifth of its start-up)."""
-    import site
-    import sysconfig
-    paths = sysconfig.get_paths()
-    extra = [*site.getsitepackages(), site.getusersitepackages()] if hasattr(site, "getsitepackages") else []
-    found = [str(Path(__file__).resolve().parent.parent), paths["purelib"], paths["platlib"], *extra]
-    return [p for p in dict.fromkeys(found) if os.path.isdir(p)]
-
-
-def _library_roots() -> tuple[str, ...]:
-    import sysconfig
-    paths = sysconfig.get_paths()
-    return tuple({paths["stdlib"], paths["platstdlib"], paths["purelib"], paths["platlib"],
-                  str(Path(__file__).resolve().parent) + os.sep})
 
 
 class _MethodRef:
@@ -197,7 +122,7 @@ class Session:
                   "rlimits": {"RLIMIT_CPU": box.cpu_seconds, "RLIMIT_AS": box.memory_mb << 20,
                               "RLIMIT_FSIZE": box.file_mb << 20, "RLIMIT_CORE": 0,
                               **({"RLIMIT_NPROC": box.processes} if box.uid is not None else {})}}
-        env = {"PATH": os.defpath, "PYTHONPATH": os.pathsep.join(_child_path()), "HOME": self.scratch, "LANG": "C.UTF-8",
+        env = {"PATH": os.defpath, "PYTHONPATH": os.pathsep.join(child_path()), "HOME": self.scratch, "LANG": "C.UTF-8",
                "MPLBACKEND": "Agg", "MPLCONFIGDIR": os.path.join(self.scratch, ".mpl"), "PYTHONDONTWRITEBYTECODE": "1",
                "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
                "RETROFIT_SANDBOX": json.dumps(config)}
@@ -245,7 +170,7 @@ class Session:
     # ---- requests -------------------------------------------------------------------------------
     def request(self, gen, ident, op, name, args, kwargs):
         if self.failed is not None:
-            raise _again(self.failed)
+            raise again(self.failed)
         if gen is None:
             if not self.alive():
                 self.start()
@@ -332,23 +257,18 @@ class Session:
                 self.reader.feed(data)
 
     def _timed_out(self, message):
-        """The student's answer after SIGUSR1: where it was, or it went on; either way the time is up."""
-        if isinstance(message, dict) and message.get("k") == "req":
-            self._send(("err", {"type": "RuntimeError", "msg": "the check's time is up"}))
-            return self._message_after_timeout()
+        """The student's answer after SIGUSR1: where it was (or it asked or answered something else,
+        then it is killed); either way the time is up."""
         record = message.get("e") if isinstance(message, dict) and message.get("k") == "err" else None
-        where = record.get("where", []) if isinstance(record, dict) else []
-        raise self._timeout(where)
-
-    def _message_after_timeout(self):
-        kill_group(self.proc)
-        raise self._timeout([])
+        if not isinstance(record, dict):
+            kill_group(self.proc)
+        raise self._timeout(record.get("where", []) if isinstance(record, dict) else [])
 
     def _timeout(self, where) -> CheckTimeout:
         seconds, title = (BUDGET.seconds, BUDGET.title) if BUDGET.seconds is not None else (self._seconds(), "")
         exc = CheckTimeout(f"{title + ': ' if title else ''}did not finish within {seconds:g} s")
         exc._from_student = True
-        exc.student_where = _where_text(where, self.target.name)
+        exc.student_where = where_text(where, self.target.name)
         return exc
 
     @staticmethod
@@ -434,39 +354,6 @@ def _pair(tag):
     return value
 
 
-def _where_text(where, name: str) -> str:
-    frames = [w for w in where if isinstance(w, list) and len(w) == 2 and type(w[0]) is int and isinstance(w[1], str)]
-    if not frames:
-        return ""
-    line, function = frames[-1]
-    return f"{name} line {line}, in {function[:100]}"
-
-
-def rebuild(record: dict, name: str) -> Exception:
-    """The student's exception, rebuilt from its record (a builtin type, or one named like it)."""
-    import builtins
-    type_name, text = str(record.get("type", ""))[:60], str(record.get("msg", ""))[:2000]
-    cls = getattr(builtins, type_name, None)
-    if type_name == "SyntaxError" and type(record.get("line")) is int:
-        exc = SyntaxError(str(record.get("text", ""))[:500], (name, record["line"], 0, ""))
-    elif isinstance(cls, type) and issubclass(cls, Exception) and not issubclass(cls, (Warning,)):
-        exc = cls.__new__(cls)
-        Exception.__init__(exc, text)
-    else:
-        safe = type_name if type_name.isidentifier() else "StudentError"
-        exc = type(safe, (StudentError,), {})(text)
-    exc.student_where = _where_text(record.get("where", []), name)
-    return exc
-
-
-def _again(exc: Exception) -> Exception:
-    """A fresh copy of a failure that every later check meets too (the file did not import)."""
-    copy = exc.__class__.__new__(exc.__class__)
-    copy.args = exc.args
-    copy.__dict__.update(exc.__dict__)
-    return copy
-
-
 class _GraderPickler(pickle.Pickler):
     def __init__(self, buffer, session: Session, force=None):
         super().__init__(buffer, protocol=pickle.HIGHEST_PROTOCOL)
@@ -483,7 +370,7 @@ class _GraderPickler(pickle.Pickler):
             return ("gm", obj.ident, obj.name)
         if isinstance(obj, types.ModuleType):
             raise pickle.PicklingError("a module is not handed to student code")
-        if (self.force is not None and obj is self.force) or _needs_handle(obj):
+        if (self.force is not None and obj is self.force) or needs_handle(obj):
             return ("g", self.session.export(obj), "")
         return None
 

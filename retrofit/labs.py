@@ -31,13 +31,14 @@ import re
 import signal
 import sys
 import threading
-import traceback
 from dataclasses import dataclass
 from pathlib import Path
 
 from .errors import ConfigError
 from .labplot import pyplot, save_figure  # noqa: F401  (the labs draw with these)
-from .labproxy import BUDGET, CheckTimeout, StudentProcessEnded, close_all
+from .labmessages import CheckFailed, explain, failure_reason  # noqa: F401  (part of this module's API)
+from .labprocess import BUDGET
+from .labproxy import CheckTimeout, close_all
 
 LABS_ENV = "RETROFIT_LABS"
 TARGET_ENV = "RETROFIT_LAB_TARGET"
@@ -152,82 +153,10 @@ def load_target(checks_file: str | Path):
     return open_target(path.resolve(), lab_path, sandbox)
 
 
-class CheckFailed(AssertionError):
-    """A check that failed, worded for a student: what was checked, expected, got, and a hint."""
-
-    def __init__(self, what: str, expected, got, hint: str = ""):
-        self.what, self.expected, self.got, self.hint = what, expected, got, hint
-        lines = [what, f"expected: {expected}", f"your code gave: {got}"]
-        if hint:
-            lines.append(f"hint: {hint}")
-        super().__init__("\n".join(lines))
-
-
 def expect(ok: bool, what: str, *, expected, got, hint: str = "") -> None:
     """Raise :class:`CheckFailed` unless ``ok``."""
     if not ok:
         raise CheckFailed(what, expected, got, hint)
-
-
-def explain(exc: BaseException, target: Path) -> str:
-    """A failure in words a student can act on, never a traceback.
-
-    >>> explain(NotImplementedError("TODO 1: compute the target"), Path("student.py"))
-    'not written yet: TODO 1: compute the target'
-    """
-    if isinstance(exc, CheckFailed):
-        return str(exc)
-    if isinstance(exc, CheckTimeout):
-        where = _where(exc, target)
-        return (f"{exc}; a loop that never ends?" + (f" it was running {where}" if where else "")
-                + "; look at that loop's exit condition")
-    if isinstance(exc, SyntaxError) and exc.filename and Path(exc.filename).name == target.name:
-        return (f"{target.name} line {exc.lineno} does not read as Python: {exc.msg}; "
-                "fix that line, then check again")
-    where = _where(exc, target)
-    if isinstance(exc, StudentProcessEnded):
-        return str(exc)
-    if isinstance(exc, NotImplementedError):
-        return f"not written yet: {exc or 'a TODO'}" + (f" ({where})" if where else "")
-    if type(exc) is AssertionError:
-        return str(exc).split("\nassert ")[0] or "a check's assertion failed"
-    text = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
-    if where:
-        return f"your code raised {text} ({where}); fix it there, then check again"
-    return f"the check raised {text} while using your code; look at what your functions return"
-
-
-def failure_reason(exc: BaseException) -> str:
-    """A failure in a few words for a grades table: wrong value, timeout at line 6, did not import ..."""
-    where = getattr(exc, "student_where", "") or ""
-    line = f" at line {where.split(' line ')[1].split(',')[0]}" if " line " in where else ""
-    if getattr(exc, "at_import", False):
-        if isinstance(exc, CheckTimeout):
-            return f"did not import: timeout{line}"
-        return f"did not import: {type(exc).__name__}" + (f" at line {exc.lineno}" if isinstance(exc, SyntaxError)
-                                                         else line)
-    if isinstance(exc, CheckFailed) or type(exc) is AssertionError:
-        return "wrong value"
-    if isinstance(exc, CheckTimeout):
-        return f"timeout{line}"
-    if isinstance(exc, StudentProcessEnded):
-        return "program ended"
-    if isinstance(exc, NotImplementedError):
-        return "not written"
-    if where:
-        return f"raised {type(exc).__name__}{line}"
-    return f"check error: {type(exc).__name__}"
-
-
-def _where(exc: BaseException, target: Path) -> str:
-    """'student.py line 42, in calc_next_input' for the deepest frame in the target file."""
-    if getattr(exc, "student_where", ""):
-        return exc.student_where
-    frames = [f for f in traceback.extract_tb(exc.__traceback__) if Path(f.filename).name == target.name]
-    if not frames:
-        return ""
-    frame = frames[-1]
-    return f"{target.name} line {frame.lineno}, in {frame.name}"
 
 
 #: processor seconds one check may take before it is stopped as a hang (``RETROFIT_CHECK_SECONDS`` changes it)

@@ -313,3 +313,51 @@ def _text(exc) -> str:
         return str(exc)
     except Exception:
         return ""
+
+
+# ---- errors that cross ---------------------------------------------------------------------
+
+
+class CheckTimeout(Exception):
+    """A check ran longer than its time limit."""
+
+
+class StudentProcessEnded(Exception):
+    """The student's process ended (or was killed) while a check was using it."""
+
+
+class StudentError(Exception):
+    """An exception of the student's code of a type the grader does not rebuild (named like it)."""
+
+
+def where_text(where, name: str) -> str:
+    frames = [w for w in where if isinstance(w, list) and len(w) == 2 and type(w[0]) is int and isinstance(w[1], str)]
+    if not frames:
+        return ""
+    line, function = frames[-1]
+    return f"{name} line {line}, in {function[:100]}"
+
+
+def rebuild(record: dict, name: str) -> Exception:
+    """The student's exception, rebuilt from its record (a builtin type, or one named like it)."""
+    import builtins
+    type_name, text = str(record.get("type", ""))[:60], str(record.get("msg", ""))[:2000]
+    cls = getattr(builtins, type_name, None)
+    if type_name == "SyntaxError" and type(record.get("line")) is int:
+        exc = SyntaxError(str(record.get("text", ""))[:500], (name, record["line"], 0, ""))
+    elif isinstance(cls, type) and issubclass(cls, Exception) and not issubclass(cls, (Warning,)):
+        exc = cls.__new__(cls)
+        Exception.__init__(exc, text)
+    else:
+        safe = type_name if type_name.isidentifier() else "StudentError"
+        exc = type(safe, (StudentError,), {})(text)
+    exc.student_where = where_text(record.get("where", []), name)
+    return exc
+
+
+def again(exc: Exception) -> Exception:
+    """A fresh copy of a failure that every later check meets too (the file did not import)."""
+    copy = exc.__class__.__new__(exc.__class__)
+    copy.args = exc.args
+    copy.__dict__.update(exc.__dict__)
+    return copy
