@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -127,29 +128,36 @@ def kill_group(proc) -> None:
 def sweep_uid(uid: int, gid: int) -> int:
     """As root: kill every process of ``uid`` (grandchildren that left the process group too).
 
-    A child process takes the uid and sends SIGKILL to every process it may signal (``kill(-1)``),
-    until none is left. Returns how many rounds it took; 0 when none was running.
+    ``kill -9 -1`` run as that uid sends SIGKILL to every process it may signal, i.e. every process
+    of the uid; repeated until /proc shows none (a fork storm may fork in between). Returns how
+    many rounds it took; 0 when none was running.
     """
     if os.geteuid() != 0:
         return 0
+    kill = shutil.which("kill", path="/usr/bin:/bin")
     for rounds in range(100):
-        pid = os.fork()
-        if pid == 0:                      # pragma: no cover (the forked child)
-            code = 4
-            try:
-                os.setgroups([])
-                os.setgid(gid)
-                os.setuid(uid)
-                os.kill(-1, signal.SIGKILL)
-                code = 0
-            except ProcessLookupError:
-                code = 3
-            finally:
-                os._exit(code)
-        _, status = os.waitpid(pid, 0)
-        if os.waitstatus_to_exitcode(status) != 0:
+        if not processes_of(uid):
             return rounds
+        if kill:
+            subprocess.run([kill, "-9", "-1"], user=uid, group=gid, extra_groups=[], stdin=subprocess.DEVNULL,
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        else:
+            _kill_as(uid, gid)
     return rounds
+
+
+def _kill_as(uid: int, gid: int) -> None:
+    """``kill(-1, SIGKILL)`` from a forked child that took ``uid`` (where there is no kill program)."""
+    pid = os.fork()
+    if pid == 0:                          # pragma: no cover (the forked child)
+        try:
+            os.setgroups([])
+            os.setgid(gid)
+            os.setuid(uid)
+            os.kill(-1, signal.SIGKILL)
+        finally:
+            os._exit(0)
+    os.waitpid(pid, 0)
 
 
 def processes_of(uid: int) -> list[int]:
