@@ -179,3 +179,14 @@ def test_grade_with_a_relative_labs_folder(tmp_path, monkeypatch, capsys):
     assert (rows["ana"]["points"], rows["bob"]["points"], rows["bob"]["TODO 1"]) == ("4", "0", "not written")
     assert json.loads((tmp_path / "class" / "grades.json").read_text())["students"][0]["todos"] == {
         "TODO 1": "ok", "TODO 2": "ok"}
+
+
+def test_the_score_is_capped_by_the_graders_own_count(tmp_path):
+    from retrofit.labgrade import Grade, _read_result
+    forged = tmp_path / "result.json"
+    forged.write_text(json.dumps({"checks": [{"title": "TODO 1: x", "status": "passed", "points": 1000,
+                                              "max_points": 1}]}), encoding="utf-8")
+    checks, note = _read_result(forged)
+    assert checks == [] and "no usable result" in note
+    many = [{"title": f"TODO 1: {i}", "status": "passed", "points": 1, "max_points": 1} for i in range(9)]
+    assert Grade("x", checks=many, max_points=4).points == 4
