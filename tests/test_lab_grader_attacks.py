@@ -64,7 +64,7 @@ CHEATS = {
         for path in sorted(glob.glob(SUBS + "/*/student.py")):
             try:
                 text = open(path).read()
-                if "a + b" in text:
+                if "a + b" in text and "glob" not in text:
                     exec(text)
             except OSError:
                 pass
@@ -222,13 +222,11 @@ def cheat_source(kind: str, lab: Path, subs: Path, out: Path) -> str:
     return head + STUB + textwrap.dedent(CHEATS[kind])
 
 
-# the cheats in four classes (each with the three honest students), so that a grading run is short
-GROUPS = [sorted(CHEATS)[k::4] for k in range(4)]
-
-
-@pytest.mark.parametrize("group", GROUPS, ids=["+".join(k.split("_")[0] for k in g) for g in GROUPS])
-def test_cheats_score_no_more_than_the_stub_and_change_no_one_elses_grade(group, tmp_path):
-    kinds = [k for k in group if ROOT or k not in NEEDS_ROOT]    # as the grader's own user: see docs/teachers.md
+@pytest.mark.parametrize("kind", sorted(CHEATS))
+def test_a_cheat_scores_no_more_than_the_stub_and_changes_no_one_elses_grade(kind, tmp_path):
+    if kind in NEEDS_ROOT and not ROOT:
+        pytest.skip("as the grader's own user a submission can signal the grader: see docs/teachers.md")
+    kinds = [kind]
     lab_path, subs, out = make_lab(tmp_path), tmp_path / "class", tmp_path / "out"
     out.mkdir()
     sources = {f"a_{kind}": cheat_source(kind, lab_path, subs, out) for kind in kinds}
