@@ -107,6 +107,7 @@ def grade(lab, submissions: str | Path, limits: Limits | None = None, jobs: int 
         most = count_points(lab_copy)
         hidden = sorted({str(Path(lab.path).resolve().parent), str(root), *(str(Path(h).resolve()) for h in hide)})
         checkers = [_Checker(slot, lab_copy, private, limits, hidden) for slot in range(jobs)]
+        _preflight(lab_copy, private, checkers[0].box)
         slots: queue.Queue = queue.Queue()
         for checker in checkers:
             slots.put(checker)
@@ -170,14 +171,28 @@ def _env(**extra) -> dict:
     return env
 
 
+def _preflight(lab_copy: Path, private: Path, box: Sandbox) -> None:
+    """Start the sandbox once on an empty file: a grader that cannot sandbox grades no one."""
+    from .labproxy import close_all, open_target
+    from .labwire import StudentProcessEnded
+    empty = private / "preflight.py"
+    empty.write_text("", encoding="utf-8")
+    try:
+        open_target(empty, lab_copy, box)
+    except StudentProcessEnded as exc:
+        raise ConfigError(f"the students' sandbox does not start, so no one is graded: {exc}") from None
+    finally:
+        close_all()
+
+
 class _Checker:
     """The checking process of one job slot: it checks one student after another, each in the
     slot's sandbox uid; it is started afresh when a student's checks outlive the wall-clock limit."""
 
     def __init__(self, slot, lab_copy, private, limits, hidden):
         self.uid = sandbox_uid(slot)
-        box = Sandbox(uid=self.uid, gid=self.uid, hide=hidden, cpu_seconds=limits.cpu_seconds,
-                      memory_mb=limits.memory_mb, processes=limits.processes, file_mb=limits.file_mb)
+        self.box = box = Sandbox(uid=self.uid, gid=self.uid, hide=hidden, cpu_seconds=limits.cpu_seconds,
+                                 memory_mb=limits.memory_mb, processes=limits.processes, file_mb=limits.file_mb)
         from .labs import CHECK_SECONDS_ENV, SPEC_ENV
         self.env = _env(**{SPEC_ENV: box.to_env(), CHECK_SECONDS_ENV: str(limits.check_seconds),
                            "PYTEST_DISABLE_PLUGIN_AUTOLOAD": "1"})   # the checks need no installed pytest plugin

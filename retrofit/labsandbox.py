@@ -60,7 +60,8 @@ def _blocked(path: Path):
 def _isolate(config: dict) -> str:
     """Hide what the student may not see; say what was done ("" when the kernel refused)."""
     libc = _libc()
-    if libc.unshare(CLONE_NEWNS | CLONE_NEWNET) != 0 and libc.unshare(CLONE_NEWNS) != 0:
+    unshare = getattr(libc, "unshare", None)        # Linux only
+    if unshare is None or unshare(CLONE_NEWNS | CLONE_NEWNET) != 0 and unshare(CLONE_NEWNS) != 0:
         return ""
     _mount(libc, "none", "/", None, MS_REC | MS_PRIVATE)
     stage = Path(tempfile.mkdtemp(prefix="retrofit-stage-"))
@@ -126,6 +127,10 @@ def setup(config: dict) -> Path:
     _limits(config)
     if root and uid is not None:
         _drop(uid, config["gid"])
+        library = os.path.dirname(os.__file__)
+        if not os.access(library, os.R_OK | os.X_OK):
+            raise SystemExit(f"Python's library {library} cannot be read by the sandbox's uid {uid}; give the "
+                             "grader CAP_SYS_ADMIN (a mount namespace), or use a Python every user may read")
     os.environ["RETROFIT_SANDBOX"] = isolated or "plain"
     return scratch / config["files"][0][0]
 
