@@ -50,7 +50,11 @@ def add_commands(sub) -> None:
     g.add_argument("--memory", type=int, default=2048, metavar="MIB", help="memory per student (default 2048)")
     g.add_argument("--check-seconds", type=float, default=20.0, metavar="S",
                    help="seconds one check may take before it counts as a hang (default 20)")
-    g.add_argument("--jobs", type=int, default=1, metavar="N", help="students checked at once (default 1)")
+    g.add_argument("--processes", type=int, default=64, metavar="N",
+                   help="processes one student's code may run at once, as root (default 64)")
+    g.add_argument("--file-mb", type=int, default=64, metavar="MIB",
+                   help="largest file one student's code may write (default 64)")
+    g.add_argument("--jobs", type=int, default=1, metavar="N", help="students checked at once (default 1, at most 64)")
     g.set_defaults(func=cmd_grade)
 
 
@@ -135,7 +139,7 @@ def cmd_grade(args) -> int:
     from ..labs import find_lab, labs_dir
     lab = find_lab(labs_dir(args.labs), args.lab)
     limits = Limits(cpu_seconds=args.cpu, memory_mb=args.memory, check_seconds=args.check_seconds,
-                    wall_seconds=max(60.0, 3.0 * args.cpu))
+                    wall_seconds=max(60.0, 3.0 * args.cpu), processes=args.processes, file_mb=args.file_mb)
     out = Path(args.out or args.submissions)
     out.mkdir(parents=True, exist_ok=True)
     grades = grade(lab, args.submissions, limits, jobs=args.jobs, hide=(out,))
