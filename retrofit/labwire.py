@@ -284,7 +284,10 @@ class Proxy:
 
     def __array__(self, dtype=None, copy=None):
         import numpy as np
-        array = np.asarray(self._request("op", "array", []))
+        value = self._request("op", "array", [])
+        if isinstance(value, Proxy):
+            raise TypeError("the value is not an array of numbers (bool, integer, float or complex)")
+        array = np.asarray(value)
         return array.astype(dtype) if dtype is not None else array
 
     __repr__, __str__, __len__, __bool__, __hash__ = _op("repr"), _op("str"), _op("len"), _op("bool"), _op("hash")

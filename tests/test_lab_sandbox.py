@@ -49,6 +49,9 @@ def state():
 def cheat():
     return AlwaysEqual()
 
+def objects():
+    return np.array([AlwaysEqual()], dtype=object)
+
 def call_back(counter, times):
     return [counter.tick() for _ in range(times)]
 
@@ -93,6 +96,8 @@ def test_other_objects_stay_with_the_student_and_compare_only_to_themselves(modu
     state = module.state()
     assert state.x == 1.5 and "State" in repr(state)
     assert (module.cheat() == 5) is False and module.cheat() != 5
+    with pytest.raises(TypeError, match="not an array of numbers"):
+        np.asarray(module.objects())
 
 
 def test_the_students_code_calls_back_into_the_checks_objects_but_not_their_insides(module):
