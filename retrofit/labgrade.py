@@ -27,7 +27,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .errors import ConfigError
-from .labprocess import Sandbox, kill_group, processes_of, sandbox_uid, sweep_uid
+from .labprocess import (Sandbox, become_subreaper, kill_children, kill_group, processes_of, sandbox_uid,
+                         sweep_uid)
 
 STATUSES = ("passed", "failed", "skipped")
 
@@ -303,9 +304,11 @@ def _worker(lab_path: str, done_fd: str) -> int:
     from .atomic import write_text_atomic
     from .labs import check_lab, find_lab
     lab = find_lab(Path(lab_path).parent, Path(lab_path).name)
+    become_subreaper()                  # a student's orphaned grandchildren come here, root or not
     for line in sys.stdin:
         job = json.loads(line)
         results = check_lab(lab, target=job["target"])
+        kill_children()
         write_text_atomic(job["result"], json.dumps({"checks": [r.as_dict() for r in results]}))
         os.write(int(done_fd), b"done\n")
     return 0

@@ -7,6 +7,7 @@ import json
 import os
 import shutil
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -195,3 +196,24 @@ def test_the_score_is_capped_by_the_graders_own_count(tmp_path):
     assert checks == [] and "no usable result" in note
     many = [{"title": f"TODO 1: {i}", "status": "passed", "points": 1, "max_points": 1} for i in range(9)]
     assert Grade("x", checks=many, max_points=4).points == 4
+
+
+SUBREAPER = '''
+import os, subprocess, sys, time
+from retrofit.labprocess import become_subreaper, children_of, kill_children
+assert become_subreaper()
+double_fork = "import os, time\\nif os.fork() == 0:\\n    os.setsid()\\n    if os.fork() == 0:\\n        time.sleep(300)\\n    os._exit(0)\\n"
+subprocess.run([sys.executable, "-c", double_fork], check=True)
+for _ in range(500):                  # the grandchild, orphaned twice, is handed to this process
+    if children_of(os.getpid()):
+        break
+    time.sleep(0.01)
+orphans = children_of(os.getpid())
+print(len(orphans), kill_children(), len(children_of(os.getpid())), all(not os.path.exists(f"/proc/{p}") for p in orphans))
+'''
+
+
+def test_without_root_a_detached_grandchild_is_handed_to_the_checker_and_killed():
+    done = subprocess.run([sys.executable, "-c", SUBREAPER], capture_output=True, text=True, timeout=120)
+    orphans, killed, left, gone = done.stdout.split()       # the orphans may include the middle one, exited
+    assert int(orphans) >= 1 and killed == orphans and (left, gone) == ("0", "True"), done.stderr
