@@ -1,42 +1,76 @@
-"""The teacher's kit: hand a lab out without its solution, and grade a class's submissions.
+"""The teacher's kit: hand a lab out without its solution, and write a class's grades.
 
 :func:`export_lab` copies what a student gets (the handout, the stub, the checks, the notebook
 and any data files) and leaves out the reference solution, the known-wrong solutions and the
-teacher's notes. :func:`grade` checks every student folder of a submissions folder in a process
-of its own, with a CPU-time and a memory limit (``resource.setrlimit``) and a wall-clock limit
-as a last resort, and writes one CSV and one JSON for the class. The checks used are always
-the teacher's (from the labs folder), never a ``checks.py`` a student handed in.
+teacher's notes; the stub comes from the pristine source (git's last commit), never from a
+``student.py`` the teacher has worked in. :func:`grade` (in :mod:`retrofit.labgrade`) checks
+every student in a sandbox; :func:`write_grades` writes one CSV and one JSON for the class, each
+file whole or not at all, every CSV cell safe to open in a spreadsheet.
 """
 
 from __future__ import annotations
 
 import csv
+import io
 import json
-import os
 import shutil
 import subprocess
-import sys
-from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
 from pathlib import Path
 
+from .atomic import write_text_atomic
 from .errors import ConfigError
-from .labs import CHECK_SECONDS_ENV, Lab, check_lab, find_lab
+from .labgrade import Grade, Limits, grade, submission_file  # noqa: F401  (the kit's API)
+from .labprocess import TEACHER_ONLY
+from .labs import Lab
 
-#: what stays with the teacher: never copied by :func:`export_lab`
-TEACHER_ONLY = ("solution.py", "teacher.md", "wrong", "right", "out", "__pycache__", ".ipynb_checkpoints")
+_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
 
 
-def export_lab(lab: Lab, dest: str | Path) -> list[Path]:
+def pristine_stub(lab: Lab) -> tuple[bytes | None, str]:
+    """The stub as committed (``git show HEAD:...``), and where it came from; (None, why) without git."""
+    path = lab.file(False)
+    try:
+        top = subprocess.run(["git", "rev-parse", "--show-toplevel"], cwd=lab.path, capture_output=True,
+                             text=True, timeout=30)
+        if top.returncode != 0:
+            return None, "not in a git checkout"
+        relative = path.resolve().relative_to(Path(top.stdout.strip()).resolve()).as_posix()
+        shown = subprocess.run(["git", "show", f"HEAD:{relative}"], cwd=lab.path, capture_output=True, timeout=30)
+    except (OSError, ValueError, subprocess.TimeoutExpired) as exc:
+        return None, f"git: {exc}"
+    if shown.returncode != 0:
+        return None, f"{relative} is not committed"
+    return shown.stdout, f"git HEAD:{relative}"
+
+
+def _stub(lab: Lab, warn) -> bytes:
+    """What goes out as student.py: the committed stub; the working file only when it still is one."""
+    working = lab.file(False).read_bytes()
+    committed, source = pristine_stub(lab)
+    if committed is not None:
+        if committed != working:
+            warn(f"{lab.file(False)} differs from the committed stub ({source}); exported the committed stub. "
+                 "Commit the stub if the change was meant for students.")
+        return committed
+    if b'raise NotImplementedError("TODO' not in working and b"raise NotImplementedError('TODO" not in working:
+        raise ConfigError(f"{lab.file(False)}: no TODO is left to write in it ({source}), so it may hold answers; "
+                          "put the stub back (or export from a git checkout)")
+    warn(f"{lab.file(False)} exported as it is ({source}): check that it holds no answers")
+    return working
+
+
+def export_lab(lab: Lab, dest: str | Path, warn=None) -> list[Path]:
     """Copy the student's part of ``lab`` into ``dest/<lab folder>/``; return the files written.
 
     ``dest`` also gets the labs' ``pytest.ini`` so that ``pytest`` and ``retrofit lab check NN
-    --labs DEST`` work on the copy. Refuses to write into the lab's own folder.
+    --labs DEST`` work on the copy. Refuses to write into the lab's own folder. ``warn(text)`` is
+    told when the working ``student.py`` is not the committed stub.
     """
     dest = Path(dest)
     target = dest / lab.path.name
     if target.resolve() == lab.path.resolve() or lab.path.resolve() in target.resolve().parents:
         raise ConfigError(f"{dest}: that is the labs folder itself; export into another folder")
+    stub = _stub(lab, warn or (lambda text: None))
     written = []
     for source in sorted(lab.path.rglob("*")):
         relative = source.relative_to(lab.path)
@@ -44,7 +78,10 @@ def export_lab(lab: Lab, dest: str | Path) -> list[Path]:
             continue
         out = target / relative
         out.parent.mkdir(parents=True, exist_ok=True)
-        shutil.copyfile(source, out)
+        if relative.as_posix() == "student.py":
+            out.write_bytes(stub)
+        else:
+            shutil.copyfile(source, out)
         written.append(out)
     ini = lab.path.parent / "pytest.ini"
     if ini.is_file():
@@ -53,134 +90,33 @@ def export_lab(lab: Lab, dest: str | Path) -> list[Path]:
     return written
 
 
-@dataclass
-class Limits:
-    """What one submission may use: CPU seconds, memory (MiB), per-check seconds, wall seconds."""
-
-    cpu_seconds: int = 120
-    memory_mb: int = 2048
-    check_seconds: float = 20.0
-    wall_seconds: float = 300.0
-
-
-@dataclass
-class Grade:
-    """One student's result: the checks, the points, and a note when the run itself failed."""
-
-    student: str
-    checks: list[dict] = field(default_factory=list)
-    note: str = ""
-
-    @property
-    def points(self) -> int:
-        return sum(c["points"] for c in self.checks)
-
-    @property
-    def max_points(self) -> int:
-        return sum(c["max_points"] for c in self.checks)
-
-    def failed_todos(self) -> list[str]:
-        """The TODOs with a failed check, each once, in order."""
-        todos = [c["todo"] or c["title"] for c in self.checks if c["status"] == "failed"]
-        return list(dict.fromkeys(todos))
-
-
-def _limit(limits: Limits):
-    """A ``preexec_fn`` setting the CPU and address-space limits in the child process."""
-    def apply():
-        import resource
-        resource.setrlimit(resource.RLIMIT_CPU, (limits.cpu_seconds, limits.cpu_seconds + 5))
-        size = limits.memory_mb * 1024 * 1024
-        resource.setrlimit(resource.RLIMIT_AS, (size, size))
-    return apply
-
-
-def submission_file(folder: Path) -> Path | None:
-    """The file a student handed in: ``student.py`` in the folder (or in one folder below)."""
-    for candidate in (folder / "student.py", *sorted(folder.glob("*/student.py"))):
-        if candidate.is_file():
-            return candidate
-    return None
-
-
-def grade_one(lab: Lab, folder: Path, limits: Limits) -> Grade:
-    """Check one student's folder in a child process under ``limits``."""
-    grade = Grade(folder.name)
-    target = submission_file(folder)
-    if target is None:
-        grade.note = "no student.py handed in"
-        return grade
-    env = dict(os.environ, **{CHECK_SECONDS_ENV: str(limits.check_seconds), "MPLBACKEND": "Agg"})
-    import tempfile
-    with tempfile.TemporaryDirectory(prefix="retrofit-grade-") as scratch:
-        result = Path(scratch) / "result.json"
-        command = [sys.executable, "-m", "retrofit.labkit", str(lab.path), str(target.resolve()), str(result)]
-        _run_child(grade, command, env, folder, limits, result)
-    return grade
-
-
-def _run_child(grade: Grade, command: list[str], env: dict, folder: Path, limits: Limits, result: Path) -> None:
-    """Run the checking process; fill ``grade`` from the JSON it wrote, or say why it wrote none."""
-    try:
-        done = subprocess.run(command, capture_output=True, text=True, env=env, cwd=folder,
-                              timeout=limits.wall_seconds, preexec_fn=_limit(limits))
-    except subprocess.TimeoutExpired:
-        grade.note = f"stopped after {limits.wall_seconds:g} s (wall-clock limit)"
-        return
-    try:
-        grade.checks = json.loads(result.read_text(encoding="utf-8"))["checks"]
-    except (OSError, ValueError, KeyError, TypeError):
-        grade.note = _death(done.returncode, done.stderr, limits)
-
-
-def _death(code: int, stderr: str, limits: Limits) -> str:
-    """Why a checking process ended without a result, in one line."""
-    import signal
-    if code in (-signal.SIGXCPU, -signal.SIGKILL):
-        return f"stopped: used more than {limits.cpu_seconds} s of CPU time"
-    last = [line for line in stderr.strip().splitlines() if line.strip()]
-    if last and "MemoryError" in last[-1]:
-        return f"stopped: used more than {limits.memory_mb} MiB of memory"
-    return f"the check process ended with code {code}" + (f": {last[-1][:200]}" if last else "")
-
-
-def grade(lab: Lab, submissions: str | Path, limits: Limits | None = None, jobs: int = 1) -> list[Grade]:
-    """Grade every folder in ``submissions`` (one per student, sorted by name)."""
-    root = Path(submissions)
-    if not root.is_dir():
-        raise ConfigError(f"{root}: no such folder; give a folder holding one folder per student")
-    folders = sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith("."))
-    if not folders:
-        raise ConfigError(f"{root}: no student folders in it; put each student's student.py in a folder "
-                          "named after the student")
-    limits = limits or Limits()
-    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
-        return list(pool.map(lambda folder: grade_one(lab, folder, limits), folders))
+def safe_cell(value):
+    """A CSV cell a spreadsheet shows as text: one starting with = + - @ tab or CR gets a leading '."""
+    if isinstance(value, str) and value.startswith(_FORMULA_START):
+        return "'" + value
+    return value
 
 
 def write_grades(grades: list[Grade], lab: Lab, csv_path: str | Path, json_path: str | Path) -> None:
-    """One CSV row per student (points, max, failed TODOs, note) and the full results as JSON."""
+    """One CSV row per student and the full results as JSON, each written whole or not at all.
+
+    Columns: student, points, max_points, the failed TODOs, a note, one column per TODO with why
+    it failed (``ok`` when every check of it passed), then one column per check (its status).
+    """
     titles = list(dict.fromkeys(c["title"] for g in grades for c in g.checks))
-    with open(csv_path, "w", newline="", encoding="utf-8") as handle:
-        out = csv.writer(handle)
-        out.writerow(["student", "points", "max_points", "failed", "note", *titles])
-        for g in grades:
-            status = {c["title"]: c["status"] for c in g.checks}
-            out.writerow([g.student, g.points, g.max_points, " ".join(g.failed_todos()), g.note,
-                          *(status.get(t, "") for t in titles)])
+    todos = sorted({t for g in grades for c in g.checks for t in c.get("todos") or []},
+                   key=lambda t: int(t.split()[-1]) if t.split()[-1].isdigit() else 0)
+    text = io.StringIO()
+    out = csv.writer(text)
+    out.writerow([safe_cell(c) for c in ["student", "points", "max_points", "failed", "note", *todos, *titles]])
+    for g in grades:
+        status = {c["title"]: c["status"] for c in g.checks}
+        reasons = g.todo_reasons()
+        row = [g.student, g.points, g.max_points, " ".join(g.failed_todos()), g.note,
+               *(reasons.get(t, "") for t in todos), *(status.get(t, "") for t in titles)]
+        out.writerow([safe_cell(c) for c in row])
     data = {"lab": lab.path.name, "title": lab.title,
-            "students": [{"student": g.student, "points": g.points, "max_points": g.max_points,
-                          "note": g.note, "checks": g.checks} for g in grades]}
-    Path(json_path).write_text(json.dumps(data, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
-
-
-def _worker(lab_path: str, target: str, result: str) -> int:
-    """The child process: check ``target`` with the lab's checks, write the results as JSON."""
-    lab = find_lab(Path(lab_path).parent, Path(lab_path).name)
-    results = check_lab(lab, target=target)
-    Path(result).write_text(json.dumps({"checks": [r.as_dict() for r in results]}), encoding="utf-8")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(_worker(*sys.argv[1:4]))
+            "students": [{"student": g.student, "points": g.points, "max_points": g.max_points, "note": g.note,
+                          "todos": g.todo_reasons(), "checks": g.checks} for g in grades]}
+    write_text_atomic(csv_path, text.getvalue())
+    write_text_atomic(json_path, json.dumps(data, indent=1, ensure_ascii=False) + "\n")

@@ -17,6 +17,10 @@ Which file the checks test: ``RETROFIT_LAB_TARGET`` = ``student`` (the default),
 or a path to any ``.py`` file; the checks get the module from :func:`load_target`. So
 ``pytest labs/01_circle/checks.py`` checks the student's file and
 ``RETROFIT_LAB_TARGET=solution pytest labs/01_circle/checks.py`` the reference solution.
+
+The file under check runs in a process of its own (:mod:`retrofit.labproxy`): :func:`load_target`
+gives the checks a proxy of its module, and the checks and the score stay in this process.
+``RETROFIT_LAB_SANDBOX=0`` imports it here instead (to debug a lab's checks, never to grade).
 """
 
 from __future__ import annotations
@@ -27,15 +31,19 @@ import re
 import signal
 import sys
 import threading
-import traceback
 from dataclasses import dataclass
 from pathlib import Path
 
 from .errors import ConfigError
 from .labplot import pyplot, save_figure  # noqa: F401  (the labs draw with these)
+from .labmessages import CheckFailed, explain, failure_reason  # noqa: F401  (part of this module's API)
+from .labprocess import BUDGET
+from .labproxy import CheckTimeout, close_all
 
 LABS_ENV = "RETROFIT_LABS"
 TARGET_ENV = "RETROFIT_LAB_TARGET"
+SANDBOX_ENV = "RETROFIT_LAB_SANDBOX"            # "0": the file under check is imported in this process
+SPEC_ENV = "RETROFIT_LAB_SANDBOX_SPEC"          # the grader's sandbox settings (JSON of labprocess.Sandbox)
 _LAB_DIR = re.compile(r"^(\d\d)_([A-Za-z0-9_]+)$")
 
 
@@ -64,7 +72,7 @@ def labs_dir(root: str | Path | None = None) -> Path:
         if not path.is_dir():
             where = "--labs" if root is not None else LABS_ENV
             raise ConfigError(f"{where} {path}: no such folder; give the folder that holds 01_circle/ ...")
-        return path
+        return path.resolve()
     package = Path(__file__).resolve().parent
     for candidate in (package.parent / "labs", Path.cwd() / "labs"):
         if candidate.is_dir() and list_labs(candidate):
@@ -129,19 +137,20 @@ def target_path(lab_path: str | Path) -> Path:
 
 
 def load_target(checks_file: str | Path):
-    """For a lab's ``checks.py``: the module under check (the student's file by default)."""
-    return load_module(target_path(Path(checks_file).resolve().parent))
+    """For a lab's ``checks.py``: the module under check (the student's file by default).
 
-
-class CheckFailed(AssertionError):
-    """A check that failed, worded for a student: what was checked, expected, got, and a hint."""
-
-    def __init__(self, what: str, expected, got, hint: str = ""):
-        self.what, self.expected, self.got, self.hint = what, expected, got, hint
-        lines = [what, f"expected: {expected}", f"your code gave: {got}"]
-        if hint:
-            lines.append(f"hint: {hint}")
-        super().__init__("\n".join(lines))
+    A proxy of the module, running in its sandbox; calls on it and on what it returns go to that
+    process (see :mod:`retrofit.labwire` for the values that cross).
+    """
+    lab_path = Path(checks_file).resolve().parent
+    path = target_path(lab_path)
+    if os.environ.get(SANDBOX_ENV, "1") == "0":
+        return load_module(path)
+    from .labprocess import Sandbox, sandbox_uid
+    from .labproxy import open_target
+    spec = os.environ.get(SPEC_ENV)
+    sandbox = Sandbox.from_env(spec) if spec else Sandbox(uid=sandbox_uid(), hide=[str(lab_path.parent)])
+    return open_target(path.resolve(), lab_path, sandbox)
 
 
 def expect(ok: bool, what: str, *, expected, got, hint: str = "") -> None:
@@ -150,49 +159,11 @@ def expect(ok: bool, what: str, *, expected, got, hint: str = "") -> None:
         raise CheckFailed(what, expected, got, hint)
 
 
-def explain(exc: BaseException, target: Path) -> str:
-    """A failure in words a student can act on, never a traceback.
-
-    >>> explain(NotImplementedError("TODO 1: compute the target"), Path("student.py"))
-    'not written yet: TODO 1: compute the target'
-    """
-    if isinstance(exc, CheckFailed):
-        return str(exc)
-    if isinstance(exc, CheckTimeout):
-        where = _where(exc, target)
-        return (f"{exc}; a loop that never ends?" + (f" it was running {where}" if where else "")
-                + "; look at that loop's exit condition")
-    if isinstance(exc, SyntaxError) and exc.filename and Path(exc.filename).name == target.name:
-        return (f"{target.name} line {exc.lineno} does not read as Python: {exc.msg}; "
-                "fix that line, then check again")
-    where = _where(exc, target)
-    if isinstance(exc, NotImplementedError):
-        return f"not written yet: {exc or 'a TODO'}" + (f" ({where})" if where else "")
-    if type(exc) is AssertionError:
-        return str(exc).split("\nassert ")[0] or "a check's assertion failed"
-    text = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
-    if where:
-        return f"your code raised {text} ({where}); fix it there, then check again"
-    return f"the check raised {text} while using your code; look at what your functions return"
-
-
-def _where(exc: BaseException, target: Path) -> str:
-    """'student.py line 42, in calc_next_input' for the deepest frame in the target file."""
-    frames = [f for f in traceback.extract_tb(exc.__traceback__) if Path(f.filename).name == target.name]
-    if not frames:
-        return ""
-    frame = frames[-1]
-    return f"{target.name} line {frame.lineno}, in {frame.name}"
-
-
 #: processor seconds one check may take before it is stopped as a hang (``RETROFIT_CHECK_SECONDS`` changes it)
 CHECK_SECONDS = 20.0
 CHECK_SECONDS_ENV = "RETROFIT_CHECK_SECONDS"
 _TODO = re.compile(r"\bTODO\s*(\d+)")
-
-
-class CheckTimeout(Exception):
-    """A check ran longer than its time limit (raised inside the student's code by an alarm)."""
+_TODOS = re.compile(r"^TODOs? ([\d, -]+)")
 
 
 @dataclass(frozen=True)
@@ -203,6 +174,7 @@ class CheckResult:
     status: str
     message: str = ""
     points: int = 1             # what the check is worth (``@pytest.mark.points(n)``)
+    reason: str = ""            # a failure in a few words: wrong value, timeout at line 6, did not import
 
     @property
     def todo(self) -> str:
@@ -211,14 +183,26 @@ class CheckResult:
         return f"TODO {match[1]}" if match else ""
 
     @property
+    def todos(self) -> list[str]:
+        """Every TODO the title names: "TODO 1, 2: ..." and "TODOs 1-3: ..." name them all."""
+        match = _TODOS.match(self.title)
+        if not match:
+            return [self.todo] if self.todo else []
+        numbers = []
+        for part in re.findall(r"\d+-\d+|\d+", match[1]):
+            low, _, high = part.partition("-")
+            numbers += range(int(low), int(high or low) + 1)
+        return [f"TODO {n}" for n in dict.fromkeys(numbers)]
+
+    @property
     def scored(self) -> int:
         """Points earned: all of them when the check passed, none otherwise."""
         return self.points if self.status == "passed" else 0
 
     def as_dict(self) -> dict:
         """The result as plain data for ``--json``: title, TODO, status, message, points."""
-        return {"title": self.title, "todo": self.todo, "status": self.status, "message": self.message,
-                "points": self.scored, "max_points": self.points}
+        return {"title": self.title, "todo": self.todo, "todos": self.todos, "status": self.status,
+                "message": self.message, "reason": self.reason, "points": self.scored, "max_points": self.points}
 
 
 def check_seconds() -> float:
@@ -240,7 +224,7 @@ class _Alarm:
     elsewhere the check runs without a limit (the grader's process limits still hold).
     """
 
-    TIMERS = (("ITIMER_PROF", "SIGPROF", 1), ("ITIMER_REAL", "SIGALRM", 10))
+    TIMERS = (("ITIMER_PROF", "SIGPROF", 1), ("ITIMER_REAL", "SIGALRM", 12))
 
     def __init__(self, seconds: float, title: str):
         self.seconds, self.title = seconds, title
@@ -251,6 +235,8 @@ class _Alarm:
         raise CheckTimeout(f"{self.title}: did not finish within {self.seconds:g} s")
 
     def __enter__(self):
+        if self.seconds > 0:
+            BUDGET.begin(self.seconds, self.title)   # the student's process is timed by labproxy
         if self.usable:
             self.saved = []
             for timer, sig, times in self.TIMERS:
@@ -259,6 +245,7 @@ class _Alarm:
         return self
 
     def __exit__(self, *exc):
+        BUDGET.end()
         if self.usable:
             for (timer, sig, _), handler in zip(self.TIMERS, self.saved):
                 signal.setitimer(getattr(signal, timer), 0)
@@ -297,8 +284,8 @@ def _collector(target: Path):
                     reason = report.longrepr[2] if isinstance(report.longrepr, tuple) else ""
                     self.results.append(CheckResult(title, "skipped", reason.removeprefix("Skipped: "), points))
                 elif report.failed:
-                    message = explain(call.excinfo.value, target)
-                    self.results.append(CheckResult(title, "failed", message, points))
+                    exc = call.excinfo.value
+                    self.results.append(CheckResult(title, "failed", explain(exc, target), points, failure_reason(exc)))
                 else:
                     self.results.append(CheckResult(title, "passed", "", points))
             return report
@@ -347,6 +334,7 @@ def check_lab(lab: Lab, solution: bool = False, target: str | Path | None = None
                             "-W", "ignore::DeprecationWarning", *_QUIET, *(["-x"] if first_failure else [])],
                            plugins=[collector])
     finally:
+        close_all()
         if saved is None:
             os.environ.pop(TARGET_ENV, None)
         else:

@@ -39,9 +39,10 @@ def add_commands(sub) -> None:
     e.add_argument("dir", help="the folder to write into")
     e.set_defaults(func=cmd_export)
     g = actions.add_parser("grade", parents=[where], help="grade a folder of student folders into CSV and JSON",
-                           description="Check every student folder (holding student.py) in SUBMISSIONS, each "
-                                       "in its own process with time and memory limits; write grades.csv "
-                                       "and grades.json.")
+                           description="Check every student folder (holding student.py) in SUBMISSIONS: each "
+                                       "student's code in a sandbox of its own (its own process and, as root, "
+                                       "its own uid) with time, memory, process and file-size limits, the "
+                                       "checks and the score in the grader; write grades.csv and grades.json.")
     g.add_argument("lab", help="lab number (01), folder name or topic")
     g.add_argument("submissions", help="a folder holding one folder per student")
     g.add_argument("--out", metavar="DIR", help="where grades.csv and grades.json go (default: SUBMISSIONS)")
@@ -49,7 +50,11 @@ def add_commands(sub) -> None:
     g.add_argument("--memory", type=int, default=2048, metavar="MIB", help="memory per student (default 2048)")
     g.add_argument("--check-seconds", type=float, default=20.0, metavar="S",
                    help="seconds one check may take before it counts as a hang (default 20)")
-    g.add_argument("--jobs", type=int, default=1, metavar="N", help="students checked at once (default 1)")
+    g.add_argument("--processes", type=int, default=64, metavar="N",
+                   help="processes one student's code may run at once, as root (default 64)")
+    g.add_argument("--file-mb", type=int, default=64, metavar="MIB",
+                   help="largest file one student's code may write (default 64)")
+    g.add_argument("--jobs", type=int, default=1, metavar="N", help="students checked at once (default 1, at most 64)")
     g.set_defaults(func=cmd_grade)
 
 
@@ -120,7 +125,7 @@ def cmd_export(args) -> int:
     from ..labkit import export_lab
     from ..labs import find_lab, labs_dir
     lab = find_lab(labs_dir(args.labs), args.lab)
-    written = export_lab(lab, args.dir)
+    written = export_lab(lab, args.dir, warn=lambda text: print(f"warning: {text}", file=sys.stderr))
     print(f"Lab {lab.number}: {lab.title} — {len(written)} files for students in {args.dir}/{lab.path.name}")
     for path in written:
         print(f"  {path}")
@@ -134,13 +139,13 @@ def cmd_grade(args) -> int:
     from ..labs import find_lab, labs_dir
     lab = find_lab(labs_dir(args.labs), args.lab)
     limits = Limits(cpu_seconds=args.cpu, memory_mb=args.memory, check_seconds=args.check_seconds,
-                    wall_seconds=max(60.0, 3.0 * args.cpu))
-    grades = grade(lab, args.submissions, limits, jobs=args.jobs)
+                    wall_seconds=max(60.0, 3.0 * args.cpu), processes=args.processes, file_mb=args.file_mb)
     out = Path(args.out or args.submissions)
     out.mkdir(parents=True, exist_ok=True)
+    grades = grade(lab, args.submissions, limits, jobs=args.jobs, hide=(out,))
     write_grades(grades, lab, out / "grades.csv", out / "grades.json")
     print(f"Lab {lab.number}: {lab.title} — {len(grades)} students")
     for g in grades:
-        print(f"  {g.student:20s} {g.points:3d} / {g.max_points:<3d} {g.note or ' '.join(g.failed_todos())}")
+        print(f"  {g.student!s:20.20s} {g.points:3d} / {g.max_points:<3d} {g.note or ' '.join(g.failed_todos())}")
     print(f"wrote {out / 'grades.csv'} and {out / 'grades.json'}")
     return 0
