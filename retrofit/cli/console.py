@@ -56,7 +56,8 @@ def cmd_console(args) -> int:
         raise RetrofitError(f"--listen {args.listen}: not a loopback address; other computers could move the "
                             "machine. Add --allow-remote if that is meant (read docs/console.md first)")
     machine = load_machine(args.machine)
-    console = Console(machine, args.output, backlash_comp=not args.no_backlash_comp, programs=args.programs)
+    console = Console(machine, args.output, backlash_comp=not args.no_backlash_comp, programs=args.programs,
+                      machine_arg=args.machine)
     if not console.output_urls and hasattr(os, "nice"):
         os.nice(CONSOLE_NICENESS)     # only sim://: a paced port loop on this computer goes first
     token = secrets.token_urlsafe(24)

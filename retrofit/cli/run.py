@@ -158,7 +158,7 @@ def _run(args) -> int:
 
 def changes_tools(expanded) -> bool:
     """Whether the run changes the tool in the spindle (by the changer or by hand)."""
-    return any(e.tool is not None for e in expanded.events)
+    return expanded.changes_the_tool
 
 
 def exit_code(report: dict, args) -> int:

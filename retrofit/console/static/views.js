@@ -48,6 +48,8 @@ RV.drawPreview = function (div, pv, title) {
     const [cx, cy] = RV.segmentsXY(pv.segments, "cut", h, v);
     traces.push({x: rx, y: ry, mode: "lines", line: {color: "#777", dash: "dash", width: 1.2}, name: "rapid (G0)"});
     traces.push({x: cx, y: cy, mode: "lines", line: {color: "#1f77b4", width: 1.8}, name: "cut (G1/G2/G3)"});
+    traces.push({x: [0], y: [0], mode: "markers", marker: {color: "#d62728", size: 10, symbol: "cross-thin",
+      line: {width: 2, color: "#d62728"}}, name: "the machine (commanded)"});
     traces.push({x: [], y: [], mode: "lines", line: {color: "rgba(214,39,40,0.7)", width: 1.2}, name: "carriage (backplot)"});
     const xs = rx.concat(cx).filter(v => v !== null), ys = ry.concat(cy).filter(v => v !== null).concat([0]);
     const span = (a, lo, hi) => {
@@ -55,6 +57,7 @@ RV.drawPreview = function (div, pv, title) {
       const mn = Math.min(...a), mx = Math.max(...a), m = 0.08 * (mx - mn || 1);
       return [Math.max(lo, mn - m), Math.min(hi, mx + m)];
     };
+    div.dataset.position = "";
     Plotly.newPlot(div, traces, {title: {text: title || "", font: {size: 14}}, margin: {t: 40, l: 60, r: 10, b: 50},
       xaxis: {title: {text: RV.axisTitle(ah)}, range: span(xs.concat(pv.stock ? pv.stock.z : []), ah.min, ah.max)},
       yaxis: {title: {text: RV.axisTitle(av)}, scaleanchor: "x", range: span(ys, av.min, av.max)},
@@ -74,8 +77,11 @@ RV.drawPreview = function (div, pv, title) {
     const r = seg3("rapid"), c = seg3("cut");
     traces.push({type: "scatter3d", x: r[0], y: r[1], z: r[2], mode: "lines", line: {color: "#777", dash: "dash", width: 2}, name: "rapid (G0)"});
     traces.push({type: "scatter3d", x: c[0], y: c[1], z: c[2], mode: "lines", line: {color: "#1f77b4", width: 3}, name: "cut (G1/G2/G3)"});
+    traces.push({type: "scatter3d", x: [0], y: [0], z: [0], mode: "markers", marker: {color: "#d62728", size: 4},
+      name: "the machine (commanded)"});
     traces.push({type: "scatter3d", x: [], y: [], z: [], mode: "lines", line: {color: "rgba(214,39,40,0.7)", width: 2}, name: "carriage (backplot)"});
     const t = (i) => ({title: {text: pv.axes[i] ? RV.axisTitle(pv.axes[i]) : ""}});
+    div.dataset.position = "";
     Plotly.newPlot(div, traces, {title: {text: title || "", font: {size: 14}}, margin: {t: 40, l: 0, r: 0, b: 0},
       scene: {xaxis: t(0), yaxis: t(1), zaxis: t(2), aspectmode: "data"}, legend: {orientation: "h"}},
       {responsive: true, displaylogo: false});
@@ -93,6 +99,22 @@ RV.boxEdges = function (axes) {
     x.push(p[0], q[0], null); y.push(p[1], q[1], null); z.push(p[2], q[2], null);
   }
   return [x, y, z];
+};
+
+// The machine's commanded position (mm by axis name) as the marker before the backplot.
+RV.showPosition = function (div, pv, pos) {
+  if (!pv || !div.data || div.data.length < 2) return;
+  const names = pv.axes.map(a => a.name), at = (i) => [i < names.length ? pos[names[i]] ?? 0 : 0];
+  const key = names.map(n => pos[n]).join(",");
+  if (div.dataset.position === key) return;
+  div.dataset.position = key;
+  const idx = div.data.length - 2;
+  if (pv.lathe) {
+    const [h, v] = RV.planeAxes(pv);
+    Plotly.restyle(div, {x: [at(h)], y: [at(v)]}, [idx]);
+  } else {
+    Plotly.restyle(div, {x: [at(0)], y: [at(1)], z: [at(2)]}, [idx]);
+  }
 };
 
 // rows: [time, commanded..., carriage...] as the console's state sends them
@@ -159,6 +181,8 @@ RV.pulsesFigure = function (data) {
 // window it shows. window.retrofitZoomMs collects how long each redraw took (performance.now()).
 RV.attachRunViews = function (timelineDiv, pulsesDiv, source, endTick, tickS, violations) {
   window.retrofitZoomMs = [];
+  Plotly.purge(timelineDiv);                   // the last run's plots and their zoom handlers go
+  Plotly.purge(pulsesDiv);
   const draw = async (kind, div, t0, t1) => {
     const start = performance.now();
     if (kind === "timeline") {
