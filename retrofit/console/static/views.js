@@ -142,8 +142,9 @@ RV.timelineFigure = function (data, violations, tickS) {
     layout["yaxis" + ax] = {title: {text: label, font: {size: 10}}, domain: [1 - (r + 1) / rows.length + 0.03, 1 - r / rows.length]};
     layout["xaxis" + ax] = {anchor: "y" + ax, matches: r === 0 ? undefined : "x", showticklabels: r === rows.length - 1};
     names.forEach((name, i) => {
-      if (!data.axes[name][key]) return;
-      traces.push({x: data.t, y: data.axes[name][key], mode: "lines", line: {color: colors[i % 4], width: 1.2},
+      const s = data.axes[name][key];           // values at data.t, or a trace with its own times {t, y}
+      if (!s) return;
+      traces.push({x: s.t || data.t, y: s.y || s, mode: "lines", line: {color: colors[i % 4], width: 1.2},
         name: name, legendgroup: name, showlegend: r === 0, xaxis: "x" + ax, yaxis: "y" + ax, type: "scatter"});
     });
   });
@@ -221,15 +222,14 @@ RV.attachRunViews = function (timelineDiv, pulsesDiv, source, endTick, tickS, vi
 RV.localSource = function (run) {
   const bisect = (a, x) => { let lo = 0, hi = a.length; while (lo < hi) { const m = (lo + hi) >> 1; if (a[m] <= x) lo = m + 1; else hi = m; } return lo; };
   return {
-    timeline: async (t0, t1) => {
-      const tl = run.timeline, ts = run.tick_s;
-      let i0 = Math.max(bisect(tl.t, t0 * ts) - 1, 0), i1 = Math.min(bisect(tl.t, t1 * ts) + 1, tl.t.length);
-      const stride = Math.max(1, Math.floor((i1 - i0) / 1500));
-      const pick = (arr) => { const o = []; for (let i = i0; i < i1; i += stride) o.push(arr[i]); return o; };
-      const out = {t: pick(tl.t), axes: {}};
-      for (const [name, ax] of Object.entries(tl.axes)) {
+    timeline: async (t0, t1) => {               // each trace's points in the window (min/max kept)
+      const out = {axes: {}}, a = t0 * run.tick_s, b = t1 * run.tick_s;
+      for (const [name, ax] of Object.entries(run.timeline)) {
         out.axes[name] = {};
-        for (const [k, arr] of Object.entries(ax)) out.axes[name][k] = pick(arr);
+        for (const [k, s] of Object.entries(ax)) {
+          const i0 = Math.max(bisect(s.t, a) - 1, 0), i1 = Math.min(bisect(s.t, b) + 1, s.t.length);
+          out.axes[name][k] = {t: Array.from(s.t.subarray(i0, i1)), y: Array.from(s.y.subarray(i0, i1))};
+        }
       }
       return out;
     },
@@ -238,8 +238,8 @@ RV.localSource = function (run) {
       const lo = Math.max(bisect(f.ticks, t0) - 1, 0), hi = bisect(f.ticks, t1 - 1);
       const out = {t0: t0, t1: t1, tick_us: run.tick_s * 1e6, lines: f.lines.map(l => l.name)};
       if (hi - lo <= limit) {
-        out.ticks = f.ticks.slice(lo, hi).map(t => Math.max(t, t0));
-        out.levels = f.lines.map(l => f.values.slice(lo, hi).map(v => ((v >> l.bit) & 1) ^ l.inv));
+        out.ticks = Array.from(f.ticks.subarray(lo, hi), t => Math.max(t, t0));
+        out.levels = f.lines.map(l => Array.from(f.values.subarray(lo, hi), v => ((v >> l.bit) & 1) ^ l.inv));
         return out;
       }
       const slots = limit / 2, edges = [], counts = f.lines.map(() => new Array(slots).fill(0));
@@ -253,6 +253,51 @@ RV.localSource = function (run) {
       return out;
     },
   };
+};
+
+// The report's packed arrays (base64 of gzip of little-endian numbers, see report_html.packed)
+// as typed arrays; DecompressionStream is the browser's own gzip.
+RV.unpack = async function (b64, Type) {
+  const bin = atob(b64), bytes = new Uint8Array(bin.length);
+  for (let i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
+  const stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream("gzip"));
+  const planes = new Uint8Array(await new Response(stream).arrayBuffer());
+  const size = Type.BYTES_PER_ELEMENT, n = planes.length / size, out = new Uint8Array(planes.length);
+  for (let b = 0; b < size; b++) for (let i = 0; i < n; i++) out[i * size + b] = planes[b * n + i];
+  return new Type(out.buffer);
+};
+
+RV.unpackRun = async function (run) {
+  const mm = await RV.unpack(run.backplot.mm, Float32Array), n = run.backplot.axes, rows = [];
+  for (let i = 0; i + n <= mm.length; i += n) {            // rows as the console's state sends them
+    const at = Array.from(mm.subarray(i, i + n));
+    rows.push([0].concat(at, at));
+  }
+  run.backplot = rows;
+  const f = run.frames, deltas = await RV.unpack(f.ticks, Uint32Array);
+  const ticks = new Float64Array(deltas.length);
+  for (let i = 0, t = 0; i < deltas.length; i++) { t += deltas[i]; ticks[i] = t; }
+  f.ticks = ticks;
+  f.values = await RV.unpack(f.values, Uint8Array);
+  const tl = run.timeline, grid = await RV.unpack(tl.ticks, Uint32Array), t = new Float64Array(grid.length);
+  for (let i = 0, k = 0; i < grid.length; i++) { k += grid[i]; t[i] = k * run.tick_s; }
+  run.timeline = {};
+  for (const [name, ax] of Object.entries(tl.axes)) {
+    run.timeline[name] = {};
+    for (const [k, s] of Object.entries(ax)) {
+      const keep = await RV.unpack(s.i, Uint32Array);
+      run.timeline[name][k] = {t: Float64Array.from(keep, i => t[i]), y: await RV.unpack(s.y, Float32Array)};
+    }
+  }
+  const sg = run.preview.segments;
+  if (sg && sg.count !== undefined) {
+    const cut = await RV.unpack(sg.cut, Uint8Array), line = await RV.unpack(sg.line, Uint32Array);
+    const mm = await RV.unpack(sg.mm, Float32Array), n = sg.axes, round = (v) => Math.round(v * 1e4) / 1e4;
+    run.preview.segments = Array.from(cut, (c, i) => ({kind: c ? "cut" : "rapid", line: line[i] || null,
+      start: Array.from(mm.subarray(2 * n * i, 2 * n * i + n), round),
+      end: Array.from(mm.subarray(2 * n * i + n, 2 * n * (i + 1)), round)}));
+  }
+  return run;
 };
 
 // A source that asks the console's server (with the headers the page sets in RV.headers: its token).
