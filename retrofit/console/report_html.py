@@ -174,7 +174,8 @@ _PAGE = """<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>{title}</title><link rel="icon" href="data:,">
 <style>
 body {{ font: 13px/1.4 system-ui, sans-serif; margin: 12px; color: #222; }}
-#top {{ display: grid; grid-template-columns: 1fr 330px; gap: 10px; }}
+#top {{ display: grid; grid-template-columns: minmax(0, 1fr) 330px; gap: 10px; }}
+#top > div, #timeline, #pulses {{ min-width: 0; overflow: hidden; }}
 #preview {{ height: 560px; }}
 #listing {{ font: 12px/1.4 monospace; height: 560px; overflow: auto; border: 1px solid #ccc; white-space: pre; }}
 #listing span.n {{ color: #999; display: inline-block; width: 3em; text-align: right; margin-right: 6px; }}
@@ -198,7 +199,7 @@ RV.unpack(document.getElementById("plotly-gz").textContent, Uint8Array).then(cod
   document.head.appendChild(lib);
   return RV.unpackRun(JSON.parse(document.getElementById("run-data").textContent));
 }}).then(run => {{
-RV.drawPreview(document.getElementById("preview"), run.preview, "commanded path and carriage");
+RV.drawPreview(document.getElementById("preview"), run.preview, "commanded path and carriage", {{position: false}});
 RV.extendBackplot(document.getElementById("preview"), run.preview, run.backplot);
 const v = run.violations;
 document.getElementById("violations").innerHTML = v.length ? "<b>violations</b>: " + v.slice(0, 50).map(x =>

@@ -29,8 +29,8 @@ RV.axisTitle = function (a) {
 };
 
 // The preview; the last trace is the backplot, which RV.extendBackplot grows.
-RV.drawPreview = function (div, pv, title) {
-  const traces = [];
+RV.drawPreview = function (div, pv, title, opts) {
+  const traces = [], marker = !(opts && opts.position === false);   // the report has no machine standing
   if (pv.lathe) {
     const [h, v] = RV.planeAxes(pv);
     const ah = pv.axes[h], av = pv.axes[v];
@@ -49,7 +49,7 @@ RV.drawPreview = function (div, pv, title) {
     traces.push({x: rx, y: ry, mode: "lines", line: {color: "#777", dash: "dash", width: 1.2}, name: "rapid (G0)"});
     traces.push({x: cx, y: cy, mode: "lines", line: {color: "#1f77b4", width: 1.8}, name: "cut (G1/G2/G3)"});
     traces.push({x: [0], y: [0], mode: "markers", marker: {color: "#d62728", size: 10, symbol: "cross-thin",
-      line: {width: 2, color: "#d62728"}}, name: "the machine (commanded)"});
+      line: {width: 2, color: "#d62728"}}, name: "the machine (commanded)", visible: marker});
     traces.push({x: [], y: [], mode: "lines", line: {color: "rgba(214,39,40,0.7)", width: 1.2}, name: "carriage (backplot)"});
     const xs = rx.concat(cx).filter(v => v !== null), ys = ry.concat(cy).filter(v => v !== null).concat([0]);
     const span = (a, lo, hi) => {
@@ -78,15 +78,30 @@ RV.drawPreview = function (div, pv, title) {
     traces.push({type: "scatter3d", x: r[0], y: r[1], z: r[2], mode: "lines", line: {color: "#777", dash: "dash", width: 2}, name: "rapid (G0)"});
     traces.push({type: "scatter3d", x: c[0], y: c[1], z: c[2], mode: "lines", line: {color: "#1f77b4", width: 3}, name: "cut (G1/G2/G3)"});
     traces.push({type: "scatter3d", x: [0], y: [0], z: [0], mode: "markers", marker: {color: "#d62728", size: 4},
-      name: "the machine (commanded)"});
+      name: "the machine (commanded)", visible: marker});
     traces.push({type: "scatter3d", x: [], y: [], z: [], mode: "lines", line: {color: "rgba(214,39,40,0.7)", width: 2}, name: "carriage (backplot)"});
     const t = (i) => ({title: {text: pv.axes[i] ? RV.axisTitle(pv.axes[i]) : ""}});
+    const framed = RV.frame(pv.segments), scene = Object.assign({aspectmode: "data"}, framed);
+    ["xaxis", "yaxis", "zaxis"].forEach((a, i) => { scene[a] = Object.assign(t(i), framed[a]); });
     div.dataset.position = "";
     Plotly.newPlot(div, traces, {title: {text: title || "", font: {size: 14}}, margin: {t: 40, l: 0, r: 0, b: 0},
-      scene: {xaxis: t(0), yaxis: t(1), zaxis: t(2), aspectmode: "data"}, legend: {orientation: "h"}},
-      {responsive: true, displaylogo: false});
+      scene: scene, legend: {orientation: "h"}}, {responsive: true, displaylogo: false});
   }
   return {rapids: pv.rapids, cuts: pv.cuts};
+};
+
+// A 3D view framed on the program's path (8 % around it, at least 1 mm), not the whole envelope;
+// the axes keep their true proportions. Nothing to frame: the envelope, as plotly frames it.
+RV.frame = function (segments) {
+  if (!segments.length) return {};
+  const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+  for (const s of segments) for (const p of [s.start, s.end]) for (let k = 0; k < 3; k++) {
+    lo[k] = Math.min(lo[k], p[k] ?? 0); hi[k] = Math.max(hi[k], p[k] ?? 0);
+  }
+  const pad = lo.map((l, k) => Math.max(0.08 * (hi[k] - l), 1)), span = lo.map((l, k) => hi[k] - l + 2 * pad[k]);
+  const big = Math.max(...span), range = (k) => ({range: [lo[k] - pad[k], hi[k] + pad[k]]});
+  return {xaxis: range(0), yaxis: range(1), zaxis: range(2), aspectmode: "manual",
+          aspectratio: {x: span[0] / big, y: span[1] / big, z: span[2] / big}};
 };
 
 RV.boxEdges = function (axes) {
