@@ -145,7 +145,7 @@ def packed_timeline(data: dict, tick_s: float, points: int = TRACE_POINTS) -> di
     from tsdownsample import MinMaxLTTBDownsampler
     t = np.asarray(data["t"], np.float64)
     ticks = np.round(t / tick_s).astype(np.int64)
-    out = {"ticks": packed(np.diff(ticks, prepend=0), np.uint32), "axes": {}}
+    out = {"ticks": packed(np.diff(ticks, prepend=0), np.uint32), "axes": {}, "window_s": data["window_s"]}
     for name, series in data["axes"].items():
         out["axes"][name] = {}
         for key, values in series.items():

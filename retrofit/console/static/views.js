@@ -146,8 +146,9 @@ RV.extendBackplot = function (div, pv, rows) {
 };
 
 RV.timelineFigure = function (data, violations, tickS) {
-  const rows = [["position_mm", "position [mm]"], ["velocity_mm_min", "velocity [mm/min]"],
-    ["accel_mm_s2", "acceleration [mm/s²]"], ["error_mm", "carriage − motor [mm]"]];
+  const mean = data.window_s ? `, mean over ${+(data.window_s * 1000).toFixed(1)} ms` : "";
+  const rows = [["position_mm", "position [mm]"], ["velocity_mm_min", "velocity [mm/min]" + mean],
+    ["accel_mm_s2", "acceleration [mm/s²]" + mean], ["error_mm", "carriage − motor [mm]"]];
   const colors = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd"];
   const traces = [], layout = {margin: {t: 30, l: 70, r: 10, b: 40}, showlegend: true, height: 620,
     legend: {orientation: "h", y: 1.06}, grid: {rows: rows.length, columns: 1, shared_xaxes: true}};
@@ -238,7 +239,7 @@ RV.localSource = function (run) {
   const bisect = (a, x) => { let lo = 0, hi = a.length; while (lo < hi) { const m = (lo + hi) >> 1; if (a[m] <= x) lo = m + 1; else hi = m; } return lo; };
   return {
     timeline: async (t0, t1) => {               // each trace's points in the window (min/max kept)
-      const out = {axes: {}}, a = t0 * run.tick_s, b = t1 * run.tick_s;
+      const out = {axes: {}, window_s: run.window_s}, a = t0 * run.tick_s, b = t1 * run.tick_s;
       for (const [name, ax] of Object.entries(run.timeline)) {
         out.axes[name] = {};
         for (const [k, s] of Object.entries(ax)) {
@@ -297,6 +298,7 @@ RV.unpackRun = async function (run) {
   const tl = run.timeline, grid = await RV.unpack(tl.ticks, Uint32Array), t = new Float64Array(grid.length);
   for (let i = 0, k = 0; i < grid.length; i++) { k += grid[i]; t[i] = k * run.tick_s; }
   run.timeline = {};
+  run.window_s = tl.window_s;
   for (const [name, ax] of Object.entries(tl.axes)) {
     run.timeline[name] = {};
     for (const [k, s] of Object.entries(ax)) {
