@@ -69,6 +69,16 @@ def test_a_refused_mdi_line_and_a_missing_file_stay_on_screen(browser, lathe):
                       "document.getElementById('cmd-X').textContent === '3.000'")
 
 
+def test_a_feed_the_axes_cannot_keep_is_a_warning_that_stays(browser, lathe):
+    open_text(browser, "fast.ngc", "G21 G90\nG0 X5 Z1\nG1 Z-10 F99999\nG1 X8 F100\n")
+    shown = message(browser)
+    assert shown["shown"] and shown["kind"] == "warning"
+    assert shown["text"].startswith("fast.ngc:3: F99999 mm/min is more than Z can move")
+    assert "the cut runs at 1500 mm/min" in shown["text"]     # 25 mm/s, the machine file's max_velocity_mm_s
+    time.sleep(2.0)
+    assert message(browser) == shown
+
+
 def after_run(driver) -> dict:
     """What "After the run" shows: the drawn traces and the time the timeline spans."""
     return driver.execute_script("""

@@ -68,10 +68,17 @@ class Console:
         tool = self.tools.tool()
         program = self.tools.compile(text, name, tool)
         self._opened_tool = tool
+        from .tools import clamped_feeds
         listing = {"name": program.file, "listing": text.splitlines(),
-                   "preview": preview(program, self.machine, text)}
+                   "preview": preview(program, self.machine, text),
+                   "warnings": clamped_feeds(program, self.machine, self._default_feed())}
         self.program, self.source, self.listing = program, text, listing
         return listing
+
+    def _default_feed(self) -> float:
+        """The feed (mm/min) a program runs at before its first F: the controller's."""
+        from ..controller import Controller
+        return Controller(self.machine).processor.walker.feed
 
     # -- run ------------------------------------------------------------------------------------------
     def start(self, speed: float = 0.0) -> dict:

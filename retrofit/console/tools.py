@@ -65,3 +65,29 @@ class SpindleTools:
         if self._marked or tool != self._known:
             self.store.save(tool)
         self._known, self._marked = tool, False
+
+
+def clamped_feeds(program, machine: Machine, default_feed: float) -> list[str]:
+    """Warnings for cuts whose programmed feed the axes cannot keep (the planner runs them at the
+    most the slowest axis of the move allows): the first such line and how many there are."""
+    import math
+
+    from ..plot import toolpath
+    from .handing import programmed_feeds
+    feeds = programmed_feeds(program.commands, default_feed)
+    found = []
+    for seg in toolpath(program.commands, machine):
+        length = math.dist(seg.start, seg.end)
+        if seg.kind != "cut" or length == 0:
+            continue
+        allowed, slowest = min((a.max_velocity_mm_s * 60 * length / abs(e - b), a.name)
+                               for a, b, e in zip(machine.axes, seg.start, seg.end) if e != b)
+        if feeds[seg.index] > allowed * (1 + 1e-9):
+            found.append((program.lines[seg.index], feeds[seg.index], allowed, slowest))
+    if not found:
+        return []
+    line, feed, allowed, axis = found[0]
+    more = len({f[0] for f in found}) - 1
+    return [f"{program.file}:{line}: F{feed:g} mm/min is more than {axis} can move "
+            f"(max_velocity_mm_s {machine.axis(axis).max_velocity_mm_s:g}); the cut runs at "
+            f"{allowed:.0f} mm/min" + (f"; {more} more line{'s are' if more > 1 else ' is'} slowed so" if more else "")]
