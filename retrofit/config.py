@@ -227,14 +227,16 @@ def _read_axis(key: str, sec: Section, port: str, index: int) -> Axis:
     """One [axis.*] table. On a DB25 port the pins choose the data bits (pin 2 = bit 0);
     elsewhere axis i uses bits 2i (step) and 2i + 1 (direction) of the frame byte."""
     _check_axis_name(sec.file, key)
+    why = (f'{{}} is needed on port "{port}" ([machine] port, "db25" unless set); use '
+           'port = "none" for a simulation-only machine')
     if port == "db25":
-        step_pin = sec.get_int("step_pin", minval=2, maxval=9)
-        dir_pin = sec.get_int("dir_pin", minval=2, maxval=9)
+        step_pin = sec.get_int("step_pin", minval=2, maxval=9, why=why.format("step_pin"))
+        dir_pin = sec.get_int("dir_pin", minval=2, maxval=9, why=why.format("dir_pin"))
         step_bit, dir_bit = step_pin - 2, dir_pin - 2
     else:
         required = port == "ramps"
-        step_pin = sec.get_int("step_pin", minval=0, maxval=255) if required else None
-        dir_pin = sec.get_int("dir_pin", minval=0, maxval=255) if required else None
+        step_pin = sec.get_int("step_pin", minval=0, maxval=255, why=why.format("step_pin")) if required else None
+        dir_pin = sec.get_int("dir_pin", minval=0, maxval=255, why=why.format("dir_pin")) if required else None
         step_bit, dir_bit = 2 * index, 2 * index + 1
     steps_per_mm = sec.get_float("steps_per_mm", above=0.0, maxval=1e6)
     reach = STEPS_MAX / steps_per_mm            # the travel a signed 32-bit step count covers

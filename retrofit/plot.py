@@ -119,8 +119,10 @@ def stock_and_part(segments: list[Segment], machine: Machine, source_text: str =
     return {"radius_mm": radius, "z_mm": (z_left, z_right), "part_z": grid, "part_x": np.clip(part, 0.0, radius)}
 
 
-def worst_error_point(log: RunLog, sim: SimMachine, h: int, v: int) -> tuple[float, float, float] | None:
-    """(h_mm, v_mm, error_mm) at the reached point where carriage and command lie furthest apart."""
+def worst_error_point(log: RunLog, sim: SimMachine, h: int, v: int) -> tuple[float, float, float, str] | None:
+    """(h_mm, v_mm, error_mm, axis) at the reached point where an axis's carriage lies furthest
+    from its target: the figure the run's summary gives per axis (its worst error), so the plot
+    and the summary name one and the same number."""
     machine = log.machine
     ah, av = machine.axes[h], machine.axes[v]
     best = None
@@ -128,18 +130,23 @@ def worst_error_point(log: RunLog, sim: SimMachine, h: int, v: int) -> tuple[flo
         if w.reached_tick is None:
             continue
         state = sim.state_at(w.reached_tick)
-        ch, cv = state[ah.name][1], state[av.name][1]
-        th, tv = ah.to_mm(w.steps[h]), av.to_mm(w.steps[v])
-        err = float(np.hypot(ch - th, cv - tv))
-        if best is None or err > best[2]:
-            best = (th, tv, err)
+        for a, steps in zip(machine.axes, w.steps):
+            err = abs(state[a.name][1] - a.to_mm(steps))
+            if best is None or err > best[2]:
+                best = (ah.to_mm(w.steps[h]), av.to_mm(w.steps[v]), float(err), a.name)
     return best
 
 
+def has_backlash(machine: Machine) -> bool:
+    """Whether any axis has a clearance: compensated (``backlash_mm``) or simulated (a dead band)."""
+    return any(a.backlash_mm > 0 for a in machine.axes) or any(v > 0 for v in machine.sim.dead_band_mm.values())
+
+
 def user_title(machine: Machine, what: str, backlash_comp: bool | None = None) -> str:
-    """What ran, on which machine, in words: ``lathe-profile.ngc on the chivu-lathe (400-class ...)``."""
+    """What ran, on which machine, in words: ``lathe-profile.ngc on the chivu-lathe, backlash
+    compensation on``; the backlash compensation is named only on a machine with backlash."""
     title = f"{what} on the {machine.name}" if what else machine.name
-    if backlash_comp is not None:
+    if backlash_comp is not None and has_backlash(machine):
         title += f", backlash compensation {'on' if backlash_comp else 'off'}"
     return title
 
@@ -185,36 +192,74 @@ def plot_path(log: RunLog, sim: SimMachine, path: str | Path, title: str = "", c
 
 
 def run_figure(log: RunLog, sim: SimMachine, title: str = "", commands=None, source_text: str = ""):
-    """The matplotlib figure :func:`plot_path` saves (its axes the path; a child axes, the inset)."""
+    """The matplotlib figure :func:`plot_path` saves: its first axes the path in the main plane
+    (with the inset as a child axes); on a mill a second one, the side view (X and Z), where the
+    plunges and drill points show."""
     plt = _pyplot()
     machine = log.machine
     h, v = plane_axes(machine)
-    ah, av = machine.axes[h], machine.axes[v]
-    fig, ax = plt.subplots(figsize=(8, 6))
+    side = side_axes(machine)
+    fig, axes = plt.subplots(2 if side else 1, 1, figsize=(8, 9.5 if side else 6), squeeze=False,
+                             gridspec_kw={"height_ratios": [2, 1]} if side else None)
+    ax = axes[0][0]
     segments = toolpath(commands, machine, tuple(a.to_mm(s) for a, s in zip(machine.axes, log.start_steps))) \
         if commands is not None else []
     lathe = stock_and_part(segments, machine, source_text)
     if lathe is not None:
         _draw_lathe(ax, lathe)
+    carriage = carriage_path(sim)
+    _draw_view(ax, log, segments, carriage, h, v)
+    ax.set_title(title or user_title(machine, ""), fontsize=10)
+    _mark_plunges(ax, segments, h, v, side)
+    worst = worst_error_point(log, sim, h, v)
+    if worst is not None and round(worst[2], 3) > 0:        # only an error a reader can see
+        _inset(ax, segments, log, carriage, h, v, worst)
+    ax.legend(loc="upper left", fontsize=8, framealpha=0.9)
+    if side:
+        low = axes[1][0]
+        _draw_view(low, log, segments, carriage, *side)
+        _mark_plunges(low, segments, *side, side)
+        low.set_title("side view: Z against X (plunges and drill points marked)", fontsize=9)
+    return fig
+
+
+def side_axes(machine: Machine) -> tuple[int, int] | None:
+    """(X, Z) indices for a mill's side view; None on a lathe or a machine without both."""
+    names = machine.axis_names
+    if is_lathe(machine) or "X" not in names or "Z" not in names:
+        return None
+    return names.index("X"), names.index("Z")
+
+
+def _draw_view(ax, log: RunLog, segments, carriage, h: int, v: int) -> None:
+    """The commanded path and the carriage's in the plane of axes ``h`` and ``v``."""
+    machine = log.machine
+    ah, av = machine.axes[h], machine.axes[v]
     if segments:
         _draw_segments(ax, segments, h, v)
     else:
         commanded = np.array([log.start_steps] + [w.steps for w in log.waypoints], float)
         ax.plot(commanded[:, h] / ah.steps_per_mm, commanded[:, v] / av.steps_per_mm, "-", lw=1.0,
                 color="tab:blue", label="commanded")
-    carriage = carriage_path(sim)
     ax.plot(carriage[:, h], carriage[:, v], "-", lw=2.5, color="tab:red", alpha=0.25, zorder=1,
             label="carriage (simulated)")
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel(axis_label(ah))
     ax.set_ylabel(axis_label(av))
-    ax.set_title(title or user_title(machine, ""), fontsize=10)
     ax.grid(True, lw=0.3)
-    worst = worst_error_point(log, sim, h, v)
-    if worst is not None:
-        _inset(ax, segments, log, carriage, h, v, worst)
-    ax.legend(loc="upper left", fontsize=8, framealpha=0.9)
-    return fig
+
+
+def _mark_plunges(ax, segments, h: int, v: int, side) -> None:
+    """On a mill, where a cut goes down along Z alone (a plunge, a drill point): a marker at its bottom."""
+    if not side:
+        return
+    z = side[1]
+    bottoms = [s.end for s in segments if s.kind == "cut" and s.end[z] < s.start[z]
+               and all(a == b for i, (a, b) in enumerate(zip(s.start, s.end)) if i != z)]
+    if bottoms:
+        pts = np.array(bottoms)
+        ax.plot(pts[:, h], pts[:, v], "v", ms=5, color="tab:green", ls="none",
+                label=f"plunge / drill point ({len(bottoms)})", zorder=3)
 
 
 def _pyplot():
@@ -248,7 +293,7 @@ def _draw_segments(ax, segments: list[Segment], h: int, v: int) -> None:
 
 def _inset(ax, segments, log: RunLog, carriage: np.ndarray, h: int, v: int, worst) -> None:
     """A magnifying inset around the worst commanded-vs-carriage distance."""
-    ch, cv, err = worst
+    ch, cv, err, axis = worst
     half = max(4 * err, 20 * log.machine.axes[h].step_mm)
     ins = ax.inset_axes([1.06, 0.25, 0.5, 0.5])
     if segments:
@@ -264,7 +309,7 @@ def _inset(ax, segments, log: RunLog, carriage: np.ndarray, h: int, v: int, wors
     ins.set_aspect("equal")
     ins.tick_params(labelsize=6)
     factor = (ax.get_xlim()[1] - ax.get_xlim()[0]) / (2 * half)
-    ins.set_title(f"magnified x{factor:.0f}: worst error {err:.3f} mm", fontsize=7)
+    ins.set_title(f"magnified x{factor:.0f}: worst error {err:.3f} mm ({axis})", fontsize=7)
     ins.set_xlabel("commanded (blue, grey) and carriage (red)", fontsize=7)
     ax.indicate_inset_zoom(ins, edgecolor="0.2")
 

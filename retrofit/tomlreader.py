@@ -19,6 +19,9 @@ MAGNITUDE = 1e9
 #: distance over a speed) would overflow
 TINY = 1e-9
 
+#: how alike a key must be to one the section reads (difflib's ratio) to be called a misspelling of it
+TYPO_RATIO = 0.75
+
 _BOMS = ((b"\xff\xfe", "UTF-16"), (b"\xfe\xff", "UTF-16"), (b"\xef\xbb\xbf", "UTF-8 with a BOM"))
 
 
@@ -75,16 +78,19 @@ class Section:
     def has(self, key: str) -> bool:
         return key in self._data
 
-    def _raw(self, key: str, default: Any) -> Any:
+    def _raw(self, key: str, default: Any, why: str | None = None) -> Any:
+        """The value of ``key``; a missing required key is named with ``why`` it is needed, or
+        the misspelt key that stands for it."""
         self._read.add(key)
         if key in self._data:
             return self._data[key]
         if default is _MISSING:
-            typo = difflib.get_close_matches(key, [k for k in self._data if k not in self._read], 1)
+            typo = difflib.get_close_matches(key, [k for k in self._data if k not in self._read], 1, TYPO_RATIO)
             if typo:
                 raise ConfigError(f"{self.file} [{self.name}] {shown_key(typo[0])}: unknown key "
                                   f"(did you mean {key}?)")
-            raise ConfigError(f"{self.file} [{self.name}] {key}: missing (required)")
+            where = f"[{self.name}] {key}" if self.name else f"[{key}]"
+            raise ConfigError(f"{self.file} {where}: missing; {why or 'it is required'}")
         return default
 
     def get_float(self, key: str, default: Any = _MISSING, *, minval: float | None = None,
@@ -103,8 +109,8 @@ class Section:
         return value
 
     def get_int(self, key: str, default: Any = _MISSING, *, minval: int | None = None,
-                maxval: int | None = None) -> int:
-        value = self._raw(key, default)
+                maxval: int | None = None, why: str | None = None) -> int:
+        value = self._raw(key, default, why)
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.error(key, f"must be a whole number, not {type(value).__name__}")
         self._check_range(key, value, minval, maxval, None)
@@ -150,9 +156,11 @@ class Section:
         unread = [k for k in self._data if k not in self._read]
         if unread:
             key = unread[0]
-            known = ", ".join(sorted(self._read)) or "none"
-            raise ConfigError(f"{self.file} [{self.name}] {shown_key(key)}: unknown key; known keys "
-                              f"here: {known}")
+            typo = difflib.get_close_matches(key, sorted(self._read), 1, TYPO_RATIO)
+            where = f"{self.file} [{self.name}] {shown_key(key)}: unknown key"
+            if typo:
+                raise ConfigError(f"{where} (did you mean {typo[0]}?)")
+            raise ConfigError(f"{where}; known keys here: {', '.join(sorted(self._read)) or 'none'}")
 
     def _check_magnitude(self, key, value, minval, maxval) -> None:
         """Without a range of its own, a number stays within +-MAGNITUDE; none is tinier than TINY."""

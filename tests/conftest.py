@@ -21,3 +21,13 @@ def machine_state_in_tmp(tmp_path_factory, monkeypatch):
     never in the user's home: XDG_STATE_HOME points there (subprocesses inherit it)."""
     monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path_factory.mktemp("state")))
     monkeypatch.delenv("RETROFIT_STATE_DIR", raising=False)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def machine_state_in_tmp_for_wider_fixtures(tmp_path_factory):
+    """Fixtures wider than one test (a module's console, set up before any test's own fixtures)
+    keep the machines' state out of the home as well."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("XDG_STATE_HOME", str(tmp_path_factory.mktemp("session-state")))
+        patch.delenv("RETROFIT_STATE_DIR", raising=False)
+        yield

@@ -75,6 +75,20 @@ def test_timeline_velocity_holds_the_programmed_feed_mid_move(lathe, long_move):
     assert measured_feed(steps, lathe, start, end) == pytest.approx(150, rel=0.005)
 
 
+def test_velocity_and_acceleration_are_smooth_means_over_a_stated_window(lathe, long_move):
+    """At a constant feed every sample of the velocity is the feed (not a step more or less in
+    a window), the acceleration 0; the window is stated."""
+    log, _ = long_move
+    steps = axis_steps(log.frames, lathe)
+    start, end = (w.reached_tick for w in log.waypoints[:2])
+    mid, span = (start + end) // 2, int(2.0 / lathe.tick_s)
+    tl = timeline(steps, lathe, mid - span, mid + span, points=400)
+    assert tl["window_s"] == pytest.approx(0.05)
+    z = tl["axes"]["Z"]
+    assert np.allclose(z["velocity_mm_min"], -150, rtol=0.01)
+    assert np.abs(z["accel_mm_s2"]).max() < 1.0            # the axis accelerates at up to 500 mm/s²
+
+
 def test_command_list_errors_name_the_file_and_line():
     assert [str(c) for c in command_list("FMOV X5 Z1\n# a comment\nTOOL T2\n", "t.cmds").commands] == \
         ["FMOV X5 Z1", "TOOL T2"]

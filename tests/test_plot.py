@@ -114,3 +114,38 @@ def test_inset_magnifies_the_circles_backlash_only_without_compensation(lathe):
     dead_band = max(lathe.sim.dead_band_mm.values())
     assert worst[False] >= dead_band / 2                   # the 0.1 mm of backlash stands out
     assert worst[True] <= 2 * lathe.axis("X").step_mm * np.sqrt(2)
+
+
+def mill_figure(name: str = "engraving.ngc"):
+    engraver = load_machine("engraver")
+    path = resolve_program(name)
+    program, plan = plan_compiled(load_program(path, engraver), engraver)
+    log = execute(plan)
+    sim = deliver(log, ["sim://"])
+    return run_figure(log, sim, user_title(engraver, name, True), program.commands, path.read_text()), path
+
+
+def test_a_mill_plot_has_a_side_view_with_its_plunges_marked():
+    import matplotlib.pyplot as plt
+    fig, path = mill_figure()
+    top, side = fig.axes[0], fig.axes[1]
+    assert (side.get_xlabel(), side.get_ylabel()) == ("X [mm]", "Z [mm]")
+    plunges = len(re.findall(r"^(?:G91 )?G1 Z-", path.read_text(), re.M))
+    assert plunges == 5                                   # the program's own "G1 Z-..." lines
+    for ax in (top, side):
+        marked = [ln for ln in ax.get_lines() if ln.get_label().startswith("plunge / drill point")]
+        assert marked and len(marked[0].get_xdata()) == plunges
+    zs = [y for ln in side.get_lines() if ln.get_label() == "cut (G1/G2/G3)" for y in ln.get_ydata() if y == y]
+    assert min(zs) == pytest.approx(-0.3) and max(zs) == pytest.approx(2.0)   # cut 0.3 mm deep, from Z2
+    assert top.child_axes == []                           # no error to see: no inset
+    assert top.get_title() == "engraving.ngc on the engraver"     # no backlash: none named
+    plt.close(fig)
+
+
+def test_the_inset_names_the_summarys_worst_error(lathe, profile):
+    import matplotlib.pyplot as plt
+    from retrofit.report import build_report
+    fig, log, sim = lathe_profile_figure(lathe, profile, comp=False)
+    worst = max(ax["max_carriage_error_mm"] for ax in build_report(log, sim)["axes"].values())
+    assert f"worst error {worst:.3f} mm" in fig.axes[0].child_axes[0].get_title()
+    plt.close(fig)

@@ -50,13 +50,21 @@ class Expanded:
         return [e for e in self.events if e.kind == "tool change"]
 
     @property
+    def changes_the_tool(self) -> bool:
+        """Whether the run changes the tool in the spindle (by the changer or by hand)."""
+        return any(e.tool is not None for e in self.events)
+
+    @property
     def pauses(self) -> list[HostEvent]:
         return [e for e in self.events if e.kind == "pause"]
 
 
-def expand_host_commands(program, machine: Machine, spindle_tool: int = 0) -> Expanded:
+def expand_host_commands(program, machine: Machine, spindle_tool: int = 0,
+                         keep_pauses: bool = False) -> Expanded:
     """Replace every TOOL and PAUS of ``program`` (commands, lines, file); see the module doc.
 
+    ``keep_pauses``: a pause (PAUS, and TOOL of a manual change) stays in the commands as well,
+    at its event's index, for a front end that asks its operator itself (the console).
     A tool number the changer cannot hold is a GcodeError naming the program's line.
     """
     atc = None
@@ -82,9 +90,15 @@ def expand_host_commands(program, machine: Machine, spindle_tool: int = 0) -> Ex
                 f"{PAUSE_REASONS[6]}: take the tool out of the spindle"
             out.events.append(HostEvent(len(out.commands), line, "pause", says, cmd.number))
             out.end_tool = cmd.number
+            if keep_pauses:
+                out.commands.append(cmd)
+                out.lines.append(line)
         elif isinstance(cmd, Paus):
             out.events.append(HostEvent(len(out.commands), line, "pause",
                                         PAUSE_REASONS.get(cmd.reason, f"pause M{cmd.reason}")))
+            if keep_pauses:
+                out.commands.append(cmd)
+                out.lines.append(line)
         else:
             out.commands.append(cmd)
             out.lines.append(line)

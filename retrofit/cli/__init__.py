@@ -26,6 +26,23 @@ from ..failsafe import Terminated
 _NOT_COMMANDS = {"__main__"}
 
 
+class DefaultMachine(str):
+    """The machine a command takes when ``--machine`` is not given (it says so)."""
+
+
+def machine_option(parser, default: str, what: str = "shipped machine name or path to a .toml file") -> None:
+    """``--machine``, whose default is named in ``--help`` and, by :func:`default_machine_line`, in
+    the command's summary."""
+    parser.add_argument("--machine", default=DefaultMachine(default), help=f"{what} (default: {default})")
+
+
+def default_machine_line(arg) -> list[str]:
+    """A summary line saying the machine was not chosen, when ``--machine`` was not given."""
+    if not isinstance(arg, DefaultMachine):
+        return []
+    return [f"  machine: {arg} (the default; --machine chooses another)"]
+
+
 def command_modules() -> list[str]:
     """Modules that add sub-commands: ``retrofit/cli/*.py``, each with ``add_commands(subparsers)``."""
     import pkgutil

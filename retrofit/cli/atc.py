@@ -11,6 +11,8 @@ the spindle record. On a machine without a tool changer ``retrofit tool`` shows 
 
 from __future__ import annotations
 
+from . import machine_option
+
 from ..errors import RetrofitError
 
 
@@ -37,7 +39,7 @@ def add_commands(sub) -> None:
 
 
 def _common(p) -> None:
-    p.add_argument("--machine", default="tul-mill", help="shipped machine name or path to a .toml file")
+    machine_option(p, "tul-mill")
     p.add_argument("--output", default="sim://", metavar="URL",
                    help="where the moves are made: sim:// (the simulated mill, default) or the "
                         "controller on the serial link (serial:///dev/ttyACM0, serial+socket://HOST:PORT, "

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from . import machine_option
+
 
 def add_commands(sub) -> None:
     """Add ``serve``, ``send`` and ``loop-model`` to the ``retrofit`` command line."""
     s = sub.add_parser("serve", help="run the simulated servo mill behind the CAM link (TCP, '@' lines)")
-    s.add_argument("--machine", default="grenoble-mill", help="machine with a [servo] section")
+    machine_option(s, "grenoble-mill", "machine with a [servo] section")
     s.add_argument("--listen", default="127.0.0.1:5000", metavar="HOST:PORT",
                    help="address to listen on (default 127.0.0.1:5000; port 0 picks a free one)")
     s.add_argument("--idle-timeout", type=float, default=30.0, metavar="SECONDS",
@@ -16,11 +18,11 @@ def add_commands(sub) -> None:
     c = sub.add_parser("send", help="stream a G-code program to a CAM link server as 1 ms rows")
     c.add_argument("program", metavar="PROGRAM.ngc", help="part program in machine coordinates (mm)")
     c.add_argument("--to", required=True, metavar="HOST:PORT", help="the server (retrofit serve)")
-    c.add_argument("--machine", default="grenoble-mill", help="the machine the server runs")
+    machine_option(c, "grenoble-mill", "the machine the server runs")
     c.set_defaults(func=_cmd_send)
 
     m = sub.add_parser("loop-model", help="position loop: python-control model vs simulation")
-    m.add_argument("--machine", default="grenoble-mill", help="machine with a [servo] section")
+    machine_option(m, "grenoble-mill", "machine with a [servo] section")
     m.add_argument("--axis", default="X", help="axis to model (default X)")
     m.add_argument("--step-mm", type=float, default=0.2, help="step size (default 0.2 mm)")
     m.add_argument("--speed", type=float, default=10.0, help="ramp speed in mm/s (default 10)")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 
 from ..errors import RetrofitError
+from . import default_machine_line, machine_option
 
 #: how much a console that drives only sim:// lowers its own priority
 CONSOLE_NICENESS = 10
@@ -15,7 +16,7 @@ SHUTDOWN_S = 5
 def add_commands(sub) -> None:
     c = sub.add_parser("console", help="serve the operator's console: open a program, run it on sim:// "
                                        "or a real output, watch and steer it in a browser")
-    c.add_argument("--machine", default="chivu-lathe", help="shipped machine name or path to a .toml file")
+    machine_option(c, "chivu-lathe")
     c.add_argument("--output", action="append", metavar="URL",
                    help="where the port frames go besides sim:// (repeatable); see 'retrofit outputs'")
     c.add_argument("--programs", metavar="DIR", help="folder whose programs the page may open (besides "
@@ -56,7 +57,8 @@ def cmd_console(args) -> int:
         raise RetrofitError(f"--listen {args.listen}: not a loopback address; other computers could move the "
                             "machine. Add --allow-remote if that is meant (read docs/console.md first)")
     machine = load_machine(args.machine)
-    console = Console(machine, args.output, backlash_comp=not args.no_backlash_comp, programs=args.programs)
+    console = Console(machine, args.output, backlash_comp=not args.no_backlash_comp, programs=args.programs,
+                      machine_arg=args.machine)
     if not console.output_urls and hasattr(os, "nice"):
         os.nice(CONSOLE_NICENESS)     # only sim://: a paced port loop on this computer goes first
     token = secrets.token_urlsafe(24)
@@ -65,6 +67,8 @@ def cmd_console(args) -> int:
               "has the address below can move the machine", file=sys.stderr, flush=True)
     shown = "127.0.0.1" if host in ("0.0.0.0", "::", "[::]") else host
     print(f"retrofit console for {machine.name}: http://{shown}:{port}/?token={token}  (Ctrl-C ends it)", flush=True)
+    for line in default_machine_line(args.machine):
+        print(line.strip(), flush=True)
     app = create_app(console, token=token, remote=remote, listen_host=host)
     server = safe_server(uvicorn.Config(app, host=host.strip("[]"), port=port, log_level="warning",
                                         timeout_graceful_shutdown=SHUTDOWN_S), console)

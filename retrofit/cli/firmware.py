@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from . import machine_option
 
 
 def add_commands(sub) -> None:
@@ -20,7 +21,7 @@ def add_commands(sub) -> None:
                                     "model of sim://, switches and the spindle encoder fed back. "
                                     "Serves until interrupted (or until the client hangs up with "
                                     "--once), then prints a report like sim://'s.")
-    s.add_argument("--machine", default="mitic-lathe", help="shipped machine name or path to a .toml file")
+    machine_option(s, "mitic-lathe")
     s.add_argument("--listen", metavar="HOST:PORT", required=True,
                    help="serve the USART on a TCP port (port 0 picks a free one; it is printed)")
     s.add_argument("--vcd", metavar="FILE", help="write the output ports as VCD")

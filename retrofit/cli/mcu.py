@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from . import machine_option
+
 
 def add_commands(sub) -> None:
     """Add ``mcu`` to the ``retrofit`` command line."""
@@ -11,7 +13,7 @@ def add_commands(sub) -> None:
                                    "motion controller behind it. Prints where it serves, then runs "
                                    "until interrupted. Its ticks run in simulated time, as fast as "
                                    "the work allows.")
-    m.add_argument("--machine", default="mitic-lathe", help="shipped machine name or path to a .toml file")
+    machine_option(m, "mitic-lathe")
     where = m.add_mutually_exclusive_group(required=True)
     where.add_argument("--pty", action="store_true",
                        help="serve on a new pseudo terminal; prints its path (/dev/pts/N)")

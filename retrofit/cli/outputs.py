@@ -7,6 +7,7 @@ import tempfile
 from pathlib import Path
 
 from ..errors import RetrofitError
+from . import machine_option
 
 
 def add_commands(sub) -> None:
@@ -17,7 +18,7 @@ def add_commands(sub) -> None:
                        description="Pace the circle demo's port bytes (repeated to fill --seconds) through "
                                    "the parport code path to the recorder and report how late each write was. "
                                    "It runs even when the calibration says the tick cannot be held, and says so.")
-    t.add_argument("--machine", default="chivu-lathe", help="shipped machine name or path to a .toml file")
+    machine_option(t, "chivu-lathe")
     t.add_argument("--seconds", type=float, default=10.0, help="length of the paced run (default 10)")
     t.add_argument("--tick-us", type=float, help="tick to pace at (default: the machine's tick_us)")
     t.add_argument("--every-tick", action="store_true", help="write every tick's byte, not only changes")

@@ -8,6 +8,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 from ..errors import RetrofitError
+from . import default_machine_line, machine_option
 
 
 def add_commands(sub) -> None:
@@ -47,7 +48,7 @@ def add_commands(sub) -> None:
 
 def motion_options(p: argparse.ArgumentParser) -> None:
     """Options every command that moves axes takes."""
-    p.add_argument("--machine", default="chivu-lathe", help="shipped machine name or path to a .toml file")
+    machine_option(p, "chivu-lathe")
     p.add_argument("--output", action="append", metavar="URL",
                    help="where the port frames go (repeatable; default sim://); see 'retrofit outputs'")
     p.add_argument("--no-backlash-comp", action="store_true", help="turn backlash compensation off")
@@ -95,7 +96,8 @@ def _demo(args) -> int:
         v.update(tick=int(v["tick"]), time_s=round(int(v["tick"]) * machine.tick_s, 6), line=None)
     comp = "off" if args.no_backlash_comp else "on"
     title = f"{machine.name}: circle r={args.radius:g} mm, {args.points} points, backlash comp {comp}"
-    lines = fit(summary_lines(report, title)) + write_files(files, args, log, sim, report)
+    lines = summary_lines(report, title) + default_machine_line(args.machine)
+    lines = fit(lines) + write_files(files, args, log, sim, report)
     print("\n".join(lines))
     return exit_code(report, args)
 
@@ -146,7 +148,7 @@ def _run(args) -> int:
     if changes_tools(exp):
         store.save(exp.end_tool)
     title = f"{machine.name}: {name}, {run.command_count} commands, {run.how}"
-    lines = summary_lines(run.report, title)
+    lines = summary_lines(run.report, title) + default_machine_line(args.machine)
     lines += [f"  tool table: {table_path}; {store.describe()} (T{exp.end_tool} in the spindle)"
               ] if exp.events or "atc" in machine.parts else []
     lines += remote_lines(run.report.get("remote") or [])
@@ -158,7 +160,7 @@ def _run(args) -> int:
 
 def changes_tools(expanded) -> bool:
     """Whether the run changes the tool in the spindle (by the changer or by hand)."""
-    return any(e.tool is not None for e in expanded.events)
+    return expanded.changes_the_tool
 
 
 def exit_code(report: dict, args) -> int:

@@ -11,6 +11,7 @@ are JSON, checked by the schemas of :mod:`.schema`.
 ``POST /api/control``      ``{"take": false}``: control if no one holds it; ``{"take": true}``:
                            take it over. Answers ``{"control": id, "holder": {...}}`` (409 if held)
 ``POST /api/open``         ``{"name": ...}`` (a listed program) or ``{"name": ..., "text": ...}``
+``GET  /api/program``      the program open (what /api/open answered; ``{}`` before one is)
 ``POST /api/run``          ``{"speed": 0}`` as fast as possible, ``{"speed": f}`` paced at f x machine time
 ``POST /api/action``       ``{"kind": "stop" | "hold" | "resume" | "feed" | "rapid" | "answer" |
                            "speed" | "jog" | "home" | "mdi", ...}``
@@ -66,6 +67,7 @@ def create_app(console, *, token: str, remote: bool = False, listen_host: str = 
         Route("/", lambda r: FileResponse(str(STATIC / "index.html"))),
         Route("/plotly.min.js", lambda r: FileResponse(str(plotly_js()))),
         Route("/api/machine", endpoint(lambda r, b: machine_info(console.machine, console.folder.programs()))),
+        Route("/api/program", endpoint(lambda r, b: console.listing)),
         Route("/api/control", endpoint(claim, ControlBody, control=None), methods=["POST"]),
         Route("/api/open", endpoint(lambda r, b: console.open(b.path, b.name, b.text), OpenBody, control,
                                     limit=PROGRAM_BYTES), methods=["POST"]),

@@ -17,9 +17,10 @@ import time
 from collections import deque
 from contextlib import suppress
 
-from ..commands import PAUSE_REASONS, Command, FFdr, MFdr, PFdr, Stop, Tool
+from ..commands import PAUSE_REASONS, Command, FFdr, MFdr, Stop, Tool
 from ..config import Machine
 from ..errors import MotionError
+from .handing import programmed_feeds, send_frames
 
 #: machine time one chunk of ticks covers (s): the longest an operator's action waits
 CHUNK_S = 0.02
@@ -40,10 +41,13 @@ class SteeredRun:
 
     ``paced``: keep machine time with the clock times ``speed``; else as fast as possible.
     ``outputs``: frame outputs (opened) that get every chunk of port frames as it is made.
+    ``tool``: the tool in the spindle; ``changes``: the changer's tool changes in ``commands``
+    (:class:`retrofit.atc.front.HostEvent`); ``on_done(run)`` is called when the run has ended well.
     """
 
     def __init__(self, machine: Machine, commands: list[Command], lines: list[int], *,
-                 backlash_comp: bool = True, paced: bool = False, speed: float = 1.0, outputs=()):
+                 backlash_comp: bool = True, paced: bool = False, speed: float = 1.0, outputs=(),
+                 tool: int = 0, changes=(), on_done=None):
         from ..controller import Controller
         from ..sim import SimMachine
         self.machine = machine
@@ -68,7 +72,9 @@ class SteeredRun:
         self.state = "ready"
         self.error: str | None = None
         self._halted = threading.Event()      # set once stopped or in error
-        self.tool = 0
+        self.tool = tool
+        self._changes = deque(changes)         # the changer's changes not yet reached
+        self.on_done = on_done
         self._actions: deque = deque()
         self._wake = threading.Event()
         self._lock = threading.Lock()
@@ -90,9 +96,11 @@ class SteeredRun:
         self._thread = threading.Thread(target=self._loop, name="retrofit-console-run", daemon=True)
         self._thread.start()
 
-    def extend(self, commands: list[Command], lines: list[int]) -> None:
+    def extend(self, commands: list[Command], lines: list[int], changes=()) -> None:
         """More commands after the program (jog, home, MDI); the run goes on, or starts again."""
+        from dataclasses import replace
         with self._lock:
+            self._changes.extend(replace(e, index=e.index + len(self.commands)) for e in changes)
             self.commands += list(commands)
             self.lines += list(lines)
             self.feeds = programmed_feeds(self.commands, self.default_feed)
@@ -135,6 +143,8 @@ class SteeredRun:
                         self._wake.clear()
             self._send_frames()
             self._publish()
+            if self.state == "done" and self.on_done is not None:
+                self.on_done(self)
         except BaseException as exc:                # noqa: BLE001 -- whatever it is, the machine stops
             self.fail(exc)
 
@@ -335,11 +345,20 @@ class SteeredRun:
         return self._snap or self._make_snapshot()
 
     def _publish(self) -> None:
+        self._follow_changes()
         snap = self._make_snapshot()
         row = (snap["time_s"], *snap["commanded_mm"].values(), *snap["carriage_mm"].values())
         if not self.trail or self.trail[-1][1:] != row[1:]:
             self.trail.append(row)
         self._snap = snap
+
+    def _follow_changes(self) -> None:
+        """The changer's changes the controller has reached: the tool shown, an event each."""
+        index = len(self.commands) if self.state == "done" else self.running_index()
+        while self._changes and self._changes[0].index <= index:
+            change = self._changes.popleft()
+            self.tool = change.tool
+            self._event("tool change", change.says, change.line)
 
     def _make_snapshot(self) -> dict:
         ctl, machine = self.ctl, self.machine
@@ -375,24 +394,5 @@ class SteeredRun:
 
     def _send_frames(self) -> None:
         """The port frames made since the last chunk, to the real outputs."""
-        if not self.outputs or self.ctl.ticks <= self._sent_tick:
-            return
-        from ..frames import PortFrames
-        import numpy as np
-        frames = self.ctl.frames()
-        lo = max(int(np.searchsorted(frames.ticks, self._sent_tick, side="right")) - 1, 0)
-        chunk = PortFrames(np.maximum(frames.ticks[lo:], self._sent_tick), frames.values[lo:], frames.end_tick)
-        for out in self.outputs:
-            out.write(chunk)
-        self._sent_tick = frames.end_tick
-
-
-def programmed_feeds(commands: list[Command], default: float) -> list[float]:
-    """The programmed feed (PFDR, mm/min) in force at each command."""
-    feeds, feed = [], default
-    for cmd in commands:
-        if isinstance(cmd, PFdr):
-            feed = cmd.feed
-        feeds.append(feed)
-    return feeds
-
+        if self.outputs and self.ctl.ticks > self._sent_tick:
+            self._sent_tick = send_frames(self.ctl.frames(), self._sent_tick, self.outputs)

@@ -1,14 +1,18 @@
 """``retrofit run --html run.html``: the run as one self-contained, interactive HTML file.
 
-Everything the page needs is inside it -- plotly.js (from the ``plotly`` package), the console's
-drawing code (``static/views.js``) and the run's data -- so it opens offline, from a file, with
-no network request. It shows what the console shows after a run: the preview with the carriage's
+Everything the page needs is inside it -- plotly.js (its gl3d bundle, :func:`report_plotly`), the
+console's drawing code (``static/views.js``) and the run's data -- so it opens offline, from a
+file, with no network request. The library and the data are packed (:func:`packed`: gzip and
+base64, unpacked by the browser) and each timeline trace is cut to its minima and maxima per
+column, so a report stays within a few megabytes. It shows what the console shows after a run: the preview with the carriage's
 path over it, the timeline (position, velocity, acceleration, carriage error per axis, with the
 violations marked at their program line) and the step and direction lines down to single pulses.
 """
 
 from __future__ import annotations
 
+import base64
+import gzip
 import html
 import json
 from pathlib import Path
@@ -20,8 +24,11 @@ from ..frames import PortFrames
 from .api import STATIC, plotly_js
 from .views import axis_steps, preview, timeline
 
-#: points of the embedded timeline (the page thins them to its window)
+#: ticks at which the timeline is computed (evenly spread over the run)
 TIMELINE_POINTS = 20_000
+#: points each timeline trace keeps: the smallest and the largest value of each of half as many
+#: columns of the run (tsdownsample's MinMaxLTTB), so no peak is lost at any zoom the page shows
+TRACE_POINTS = 3_000
 #: port frames embedded for the pulse view at most (a longer run shows its first ones)
 MAX_FRAMES = 2_000_000
 #: carriage points of the embedded backplot at most
@@ -73,9 +80,17 @@ def html_report(machine: Machine, frames: PortFrames, sim, report: dict, title: 
     summary = "".join(f"<li>{html.escape(line)}</li>" for line in _summary(report))
     listing = "".join(f'<div id="L{i}"><span class="n">{i}</span>{html.escape(t)}</div>'
                       for i, t in enumerate(source.splitlines(), 1))
-    return _PAGE.format(title=html.escape(title), plotly=plotly_js().read_text(encoding="utf-8"),
+    plotly = packed(np.frombuffer(report_plotly().read_bytes(), np.uint8), np.uint8)
+    return _PAGE.format(title=html.escape(title), plotly=plotly,
                         views=(STATIC / "views.js").read_text(encoding="utf-8"), data=payload,
                         summary=summary, listing=listing)
+
+
+def report_plotly() -> Path:
+    """The plotly.js the report carries: the gl3d bundle (scatter, scatter3d: all the report draws)
+    where it ships with retrofit (``static/vendor``), else the whole of the ``plotly`` package's."""
+    bundle = Path(str(STATIC / "vendor" / "plotly-gl3d.min.js"))
+    return bundle if bundle.is_file() else plotly_js()
 
 
 def run_data(machine: Machine, frames: PortFrames, sim, report: dict, program, source: str, start_steps) -> dict:
@@ -84,14 +99,15 @@ def run_data(machine: Machine, frames: PortFrames, sim, report: dict, program, s
     steps = axis_steps(frames, machine, start_steps)
     if program is not None:
         pv = preview(program, machine, source)
+        pv["segments"] = packed_segments(pv["segments"], len(machine.axes))
     else:
         pv = {"lathe": False, "axes": [{"name": a.name, "label": a.label, "min": a.min_mm, "max": a.max_mm}
                                        for a in machine.axes], "segments": [], "rapids": 0, "cuts": 0}
         from ..plot import is_lathe
         pv["lathe"] = is_lathe(machine)
-    carriage = carriage_path(sim)
+    carriage = np.asarray(carriage_path(sim), np.float64)
     stride = max(1, len(carriage) // BACKPLOT_POINTS)
-    rows = [[0.0] + list(r) + list(r) for r in np.round(carriage[::stride], 4).tolist()]
+    backplot = {"axes": len(machine.axes), "mm": packed(carriage[::stride].ravel(), np.float32)}
 
     def carriage_at(i, ticks):
         trace = sim.traces[machine.axes[i].name]
@@ -103,11 +119,50 @@ def run_data(machine: Machine, frames: PortFrames, sim, report: dict, program, s
         lines += [{"name": f"{a.name} step", "bit": a.step_bit, "inv": int(a.invert_step)},
                   {"name": f"{a.name} dir", "bit": a.dir_bit, "inv": int(a.invert_dir)}]
     n = min(len(frames), MAX_FRAMES)
-    return {"preview": pv, "backplot": rows, "tick_s": machine.tick_s, "end_tick": end,
-            "timeline": timeline(steps, machine, 0, end, carriage_at, TIMELINE_POINTS),
-            "frames": {"ticks": frames.ticks[:n].tolist(), "values": frames.values[:n].tolist(), "lines": lines,
+    ticks = frames.ticks[:n].astype(np.int64)
+    return {"preview": pv, "backplot": backplot, "tick_s": machine.tick_s, "end_tick": end,
+            "timeline": packed_timeline(timeline(steps, machine, 0, end, carriage_at, TIMELINE_POINTS),
+                                        machine.tick_s),
+            "frames": {"ticks": packed(np.diff(ticks, prepend=0), np.uint32),
+                       "values": packed(frames.values[:n], np.uint8), "lines": lines,
                        "shown": n, "total": len(frames)},
             "violations": report.get("violations", [])}
+
+
+def packed(values, dtype) -> str:
+    """``values`` as the page unpacks them (``RV.unpack``): little-endian ``dtype``, its bytes
+    grouped by place (every first byte, then every second ...: the high bytes of small numbers
+    are runs of zeros that gzip packs to almost nothing), gzip, base64."""
+    dtype = np.dtype(dtype).newbyteorder("<")
+    raw = np.frombuffer(np.ascontiguousarray(values, dtype=dtype).tobytes(), np.uint8)
+    planes = raw.reshape(-1, dtype.itemsize).T.tobytes()
+    return base64.b64encode(gzip.compress(planes, 9, mtime=0)).decode("ascii")
+
+
+def packed_timeline(data: dict, tick_s: float, points: int = TRACE_POINTS) -> dict:
+    """Each trace of ``data`` (views.timeline) cut to ``points`` by min/max per column, packed:
+    the ticks of the whole timeline once, and per trace the indices of the points it keeps."""
+    from tsdownsample import MinMaxLTTBDownsampler
+    t = np.asarray(data["t"], np.float64)
+    ticks = np.round(t / tick_s).astype(np.int64)
+    out = {"ticks": packed(np.diff(ticks, prepend=0), np.uint32), "axes": {}, "window_s": data["window_s"]}
+    for name, series in data["axes"].items():
+        out["axes"][name] = {}
+        for key, values in series.items():
+            y = np.asarray(values, np.float64)
+            keep = np.arange(len(y)) if len(y) <= points else \
+                MinMaxLTTBDownsampler().downsample(t, y, n_out=points)
+            out["axes"][name][key] = {"i": packed(keep, np.uint32), "y": packed(y[keep], np.float32)}
+    return out
+
+
+def packed_segments(segments: list[dict], axes: int) -> dict:
+    """The preview's segments packed: kind (0 rapid, 1 cut), program line, start and end (mm)."""
+    ends = np.array([s["start"] + s["end"] for s in segments], np.float64).reshape(-1, 2 * axes)
+    return {"count": len(segments), "axes": axes,
+            "cut": packed([s["kind"] == "cut" for s in segments], np.uint8),
+            "line": packed([s["line"] or 0 for s in segments], np.uint32),
+            "mm": packed(ends.ravel(), np.float32)}
 
 
 def _summary(report: dict) -> list[str]:
@@ -119,14 +174,15 @@ _PAGE = """<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>{title}</title><link rel="icon" href="data:,">
 <style>
 body {{ font: 13px/1.4 system-ui, sans-serif; margin: 12px; color: #222; }}
-#top {{ display: grid; grid-template-columns: 1fr 330px; gap: 10px; }}
+#top {{ display: grid; grid-template-columns: minmax(0, 1fr) 330px; gap: 10px; }}
+#top > div, #timeline, #pulses {{ min-width: 0; overflow: hidden; }}
 #preview {{ height: 560px; }}
 #listing {{ font: 12px/1.4 monospace; height: 560px; overflow: auto; border: 1px solid #ccc; white-space: pre; }}
 #listing span.n {{ color: #999; display: inline-block; width: 3em; text-align: right; margin-right: 6px; }}
 #listing div.flag {{ background: #f8c8c8; }}
 </style>
-<script>{plotly}</script>
 <script>{views}</script>
+<script type="text/plain" id="plotly-gz">{plotly}</script>
 </head><body>
 <h2>{title}</h2>
 <ul>{summary}</ul>
@@ -137,8 +193,13 @@ body {{ font: 13px/1.4 system-ui, sans-serif; margin: 12px; color: #222; }}
 <script type="application/json" id="run-data">{data}</script>
 <script>
 "use strict";
-const run = JSON.parse(document.getElementById("run-data").textContent);
-RV.drawPreview(document.getElementById("preview"), run.preview, "commanded path and carriage");
+RV.unpack(document.getElementById("plotly-gz").textContent, Uint8Array).then(code => {{
+  const lib = document.createElement("script");          // plotly.js, unpacked: runs as it is inserted
+  lib.textContent = new TextDecoder().decode(code);
+  document.head.appendChild(lib);
+  return RV.unpackRun(JSON.parse(document.getElementById("run-data").textContent));
+}}).then(run => {{
+RV.drawPreview(document.getElementById("preview"), run.preview, "commanded path and carriage", {{position: false}});
 RV.extendBackplot(document.getElementById("preview"), run.preview, run.backplot);
 const v = run.violations;
 document.getElementById("violations").innerHTML = v.length ? "<b>violations</b>: " + v.slice(0, 50).map(x =>
@@ -150,6 +211,7 @@ if (run.frames.shown < run.frames.total)
     `the pulse view holds the first ${{run.frames.shown}} of ${{run.frames.total}} port frames`);
 RV.attachRunViews(document.getElementById("timeline"), document.getElementById("pulses"), RV.localSource(run),
   run.end_tick, run.tick_s, v).then(views => {{ window.retrofitViews = views; document.body.dataset.views = "ready"; }});
+}});
 </script>
 </body></html>
 """

@@ -11,7 +11,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from ..config import Machine
-from ..errors import RetrofitError
+from ..errors import GcodeError, RetrofitError
 
 #: how long the console waits for a stopped run's thread to end before it puts the outputs safe
 STOP_JOIN_S = 5.0
@@ -25,16 +25,20 @@ class Console:
     """
 
     def __init__(self, machine: Machine, outputs: list[str] | None = None, backlash_comp: bool = True,
-                 programs: str | Path | None = None):
+                 programs: str | Path | None = None, machine_arg: str | None = None):
         from .programs import ProgramFolder
+        from .tools import SpindleTools
         self.machine = machine
         self.output_urls = [u for u in (outputs or []) if not u.startswith("sim://")]
         for url in self.output_urls:
             check_output(url)
         self.folder = ProgramFolder(programs)
+        self.tools = SpindleTools(machine, self.output_urls, machine_arg)
+        self._opened_tool = self._recorded_tool()  # the tool in the spindle the program was compiled for
         self.backlash_comp = backlash_comp
         self.program = None
         self.source = ""
+        self.listing: dict = {}                # what open() answered: the page shows it again after a reload
         self.run = None
         self._report = None
         self._steps = self._frames = self._pulses = None
@@ -43,24 +47,38 @@ class Console:
         self._run_lock = threading.Lock()      # one start (or jog, home, MDI) at a time
         self._stops = 0                        # STOPs so far: one during a start stops the new run
 
+    def _recorded_tool(self) -> int | None:
+        """The tool the spindle record says, None when it cannot be trusted (opening a program
+        then says why and how to recover)."""
+        from ..errors import ToolStateError
+        try:
+            return self.tools.tool()
+        except ToolStateError:
+            return None
+
     # -- program ------------------------------------------------------------------------------------
     def open(self, path: str | None = None, name: str | None = None, text: str | None = None) -> dict:
         """Compile a program (one the console lists, by ``name`` or ``path``, or the ``text`` of a
         picked file); its listing and preview. A ``.cmds`` file is a command list: one command a
         line in the text form (``FMOV X5 Z1``, ``TOOL T2``, ``PAUS M0``), ``#`` starting a comment."""
-        from ..gcode.program import compile_program
         from .views import preview
         if text is None:
             text, name = self.folder.read(path if path is not None else name or "")
         name = Path(name or "program.ngc").name
-        if name.endswith(".cmds"):
-            program = command_list(text, name)
-        else:
-            program = compile_program(text, self.machine, name)
+        tool = self.tools.tool()
+        program = self.tools.compile(text, name, tool)
+        self._opened_tool = tool
+        from .tools import clamped_feeds
         listing = {"name": program.file, "listing": text.splitlines(),
-                   "preview": preview(program, self.machine, text)}
-        self.program, self.source = program, text
+                   "preview": preview(program, self.machine, text),
+                   "warnings": clamped_feeds(program, self.machine, self._default_feed())}
+        self.program, self.source, self.listing = program, text, listing
         return listing
+
+    def _default_feed(self) -> float:
+        """The feed (mm/min) a program runs at before its first F: the controller's."""
+        from ..controller import Controller
+        return Controller(self.machine).processor.walker.feed
 
     # -- run ------------------------------------------------------------------------------------------
     def start(self, speed: float = 0.0) -> dict:
@@ -73,11 +91,17 @@ class Console:
             if self.run is not None and not self.run.finished:
                 raise Busy("a run is under way; STOP it or wait for its end")
             stops = self._stops
+            tool, program = self.tools.tool(), self.program
+            if tool != self._opened_tool:          # the spindle changed since: G43 and T need the tool
+                program = self.tools.compile(self.source, program.file, tool)
             self.close()
             self._report = self._steps = self._frames = self._pulses = self._recorded = None
-            self.run = SteeredRun(self.machine, self.program.commands, self.program.lines,
-                                  backlash_comp=self.backlash_comp, paced=speed > 0, speed=speed or 1.0,
-                                  outputs=self._open_outputs())
+            run = self.tools.expand(program, tool)
+            outputs = self._open_outputs()
+            self.tools.begin(run)
+            self.run = SteeredRun(self.machine, run.commands, run.lines, backlash_comp=self.backlash_comp,
+                                  paced=speed > 0, speed=speed or 1.0, outputs=outputs, tool=tool,
+                                  changes=run.changes, on_done=lambda done: self.tools.finish(done.tool))
             self.run_id += 1
             self.run.start()
             if self._stops != stops:           # STOP came while the run was being set up
@@ -137,29 +161,38 @@ class Console:
                 fresh = self._fresh_run_needed()
                 here = ({a.name: 0.0 for a in self.machine.axes} if fresh
                         else self.run.snapshot()["commanded_mm"])
-                cmds = self._manual(here, kind, args)          # a refusal here changes nothing
-                run = self._manual_run(fresh)
-                run.extend(cmds, [0] * len(cmds))
+                tool = self.tools.tool() if fresh else self.run.tool
+                moves = self._manual(here, kind, args, tool)   # a refusal here changes nothing
+                run = self._manual_run(fresh, tool)
+                self.tools.begin(moves)
+                run.extend(moves.commands, [0] * len(moves.commands), moves.changes)
                 return self.state()
         if self.run is None:
             raise RetrofitError(f"{kind}: nothing is running")
         self.run.act(kind, **args)
         return self.state()
 
-    def _manual(self, here: dict, kind: str, args: dict) -> list:
-        """The commands of a jog (within the soft limits), a home or an MDI line, from ``here`` (mm)."""
+    def _manual(self, here: dict, kind: str, args: dict, tool: int):
+        """The commands of a jog (within the soft limits), a home or an MDI line, from ``here``
+        (mm) with ``tool`` in the spindle (an MDI tool change by the changer), expanded."""
         from ..commands import FMov
-        from ..gcode.program import compile_program
+        from ..gcode.program import Program
+        if kind == "mdi":
+            try:
+                program = self.tools.compile(args["text"], "MDI", tool, start_mm=here)
+            except GcodeError as exc:              # the line itself, then the rule it breaks
+                raise GcodeError(exc.rule, f'MDI "{args["text"].strip()}"') from None
+            return self.tools.expand(program, tool)
         if kind == "jog":
             axis = self.machine.axis(args["axis"])
             target = here[axis.name] + args["step"]
             if not axis.min_mm <= target <= axis.max_mm:
                 raise RetrofitError(f"jog {axis.name} {args['step']:+g} mm from {here[axis.name]:g} mm to "
                                     f"{target:g} mm: beyond the soft limits {axis.min_mm:g}..{axis.max_mm:g} mm")
-            return [FMov(axes=((axis.name, round(target, 6)),))]
-        if kind == "home":
-            return [FMov(axes=tuple((a.name, 0.0) for a in self.machine.axes))]
-        return compile_program(args["text"], self.machine, "MDI", start_mm=here).commands
+            moves = [FMov(axes=((axis.name, round(target, 6)),))]
+        else:
+            moves = [FMov(axes=tuple((a.name, 0.0) for a in self.machine.axes))]
+        return self.tools.expand(Program(moves, [0] * len(moves), kind), tool)
 
     def _fresh_run_needed(self) -> bool:
         """True when a jog, home or MDI starts a fresh controller (none yet, or after STOP or an
@@ -168,13 +201,14 @@ class Console:
             raise RetrofitError("jog, home and MDI wait until the program has ended")
         return self.run is None or self.run.state in ("stopped", "error")
 
-    def _manual_run(self, fresh: bool):
+    def _manual_run(self, fresh: bool, tool: int):
         from .engine import SteeredRun
         if fresh:
             self.close()
             self.run_id += 1
             self.run = SteeredRun(self.machine, [], [], backlash_comp=self.backlash_comp,
-                                  outputs=self._open_outputs())
+                                  outputs=self._open_outputs(), tool=tool,
+                                  on_done=lambda done: self.tools.finish(done.tool))
         self._report = self._steps = self._frames = self._pulses = None
         return self.run
 
@@ -191,7 +225,7 @@ class Console:
         """The run's snapshot, its id, and the backplot points from ``since`` on."""
         if self.run is None:
             return {"state": "done" if self._recorded else "ready", "trail": [], "trail_len": 0,
-                    "run_id": self.run_id}
+                    "run_id": self.run_id, "tool": self._opened_tool}
         snap = dict(self.run.snapshot(), run_id=self.run_id)
         trail = self.run.trail
         snap["trail"], snap["trail_len"] = trail[since:], len(trail)

@@ -19,6 +19,9 @@ from ..plot import is_lathe, stock_and_part, toolpath
 TIMELINE_POINTS = 1500
 #: at most this many port frames in a pulse window before it is drawn as activity bands
 PULSE_FRAMES = 6000
+#: the shortest window velocity and acceleration are averaged over (s); a wider view averages
+#: over two of its sample spacings
+AVERAGE_S = 0.05
 
 
 @dataclass
@@ -78,21 +81,48 @@ def preview(program, machine: Machine, source_text: str = "") -> dict:
 def timeline(steps: list[AxisSteps], machine: Machine, t0: int, t1: int, carriage=None,
              points: int = TIMELINE_POINTS) -> dict:
     """Per axis position, velocity, acceleration (and carriage error when ``carriage`` is given:
-    a function (axis index, ticks) -> carriage mm) on ``points`` ticks evenly spread in [t0, t1)."""
+    a function (axis index, ticks) -> carriage mm) on ``points`` ticks evenly spread in [t0, t1).
+
+    Velocity and acceleration are means over a window (``window_s``: :data:`AVERAGE_S`, or two
+    sample spacings when wider): the velocity is the steps between the first and the last step
+    edge in the window over the time between them (exact for an even step rate, where counting
+    steps would jump by a step), the acceleration the change of that velocity across the window.
+    """
     t0, t1 = int(max(t0, 0)), int(max(t1, t0 + 2))
     ticks = np.unique(np.linspace(t0, t1 - 1, points).round().astype(np.int64))
-    dt = machine.tick_s * max(int(ticks[1] - ticks[0]) if len(ticks) > 1 else 1, 1)
-    out = {"t": (ticks * machine.tick_s).round(9).tolist(), "axes": {}}
+    spacing = int(ticks[1] - ticks[0]) if len(ticks) > 1 else 1
+    half = max(int(AVERAGE_S / machine.tick_s / 2), spacing, 1)
+    out = {"t": (ticks * machine.tick_s).round(9).tolist(), "axes": {},
+           "window_s": round(2 * half * machine.tick_s, 6)}
     for i, (a, s) in enumerate(zip(machine.axes, steps)):
         pos = s.at(ticks) / a.steps_per_mm
-        vel = np.gradient(pos, dt) * 60.0 if len(pos) > 1 else np.zeros(len(pos))
-        acc = np.gradient(vel / 60.0, dt) if len(pos) > 1 else np.zeros(len(pos))
+        scale = 60.0 / (a.steps_per_mm * machine.tick_s)            # steps a tick -> mm/min
+        vel = mean_rate(s, ticks, half) * scale
+        acc = (mean_rate(s, ticks + half, half) - mean_rate(s, ticks - half, half)) * scale / 60.0 \
+            / (2 * half * machine.tick_s)
         axis = {"position_mm": pos.round(6).tolist(), "velocity_mm_min": vel.round(3).tolist(),
                 "accel_mm_s2": acc.round(3).tolist()}
         if carriage is not None:
             axis["error_mm"] = (carriage(i, ticks) - pos).round(6).tolist()
         out["axes"][a.name] = axis
     return out
+
+
+def mean_rate(s: AxisSteps, ticks: np.ndarray, half: int) -> np.ndarray:
+    """Steps a tick around each of ``ticks`` (the window ``ticks +- half``): between the first and
+    the last step edge in it, their distance over their time; one edge alone: one step over the
+    window; none: 0."""
+    first = np.searchsorted(s.ticks, ticks - half, side="left")
+    last = np.searchsorted(s.ticks, ticks + half, side="right") - 1
+    rate = np.zeros(len(ticks))
+    if not len(s.ticks):
+        return rate
+    lo, hi = np.clip(first, 0, len(s.ticks) - 1), np.clip(last, 0, len(s.ticks) - 1)
+    many = last > first
+    rate[many] = (s.position[hi[many]] - s.position[lo[many]]) / (s.ticks[hi[many]] - s.ticks[lo[many]])
+    one = last == first
+    rate[one] = (s.position[lo[one]] - s._after[lo[one]]) / (2.0 * half)
+    return rate
 
 
 class PulseIndex:

@@ -130,6 +130,12 @@ def _g10_tool(tr, block, number: int, kind: float) -> None:
     tr.tool_table = table
 
 
+def table_name(table) -> str:
+    """The tool table as a message names it: its file, or that the run was given none."""
+    path = getattr(table, "path", None)
+    return str(path) if path is not None else "(none given: --tool-table FILE names one)"
+
+
 def tool_length(tr, block) -> None:
     """G43 [H], G43.1 (offsets in the block), G49 (cancel)."""
     s = tr.state
@@ -146,7 +152,9 @@ def tool_length(tr, block) -> None:
             raise RuleError(f"{block.texts.get('H', 'G43')}: H is a tool number")
         tool = tr.tool_table.get(int(number)) if tr.tool_table is not None else None
         if tool is None and number != 0:
-            raise RuleError(f"G43 H{number:g}: tool {number:g} is not in the tool table")
+            raise RuleError(f"G43 H{number:g}: tool {number:g} is not in the tool table "
+                            f"{table_name(tr.tool_table)}; add it there, or measure it: "
+                            f"retrofit setter measure T{number:g}")
         offsets = dict(tool.offsets_mm) if tool else {}
         s.tool_offset = {n: offsets[n] for n in tr.machine.axis_names if n in offsets}
     s.params.write(TOOL_Z, s.tool_offset.get("Z", 0.0))

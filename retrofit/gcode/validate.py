@@ -12,8 +12,9 @@ from collections.abc import Mapping
 from ..config import Machine
 from .errors import RuleError
 
-#: slack on the soft limits for the float noise of unit conversion and chord points (mm)
-LIMIT_SLACK_MM = 1e-9
+#: slack on the soft limits, in steps of the axis: a point a tenth of a step beyond a limit (the
+#: float noise of unit conversion, arcs and spirals ending on it) is on it; the step it rounds to is
+LIMIT_SLACK_STEPS = 0.1
 
 
 def check_soft_limits(machine: Machine, point_mm: Mapping[str, float], where: str = "") -> None:
@@ -27,8 +28,23 @@ def check_soft_limits(machine: Machine, point_mm: Mapping[str, float], where: st
             axis = machine.axis(name)
             if not math.isfinite(value):
                 raise RuleError(f"{name} {value} mm{where} is not a finite number")
-            raise RuleError(f"{name} {value:.3f} mm{where} is outside the soft limits "
+            raise RuleError(f"{name} {shown_mm(value, axis)} mm{where} is outside the soft limits "
                             f"{axis.min_mm:g}..{axis.max_mm:g} mm")
+
+
+def shown_mm(value: float, axis) -> str:
+    """A position beyond ``axis``'s soft limits as a message shows it: three decimals, more when
+    three would put it on the limit, and never -0.000."""
+    for digits in (3, 6, 9):
+        text = f"{value:.{digits}f}"
+        if not axis.min_mm <= float(text) <= axis.max_mm:
+            break
+    return text[1:] if float(text) == 0 and text.startswith("-") else text
+
+
+def limit_slack_mm(axis) -> float:
+    """How far beyond a soft limit a point is still on it (mm): :data:`LIMIT_SLACK_STEPS`."""
+    return LIMIT_SLACK_STEPS / axis.steps_per_mm
 
 
 _LIMITS: dict[int, tuple] = {}
@@ -38,7 +54,7 @@ def _limits(machine: Machine) -> tuple:
     limits = _LIMITS.get(id(machine))
     if limits is None or limits[0] is not machine:
         limits = _LIMITS[id(machine)] = (machine, tuple(
-            (a.name, a.min_mm - LIMIT_SLACK_MM, a.max_mm + LIMIT_SLACK_MM) for a in machine.axes))
+            (a.name, a.min_mm - limit_slack_mm(a), a.max_mm + limit_slack_mm(a)) for a in machine.axes))
     return limits[1]
 
 
@@ -51,8 +67,8 @@ def check_arc(machine: Machine, mode, lo: list, hi: list, chords: int, length: f
     the soft limits and whose chords are not too many; returns its length (mm)."""
     for axis, low, high in zip(machine.axes, lo, hi):
         for value in (low, high):
-            if value < axis.min_mm - LIMIT_SLACK_MM or value > axis.max_mm + LIMIT_SLACK_MM:
-                raise RuleError(f"{axis.name} {value:.3f} mm on the G{mode:g} arc is outside the "
+            if value < axis.min_mm - limit_slack_mm(axis) or value > axis.max_mm + limit_slack_mm(axis):
+                raise RuleError(f"{axis.name} {shown_mm(value, axis)} mm on the G{mode:g} arc is outside the "
                                 f"soft limits {axis.min_mm:g}..{axis.max_mm:g} mm")
     if chords > MAX_CHORDS:
         raise RuleError(f"G{mode:g}: the arc would be {chords} chords at the machine's arc "

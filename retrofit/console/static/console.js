@@ -28,16 +28,52 @@ function headers(json) {
 RV.headers = () => headers(false);
 
 async function api(path, body) {
-  const r = await fetch(path, body === undefined ? {headers: headers(false)} :
-    {method: "POST", headers: headers(true), body: JSON.stringify(body)});
-  const data = await r.json();
-  $("message").textContent = data.error || "";
+  let r;
+  try {
+    r = await fetch(path, body === undefined ? {headers: headers(false)} :
+      {method: "POST", headers: headers(true), body: JSON.stringify(body)});
+  } catch (e) {
+    throw new Error("the console does not answer (" + e.message + "); is retrofit console still running?");
+  }
+  let data;
+  try { data = await r.json(); } catch (e) { data = {error: `${path}: the console answered ${r.status} without JSON`}; }
   if (data.error) throw new Error(data.error);
   return data;
 }
 
+// The message line under the header: an error, a warning or a note, in words. It stays until the
+// next successful action or a click on it (or on its x); the polls never clear it.
+const M = {kind: null, key: null, dismissed: null, faults: new Set()};
+
+function say(kind, text, key) {
+  M.kind = kind; M.key = key || kind + ":" + text;
+  $("message-text").textContent = text;
+  $("message").className = kind;
+  $("message").hidden = false;
+}
+
+function unsay() {
+  if (M.kind) M.dismissed = M.key;
+  M.kind = M.key = null;
+  $("message").hidden = true;
+  $("message-text").textContent = "";
+}
+
+// An operator's action: a success clears the message line, a refusal is shown there and thrown.
+async function doing(what, call) {
+  try {
+    const res = await call();
+    unsay();
+    M.dismissed = null;
+    return res;
+  } catch (e) {
+    say("error", what ? `${what}: ${e.message}` : e.message);
+    throw e;
+  }
+}
+
 async function init() {
-  if (!C.token) $("message").textContent = "open the address the console printed: it carries the console's token";
+  if (!C.token) say("error", "open the address the console printed: it carries the console's token");
   C.machine = await api("/api/machine");
   $("machine-name").textContent = C.machine.name;
   $("machine-desc").textContent = C.machine.description;
@@ -47,9 +83,25 @@ async function init() {
     `<tr><td>${a.name}</td><td id="cmd-${a.name}">0.000</td><td id="car-${a.name}">0.000</td></tr>`).join("");
   const lathe = C.machine.examples.find(n => n.includes(C.machine.lathe ? "lathe" : "engrav"));
   if (lathe) $("example").value = lathe;
+  keepChoices();
   bind();
+  const fit = new ResizeObserver(seen => {     // a plot follows its box (a scroll bar, a narrower window)
+    for (const e of seen) if (e.target.data) Plotly.Plots.resize(e.target);
+  });
+  for (const id of ["preview", "timeline", "pulses"]) fit.observe($(id));
   await claim(false).catch(() => {});
+  const open = await api("/api/program").catch(() => ({}));      // what the console has open survives a reload
+  if (open.name) showProgram(open); else drawEmpty();
   poll();
+}
+
+// The page's own choices (program list, pace, jog axis and step) kept in this tab across a reload.
+function keepChoices() {
+  for (const id of ["example", "speed", "jog-axis", "jog-step", "path"]) {
+    const key = "retrofit-choice-" + id, kept = sessionStorage.getItem(key);
+    if (kept !== null && (id === "path" || [...$(id).options].some(o => o.value === kept))) $(id).value = kept;
+    $(id).addEventListener("change", () => sessionStorage.setItem(key, $(id).value));
+  }
 }
 
 async function claim(take) {
@@ -60,60 +112,77 @@ async function claim(take) {
 }
 
 function bind() {
-  $("open").onclick = () => openProgram();
+  $("open").onclick = () => openProgram().catch(() => {});
   $("file").onchange = async () => {
     const f = $("file").files[0];
-    if (f) await openProgram({name: f.name, text: await f.text()});
+    if (f) await openProgram({name: f.name, text: await f.text()}).catch(() => {});
   };
   $("run").onclick = async () => {
-    delete document.body.dataset.views;
-    window.retrofitReport = null;
-    $("timeline").innerHTML = ""; $("pulses").innerHTML = ""; $("violations").innerHTML = "";
-    if (C.preview) RV.drawPreview($("preview"), C.preview, $("program-name").textContent);
-    const res = await api("/api/run", {speed: parseFloat($("speed").value)});
-    C.runId = res.run_id;
-    C.trail = 0;
+    const res = await doing("Run", () => api("/api/run", {speed: parseFloat($("speed").value)})).catch(() => null);
+    if (res) adopt(res.run_id);
   };
   $("speed").onchange = () => act("speed", {factor: parseFloat($("speed").value)}).catch(() => {});
-  $("hold").onclick = () => act("hold");
-  $("resume").onclick = () => act("resume");
+  $("hold").onclick = () => act("hold").catch(() => {});
+  $("resume").onclick = () => act("resume").catch(() => {});
   $("stop").onclick = async () => {            // a watching page takes control to STOP: it says so
-    if (!C.you) await claim(true);
+    if (!C.you) await doing("Take control", () => claim(true));
     await act("stop");
   };
-  $("take").onclick = () => claim(true).catch(() => {});
+  $("take").onclick = () => doing("Take control", () => claim(true)).catch(() => {});
   for (const k of ["feed", "rapid"]) {
     $(k).oninput = () => { $(k + "-val").textContent = $(k).value; };
-    $(k).onchange = () => act(k, {pct: parseFloat($(k).value)});
+    $(k).onchange = () => act(k, {pct: parseFloat($(k).value)}).catch(() => {});
   }
-  const jog = (sign) => act("jog", {axis: $("jog-axis").value, step: sign * parseFloat($("jog-step").value)});
+  const jog = (sign) => act("jog", {axis: $("jog-axis").value, step: sign * parseFloat($("jog-step").value)}).catch(() => {});
   $("jog-plus").onclick = () => jog(1);
   $("jog-minus").onclick = () => jog(-1);
-  $("home").onclick = () => act("home");
-  $("mdi-go").onclick = () => act("mdi", {text: $("mdi").value});
+  $("home").onclick = () => act("home").catch(() => {});
+  $("mdi-go").onclick = () => act("mdi", {text: $("mdi").value}).catch(() => {});
+  $("mdi").onkeydown = (ev) => { if (ev.key === "Enter") $("mdi-go").click(); };
+  $("message").onclick = () => unsay();
   $("dialog-ok").onclick = () => {
     const dlg = $("dialog");
     C.answered = dlg.dataset.key;
     dlg.dataset.key = "";
     dlg.close();
-    act("answer");
+    act("answer").catch(() => {});
   };
 }
 
-async function act(kind, args) {
-  const res = await api("/api/action", Object.assign({kind: kind}, args || {}));
-  if (res.run_id !== C.runId) { C.runId = res.run_id; C.trail = 0; }
+async function act(kind, args) {               // the console's refusals name the action themselves
+  const res = await doing(null, () => api("/api/action", Object.assign({kind: kind}, args || {})));
+  adopt(res.run_id);
   return res;
+}
+
+// A new run (started here, by another page, or a jog after STOP): its backplot and views start empty.
+function adopt(runId) {
+  if (runId === undefined || runId === C.runId) return;
+  const first = C.runId === undefined;
+  C.runId = runId;
+  C.trail = 0;
+  if (first) return;
+  delete document.body.dataset.views;
+  window.retrofitReport = null;
+  for (const id of ["timeline", "pulses"]) Plotly.purge($(id));
+  $("violations").innerHTML = "";
+  if (C.preview) RV.drawPreview($("preview"), C.preview, C.title); else drawEmpty();
 }
 
 async function openProgram(body) {
   body = body || ($("path").value ? {path: $("path").value} : {name: $("example").value});
-  const res = await api("/api/open", body);
+  const name = body.path || body.name;
+  showProgram(await doing(`Open "${name}"`, () => api("/api/open", body)));
+}
+
+function showProgram(res) {
   C.preview = res.preview;
+  C.title = res.name + " on the " + C.machine.name;
   $("program-name").textContent = res.name;
   $("listing").innerHTML = res.listing.map((t, i) =>
     `<div id="L${i + 1}"><span class="n">${i + 1}</span>${t.replace(/&/g, "&amp;").replace(/</g, "&lt;")}</div>`).join("");
-  const counts = RV.drawPreview($("preview"), C.preview, res.name + " on the " + C.machine.name);
+  C.lastLine = null;
+  const counts = RV.drawPreview($("preview"), C.preview, C.title);
   const info = $("preview-info");
   info.dataset.rapids = counts.rapids;
   info.dataset.cuts = counts.cuts;
@@ -121,14 +190,29 @@ async function openProgram(body) {
   info.textContent = `${counts.cuts} cut segments (${res.preview.cut_lines} program lines), ${counts.rapids} rapids` +
     (res.preview.stock ? `; stock diameter ${2 * res.preview.stock.radius} mm` :
      (res.preview.lathe ? "; no stock drawn: name it in a comment, e.g. ; Stock: bar of 44 mm diameter" : ""));
+  (res.warnings || []).forEach(w => say("warning", w));
+}
+
+// Before a program is open: the machine's envelope (its soft limits) and where it stands.
+function drawEmpty() {
+  const pv = {lathe: C.machine.lathe, axes: C.machine.axes, segments: [], rapids: 0, cuts: 0};
+  RV.drawPreview($("preview"), pv, `${C.machine.name}: no program open; the work envelope and where the machine stands`);
+  C.empty = pv;
+  $("preview-info").textContent = "open a program to preview it";
 }
 
 async function poll() {
   try {
-    const s = await api("/api/state?since=" + C.trail);
-    if (C.runId === undefined) C.runId = s.run_id;
-    if (s.run_id === C.runId) show(s);
-  } catch (e) { /* shown in #message */ }
+    let s = await api("/api/state?since=" + C.trail);
+    if (s.run_id !== C.runId) {                 // a new run: its backplot from its first point
+      adopt(s.run_id);
+      s = Object.assign({}, s, {trail: [], trail_len: 0});
+    }
+    if (M.kind === "warning" && M.key === "contact") unsay();
+    show(s);
+  } catch (e) {
+    if (!M.kind || M.key === "contact") say("warning", e.message, "contact");
+  }
   C.polling = setTimeout(poll, 100);
 }
 
@@ -144,13 +228,18 @@ function showControl(c) {
 
 function show(s) {
   if (s.control) showControl(s.control);
-  if (s.fault) $("message").textContent = s.fault;
+  if (s.fault) {                               // a run that stopped on an error says why, until dismissed
+    const key = "fault:" + s.run_id + ":" + s.fault;
+    if (!M.faults.has(key) || (!M.kind && M.dismissed !== key)) say("error", s.fault, key);
+    M.faults.add(key);
+  }
   $("state").textContent = s.state;
   document.body.dataset.state = s.state;
   if (s.commanded_mm) for (const a of C.machine.axes) {
-    $("cmd-" + a.name).textContent = s.commanded_mm[a.name].toFixed(3);
-    $("car-" + a.name).textContent = s.carriage_mm[a.name].toFixed(3);
+    $("cmd-" + a.name).textContent = mm(s.commanded_mm[a.name]);
+    $("car-" + a.name).textContent = mm(s.carriage_mm[a.name]);
   }
+  RV.showPosition($("preview"), C.preview || C.empty, s.commanded_mm || zeros());
   if (s.time_s !== undefined) $("time").textContent = s.time_s.toFixed(2);
   $("line").textContent = s.line ?? "-";
   if (s.line !== C.lastLine) {
@@ -167,9 +256,11 @@ function show(s) {
   C.trail = s.trail_len || 0;
   const dlg = $("dialog");
   const key = s.dialog ? s.dialog.kind + ":" + s.dialog.line + ":" + s.events : null;
-  if (s.dialog && !C.you) $("message").textContent = "waiting for the operator: " + s.dialog.text;
+  if (s.dialog && !C.you && M.kind !== "error") say("info", "waiting for the operator: " + s.dialog.text, "wait:" + key);
+  if (!s.dialog && M.key && M.key.startsWith("wait:")) unsay();
   if (s.dialog && C.you && key !== C.answered && dlg.dataset.key !== key) {
     $("dialog-text").textContent = s.dialog.text;
+    say("warning", `line ${s.dialog.line}: ${s.dialog.text}`, "dialog:" + key);
     dlg.dataset.kind = s.dialog.kind;
     dlg.dataset.key = key;
     if (!dlg.open) dlg.showModal();
@@ -181,8 +272,19 @@ function show(s) {
   }
 }
 
+// A position in mm as the DRO shows it: three decimals, never -0.000.
+function mm(v) {
+  const t = v.toFixed(3);
+  return /^-0\.0+$/.test(t) ? t.slice(1) : t;
+}
+
+function zeros() {
+  return Object.fromEntries(C.machine.axes.map(a => [a.name, 0]));
+}
+
 async function showRun() {
-  const rep = await api("/api/report");
+  let rep;
+  try { rep = await api("/api/report"); } catch (e) { say("error", "After the run: " + e.message); throw e; }
   window.retrofitReport = rep;
   const v = rep.violations;
   $("violations").innerHTML = v.length ? "<b>violations</b>: " + v.slice(0, 50).map(x =>

@@ -29,8 +29,8 @@ RV.axisTitle = function (a) {
 };
 
 // The preview; the last trace is the backplot, which RV.extendBackplot grows.
-RV.drawPreview = function (div, pv, title) {
-  const traces = [];
+RV.drawPreview = function (div, pv, title, opts) {
+  const traces = [], marker = !(opts && opts.position === false);   // the report has no machine standing
   if (pv.lathe) {
     const [h, v] = RV.planeAxes(pv);
     const ah = pv.axes[h], av = pv.axes[v];
@@ -48,6 +48,8 @@ RV.drawPreview = function (div, pv, title) {
     const [cx, cy] = RV.segmentsXY(pv.segments, "cut", h, v);
     traces.push({x: rx, y: ry, mode: "lines", line: {color: "#777", dash: "dash", width: 1.2}, name: "rapid (G0)"});
     traces.push({x: cx, y: cy, mode: "lines", line: {color: "#1f77b4", width: 1.8}, name: "cut (G1/G2/G3)"});
+    traces.push({x: [0], y: [0], mode: "markers", marker: {color: "#d62728", size: 10, symbol: "cross-thin",
+      line: {width: 2, color: "#d62728"}}, name: "the machine (commanded)", visible: marker});
     traces.push({x: [], y: [], mode: "lines", line: {color: "rgba(214,39,40,0.7)", width: 1.2}, name: "carriage (backplot)"});
     const xs = rx.concat(cx).filter(v => v !== null), ys = ry.concat(cy).filter(v => v !== null).concat([0]);
     const span = (a, lo, hi) => {
@@ -55,6 +57,7 @@ RV.drawPreview = function (div, pv, title) {
       const mn = Math.min(...a), mx = Math.max(...a), m = 0.08 * (mx - mn || 1);
       return [Math.max(lo, mn - m), Math.min(hi, mx + m)];
     };
+    div.dataset.position = "";
     Plotly.newPlot(div, traces, {title: {text: title || "", font: {size: 14}}, margin: {t: 40, l: 60, r: 10, b: 50},
       xaxis: {title: {text: RV.axisTitle(ah)}, range: span(xs.concat(pv.stock ? pv.stock.z : []), ah.min, ah.max)},
       yaxis: {title: {text: RV.axisTitle(av)}, scaleanchor: "x", range: span(ys, av.min, av.max)},
@@ -74,13 +77,31 @@ RV.drawPreview = function (div, pv, title) {
     const r = seg3("rapid"), c = seg3("cut");
     traces.push({type: "scatter3d", x: r[0], y: r[1], z: r[2], mode: "lines", line: {color: "#777", dash: "dash", width: 2}, name: "rapid (G0)"});
     traces.push({type: "scatter3d", x: c[0], y: c[1], z: c[2], mode: "lines", line: {color: "#1f77b4", width: 3}, name: "cut (G1/G2/G3)"});
+    traces.push({type: "scatter3d", x: [0], y: [0], z: [0], mode: "markers", marker: {color: "#d62728", size: 4},
+      name: "the machine (commanded)", visible: marker});
     traces.push({type: "scatter3d", x: [], y: [], z: [], mode: "lines", line: {color: "rgba(214,39,40,0.7)", width: 2}, name: "carriage (backplot)"});
     const t = (i) => ({title: {text: pv.axes[i] ? RV.axisTitle(pv.axes[i]) : ""}});
+    const framed = RV.frame(pv.segments), scene = Object.assign({aspectmode: "data"}, framed);
+    ["xaxis", "yaxis", "zaxis"].forEach((a, i) => { scene[a] = Object.assign(t(i), framed[a]); });
+    div.dataset.position = "";
     Plotly.newPlot(div, traces, {title: {text: title || "", font: {size: 14}}, margin: {t: 40, l: 0, r: 0, b: 0},
-      scene: {xaxis: t(0), yaxis: t(1), zaxis: t(2), aspectmode: "data"}, legend: {orientation: "h"}},
-      {responsive: true, displaylogo: false});
+      scene: scene, legend: {orientation: "h"}}, {responsive: true, displaylogo: false});
   }
   return {rapids: pv.rapids, cuts: pv.cuts};
+};
+
+// A 3D view framed on the program's path (8 % around it, at least 1 mm), not the whole envelope;
+// the axes keep their true proportions. Nothing to frame: the envelope, as plotly frames it.
+RV.frame = function (segments) {
+  if (!segments.length) return {};
+  const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+  for (const s of segments) for (const p of [s.start, s.end]) for (let k = 0; k < 3; k++) {
+    lo[k] = Math.min(lo[k], p[k] ?? 0); hi[k] = Math.max(hi[k], p[k] ?? 0);
+  }
+  const pad = lo.map((l, k) => Math.max(0.08 * (hi[k] - l), 1)), span = lo.map((l, k) => hi[k] - l + 2 * pad[k]);
+  const big = Math.max(...span), range = (k) => ({range: [lo[k] - pad[k], hi[k] + pad[k]]});
+  return {xaxis: range(0), yaxis: range(1), zaxis: range(2), aspectmode: "manual",
+          aspectratio: {x: span[0] / big, y: span[1] / big, z: span[2] / big}};
 };
 
 RV.boxEdges = function (axes) {
@@ -93,6 +114,22 @@ RV.boxEdges = function (axes) {
     x.push(p[0], q[0], null); y.push(p[1], q[1], null); z.push(p[2], q[2], null);
   }
   return [x, y, z];
+};
+
+// The machine's commanded position (mm by axis name) as the marker before the backplot.
+RV.showPosition = function (div, pv, pos) {
+  if (!pv || !div.data || div.data.length < 2) return;
+  const names = pv.axes.map(a => a.name), at = (i) => [i < names.length ? pos[names[i]] ?? 0 : 0];
+  const key = names.map(n => pos[n]).join(",");
+  if (div.dataset.position === key) return;
+  div.dataset.position = key;
+  const idx = div.data.length - 2;
+  if (pv.lathe) {
+    const [h, v] = RV.planeAxes(pv);
+    Plotly.restyle(div, {x: [at(h)], y: [at(v)]}, [idx]);
+  } else {
+    Plotly.restyle(div, {x: [at(0)], y: [at(1)], z: [at(2)]}, [idx]);
+  }
 };
 
 // rows: [time, commanded..., carriage...] as the console's state sends them
@@ -109,8 +146,9 @@ RV.extendBackplot = function (div, pv, rows) {
 };
 
 RV.timelineFigure = function (data, violations, tickS) {
-  const rows = [["position_mm", "position [mm]"], ["velocity_mm_min", "velocity [mm/min]"],
-    ["accel_mm_s2", "acceleration [mm/s²]"], ["error_mm", "carriage − motor [mm]"]];
+  const mean = data.window_s ? `, mean over ${+(data.window_s * 1000).toFixed(1)} ms` : "";
+  const rows = [["position_mm", "position [mm]"], ["velocity_mm_min", "velocity [mm/min]" + mean],
+    ["accel_mm_s2", "acceleration [mm/s²]" + mean], ["error_mm", "carriage − motor [mm]"]];
   const colors = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd"];
   const traces = [], layout = {margin: {t: 30, l: 70, r: 10, b: 40}, showlegend: true, height: 620,
     legend: {orientation: "h", y: 1.06}, grid: {rows: rows.length, columns: 1, shared_xaxes: true}};
@@ -120,8 +158,9 @@ RV.timelineFigure = function (data, violations, tickS) {
     layout["yaxis" + ax] = {title: {text: label, font: {size: 10}}, domain: [1 - (r + 1) / rows.length + 0.03, 1 - r / rows.length]};
     layout["xaxis" + ax] = {anchor: "y" + ax, matches: r === 0 ? undefined : "x", showticklabels: r === rows.length - 1};
     names.forEach((name, i) => {
-      if (!data.axes[name][key]) return;
-      traces.push({x: data.t, y: data.axes[name][key], mode: "lines", line: {color: colors[i % 4], width: 1.2},
+      const s = data.axes[name][key];           // values at data.t, or a trace with its own times {t, y}
+      if (!s) return;
+      traces.push({x: s.t || data.t, y: s.y || s, mode: "lines", line: {color: colors[i % 4], width: 1.2},
         name: name, legendgroup: name, showlegend: r === 0, xaxis: "x" + ax, yaxis: "y" + ax, type: "scatter"});
     });
   });
@@ -159,6 +198,8 @@ RV.pulsesFigure = function (data) {
 // window it shows. window.retrofitZoomMs collects how long each redraw took (performance.now()).
 RV.attachRunViews = function (timelineDiv, pulsesDiv, source, endTick, tickS, violations) {
   window.retrofitZoomMs = [];
+  Plotly.purge(timelineDiv);                   // the last run's plots and their zoom handlers go
+  Plotly.purge(pulsesDiv);
   const draw = async (kind, div, t0, t1) => {
     const start = performance.now();
     if (kind === "timeline") {
@@ -197,15 +238,14 @@ RV.attachRunViews = function (timelineDiv, pulsesDiv, source, endTick, tickS, vi
 RV.localSource = function (run) {
   const bisect = (a, x) => { let lo = 0, hi = a.length; while (lo < hi) { const m = (lo + hi) >> 1; if (a[m] <= x) lo = m + 1; else hi = m; } return lo; };
   return {
-    timeline: async (t0, t1) => {
-      const tl = run.timeline, ts = run.tick_s;
-      let i0 = Math.max(bisect(tl.t, t0 * ts) - 1, 0), i1 = Math.min(bisect(tl.t, t1 * ts) + 1, tl.t.length);
-      const stride = Math.max(1, Math.floor((i1 - i0) / 1500));
-      const pick = (arr) => { const o = []; for (let i = i0; i < i1; i += stride) o.push(arr[i]); return o; };
-      const out = {t: pick(tl.t), axes: {}};
-      for (const [name, ax] of Object.entries(tl.axes)) {
+    timeline: async (t0, t1) => {               // each trace's points in the window (min/max kept)
+      const out = {axes: {}, window_s: run.window_s}, a = t0 * run.tick_s, b = t1 * run.tick_s;
+      for (const [name, ax] of Object.entries(run.timeline)) {
         out.axes[name] = {};
-        for (const [k, arr] of Object.entries(ax)) out.axes[name][k] = pick(arr);
+        for (const [k, s] of Object.entries(ax)) {
+          const i0 = Math.max(bisect(s.t, a) - 1, 0), i1 = Math.min(bisect(s.t, b) + 1, s.t.length);
+          out.axes[name][k] = {t: Array.from(s.t.subarray(i0, i1)), y: Array.from(s.y.subarray(i0, i1))};
+        }
       }
       return out;
     },
@@ -214,8 +254,8 @@ RV.localSource = function (run) {
       const lo = Math.max(bisect(f.ticks, t0) - 1, 0), hi = bisect(f.ticks, t1 - 1);
       const out = {t0: t0, t1: t1, tick_us: run.tick_s * 1e6, lines: f.lines.map(l => l.name)};
       if (hi - lo <= limit) {
-        out.ticks = f.ticks.slice(lo, hi).map(t => Math.max(t, t0));
-        out.levels = f.lines.map(l => f.values.slice(lo, hi).map(v => ((v >> l.bit) & 1) ^ l.inv));
+        out.ticks = Array.from(f.ticks.subarray(lo, hi), t => Math.max(t, t0));
+        out.levels = f.lines.map(l => Array.from(f.values.subarray(lo, hi), v => ((v >> l.bit) & 1) ^ l.inv));
         return out;
       }
       const slots = limit / 2, edges = [], counts = f.lines.map(() => new Array(slots).fill(0));
@@ -229,6 +269,52 @@ RV.localSource = function (run) {
       return out;
     },
   };
+};
+
+// The report's packed arrays (base64 of gzip of little-endian numbers, see report_html.packed)
+// as typed arrays; DecompressionStream is the browser's own gzip.
+RV.unpack = async function (b64, Type) {
+  const bin = atob(b64), bytes = new Uint8Array(bin.length);
+  for (let i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
+  const stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream("gzip"));
+  const planes = new Uint8Array(await new Response(stream).arrayBuffer());
+  const size = Type.BYTES_PER_ELEMENT, n = planes.length / size, out = new Uint8Array(planes.length);
+  for (let b = 0; b < size; b++) for (let i = 0; i < n; i++) out[i * size + b] = planes[b * n + i];
+  return new Type(out.buffer);
+};
+
+RV.unpackRun = async function (run) {
+  const mm = await RV.unpack(run.backplot.mm, Float32Array), n = run.backplot.axes, rows = [];
+  for (let i = 0; i + n <= mm.length; i += n) {            // rows as the console's state sends them
+    const at = Array.from(mm.subarray(i, i + n));
+    rows.push([0].concat(at, at));
+  }
+  run.backplot = rows;
+  const f = run.frames, deltas = await RV.unpack(f.ticks, Uint32Array);
+  const ticks = new Float64Array(deltas.length);
+  for (let i = 0, t = 0; i < deltas.length; i++) { t += deltas[i]; ticks[i] = t; }
+  f.ticks = ticks;
+  f.values = await RV.unpack(f.values, Uint8Array);
+  const tl = run.timeline, grid = await RV.unpack(tl.ticks, Uint32Array), t = new Float64Array(grid.length);
+  for (let i = 0, k = 0; i < grid.length; i++) { k += grid[i]; t[i] = k * run.tick_s; }
+  run.timeline = {};
+  run.window_s = tl.window_s;
+  for (const [name, ax] of Object.entries(tl.axes)) {
+    run.timeline[name] = {};
+    for (const [k, s] of Object.entries(ax)) {
+      const keep = await RV.unpack(s.i, Uint32Array);
+      run.timeline[name][k] = {t: Float64Array.from(keep, i => t[i]), y: await RV.unpack(s.y, Float32Array)};
+    }
+  }
+  const sg = run.preview.segments;
+  if (sg && sg.count !== undefined) {
+    const cut = await RV.unpack(sg.cut, Uint8Array), line = await RV.unpack(sg.line, Uint32Array);
+    const mm = await RV.unpack(sg.mm, Float32Array), n = sg.axes, round = (v) => Math.round(v * 1e4) / 1e4;
+    run.preview.segments = Array.from(cut, (c, i) => ({kind: c ? "cut" : "rapid", line: line[i] || null,
+      start: Array.from(mm.subarray(2 * n * i, 2 * n * i + n), round),
+      end: Array.from(mm.subarray(2 * n * i + n, 2 * n * (i + 1)), round)}));
+  }
+  return run;
 };
 
 // A source that asks the console's server (with the headers the page sets in RV.headers: its token).
