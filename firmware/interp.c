@@ -30,6 +30,8 @@
 #define ST_COOLANT_ON  0x2000
 #define ST_INDEX_SEEN  0x4000
 #define ST_PROBED      0x8000
+/* Bits 16-19 travel in the high nibble of STAT's third byte (queued is at most 3). */
+#define ST_STEP_ERROR_NIBBLE 0x10      /* bit 16: a line's steps differed from its own */
 
 #define FEED_UNITS_PER_MM 10000.0f     /* feeds travel in 0.1 um per minute (or per rev) */
 
@@ -44,6 +46,7 @@ static uint8_t indexer;                /* ISTP: the spindle encoder is the step 
 static float spindle_rpm;              /* SPIN's speed: the thread speed is checked against it */
 static uint8_t thread_chain;           /* the last move prepared was an ISTP PMOV */
 static uint16_t flags;                 /* HOMED, ERROR, STOPPED, SPINDLE_ON, COOLANT_ON, PROBED */
+static uint8_t step_error;             /* STEP_ERROR: the position is not the plan's */
 static uint8_t dwelling;
 static uint32_t dwell_left_ms;
 static uint8_t home_order[N_AXES], home_count, home_index, home_phase;
@@ -86,6 +89,7 @@ void interp_init(void)
     program_feed_waiting = 0;
     indexer = 0;
     flags &= ST_SPINDLE_ON | ST_COOLANT_ON;            /* INIT resets motion, not the spindle */
+    step_error = 0;
     stepper_clear_index_seen();
 }
 
@@ -180,7 +184,7 @@ uint8_t interp_status_answer(uint8_t *answer)
     answer[0] = ANS_STAT;
     answer[1] = (uint8_t)(s >> 8);
     answer[2] = (uint8_t)s;
-    answer[3] = queue_count();
+    answer[3] = (uint8_t)(queue_count() | (step_error ? ST_STEP_ERROR_NIBBLE : 0));
     return 4;
 }
 
@@ -373,7 +377,8 @@ void interp_run(void)
     uint8_t events = stepper_take_events();
     if (probe_running() && idle())                     /* a stop on the probe that came since: */
         events |= stepper_take_events();               /* at rest, no other can come */
-    if (events & EV_LIMIT) {
+    if (events & (EV_LIMIT | EV_STEPS)) {
+        step_error |= (events & EV_STEPS) != 0;        /* a line's steps were not its own */
         fault();
         return;
     }

@@ -21,6 +21,13 @@
 #define START_SEGMENTS 4
 #define EVENT_BY_EVENT 2.5f
 #define SEGMENT_EVENTS 8.0f
+/* Above this rate a segment lasts twice SEGMENT_MS: the main loop's float work per second is
+ * halved where the step interrupt leaves it the least CPU. */
+#define LONG_SEGMENT_HZ 20000.0f
+/* The link waits while fewer segments than this are ready and there is motion to cut. */
+#define FED_SEGMENTS (SEGMENTS / 2)
+/* A segment's ticks are 16-bit: the most events a segment can hold at the fastest rate. */
+_Static_assert(MAX_RATE * 2.0f * SEGMENT_MS / 1000.0f * 1.5f < 32767.0f, "segment ticks overflow");
 
 static uint8_t active, held, stopped = 1, first, line_slot;
 static float v;                  /* mm/s at the end of the last segment */
@@ -39,6 +46,11 @@ void segment_reset(void)
 void segment_hold(uint8_t on) { held = on; }
 
 uint8_t segment_active(void) { return active; }
+
+uint8_t segment_fed(void)
+{
+    return held || !planner_first() || stepper_queued() >= FED_SEGMENTS;
+}
 
 /* A new line slot for move `m`: steps shifted for AMASS unless the encoder clocks it. */
 static uint8_t new_line(const move_t *m)
@@ -185,6 +197,8 @@ static uint32_t cover(const move_t *m, float ve, float *t_seg, float *travelled,
     float rate = v * per_mm, dt = SEGMENT_MS / 1000.0f;
     if (rate < EVENT_BY_EVENT * move_rest(m) * per_mm && rate * dt < 2.0f * SEGMENT_EVENTS)
         dt = 1.0f / rate;
+    else if (rate > LONG_SEGMENT_HZ)
+        dt *= 2.0f;             /* fast: half as many segments to compute, the same time ahead */
     *t_seg = *travelled = 0.0f;
     for (uint16_t tries = 0; !n && !*done && tries < 2000; tries++) {
         float t = dt;

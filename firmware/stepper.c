@@ -30,6 +30,7 @@ volatile uint8_t st_stepped_negative = 0xFF;  /* bit i: axis i last stepped towa
 int32_t st_position[N_AXES];                 /* 002's actual position, steps, ... */
 volatile int16_t st_moved[N_AXES];           /* ... plus the steps counted since its update, */
 volatile uint16_t st_fired;                   /* and events of the axes that step every one */
+int32_t st_line_start[N_AXES];               /* st_moved when the running line began */
 
 /* The running segment and its line. */
 const line_t *st_ln;
@@ -132,16 +133,19 @@ ISR(INT0_vect)
     if (st_state != ENCODER || st_index_wait)
         return;
     for (;;) {
-        if (st_pulse_high) {                      /* counts this close: the last pulse ends now */
-            FOR_EACH_AXIS(STEP_LOW)
-            st_pulse_high = 0;
-            if (st_dir_pending) {
-                write_directions(st_dir_next);
-                st_dir_pending = 0;
-            }
-        }
+        /* A pulse still high is left to compare B (a count without a step must not cut it: at
+         * 2 000 rpm on 400 counts a count comes every 75 us, and 100 us pulses ended at 75);
+         * only a step that comes before its end (no line allows one) ends it here. */
         uint8_t bits = st_enc_bits;
         if (bits) {
+            if (st_pulse_high) {                  /* (never at a rate the line may have) */
+                FOR_EACH_AXIS(STEP_LOW)
+                st_pulse_high = 0;
+                if (st_dir_pending) {
+                    write_directions(st_dir_next);
+                    st_dir_pending = 0;
+                }
+            }
             FOR_EACH_AXIS(STEP_HIGH)
             OCR1B = TCNT1 + FALL_AFTER_RISE_COUNTS;   /* (the pins rose in this count) */
             TIFR1 = _BV(OCF1B);                   /* an earlier pulse's compare ends none now */
@@ -160,6 +164,7 @@ ISR(INT0_vect)
         if (!more) {
             st_events |= EV_DONE;
             st_state = IDLE;
+            line_check(0);
             wake();                            /* the next segments, on the timer again */
             return;
         }
@@ -253,36 +258,42 @@ uint8_t stepper_take_events(void)
     return e;
 }
 
-/* The steps the interrupt counted in 16 bits go into the 32-bit position (a few at a time, so
- * the interrupts stay off only for one axis's sum). */
+/* The steps the interrupt counted in 16 bits (st_moved) go into the 32-bit position, one axis
+ * at a time with the interrupts off for a few cycles. What is taken is taken from the running
+ * line's start too, in the same breath, so the interrupt's check at the line's end (line_check)
+ * sees the steps since the line began whenever it runs. The events of the axes that step at
+ * every one (st_fired) are the interrupt's to fold (at most 16 384 of them wait). */
 void stepper_fold(void)
 {
-    uint16_t n;
-    uint8_t mask, neg;
-    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-        n = st_fired;
-        st_fired = 0;
-        mask = st_always_axes;
-        neg = st_ev_neg;
-    }
-    for (uint8_t i = 0; i < N_AXES; i++)
-        if (mask & (1 << i))
-            st_position[i] += (neg >> i) & 1 ? -(int32_t)n : (int32_t)n;
     for (uint8_t i = 0; i < N_AXES; i++) {
         int16_t m;
         ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
             m = st_moved[i];
             st_moved[i] = 0;
+            st_line_start[i] -= m;
         }
         st_position[i] += m;
     }
 }
 
+/* The position now: what is folded, what the interrupt counted since, and its events not yet
+ * folded, all read in one short breath (nothing is changed). */
 void stepper_position(int32_t *steps)
 {
-    stepper_fold();
-    for (uint8_t i = 0; i < N_AXES; i++)
-        steps[i] = st_position[i];
+    int16_t moved[N_AXES];
+    uint16_t n;
+    uint8_t mask, neg;
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+        for (uint8_t i = 0; i < N_AXES; i++)
+            moved[i] = st_moved[i];
+        n = st_fired;
+        mask = st_always_axes;
+        neg = st_ev_neg;
+    }
+    for (uint8_t i = 0; i < N_AXES; i++) {
+        int32_t fired = !(mask & (1 << i)) ? 0 : (neg >> i) & 1 ? -(int32_t)n : (int32_t)n;
+        steps[i] = st_position[i] + moved[i] + fired;
+    }
 }
 
 void stepper_set_position(uint8_t axis, int32_t steps)
@@ -290,6 +301,7 @@ void stepper_set_position(uint8_t axis, int32_t steps)
     stepper_fold();
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
         st_position[axis] = steps;
+        st_line_start[axis] -= st_moved[axis];
         st_moved[axis] = 0;
     }
 }

@@ -46,6 +46,7 @@ extern line_t stepper_lines[LINES];
 #define EV_LIMIT   0x01            /* a limit switch stopped a move: the queue must be dropped */
 #define EV_SWITCH  0x02            /* a homing move ended on its switch (closed / opened) */
 #define EV_DONE    0x04            /* a line ended */
+#define EV_STEPS   0x08            /* a line ended with steps other than its own: all stopped */
 
 void stepper_init(void);
 /* The free segment slot, or 0 when SEGMENTS wait; stepper_push publishes it. */

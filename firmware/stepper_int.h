@@ -54,6 +54,7 @@ extern volatile uint8_t st_stepped_negative;  /* bit i: axis i last stepped towa
 extern int32_t st_position[N_AXES];                 /* 002's actual position, steps, ... */
 extern volatile int16_t st_moved[N_AXES];           /* ... plus the steps counted since its update, */
 extern volatile uint16_t st_fired;                   /* and events of the axes that step every one */
+extern int32_t st_line_start[N_AXES];      /* st_moved when the running line began (folds move it) */
 
 /* The running segment and its line. */
 extern const line_t *st_ln;
@@ -133,6 +134,7 @@ static inline __attribute__((always_inline)) void schedule(void)
 void set_directions(uint8_t dirs);
 void halt(uint8_t why);
 void fold_fired(void);
+void line_check(uint8_t shift);
 void wake(void);
 uint8_t enc_prepare(void);
 uint8_t enc_begin(uint16_t wait, uint16_t lead);

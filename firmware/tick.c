@@ -47,10 +47,13 @@ void halt(uint8_t why)
 void fold_fired(void)
 {
     uint16_t n = st_fired;
+    uint8_t mask = st_always_axes, neg = st_ev_neg;
     st_fired = 0;
-    for (uint8_t i = 0; i < N_AXES; i++)
-        if (st_always_axes & (1 << i))
-            st_moved[i] += (st_ev_neg >> i) & 1 ? -(int16_t)n : (int16_t)n;
+#define FOLD(i, slot)                                                             \
+    if (mask & (1 << (i)))                                                        \
+        st_moved[i] += (neg >> (i)) & 1 ? -(int16_t)n : (int16_t)n;
+    FOR_EACH_AXIS(FOLD)
+#undef FOLD
 }
 
 /* The Bresenham increments at AMASS level `level`; at level 0 an axis that steps at every
@@ -72,10 +75,30 @@ static void set_level(uint8_t level)
     }
 }
 
-/* A new line: Bresenham's terms at the mid-point, its directions. */
+/* A line has made its last step: each axis's steps since the line began (st_moved, kept
+ * relative to st_line_start across the main loop's folds) must be the line's own, else the
+ * position is not what the plan says and everything stops (EV_STEPS). `shift`: AMASS_MAX for
+ * a timed line's steps, 0 for an ISTP line's. */
+void line_check(uint8_t shift)
+{
+    fold_fired();
+    for (uint8_t i = 0; i < N_AXES; i++) {
+        int32_t want = (int32_t)(st_ln->steps[i] >> shift);
+        if ((st_ln->dir_bits >> i) & 1)
+            want = -want;
+        if ((int32_t)st_moved[i] - st_line_start[i] != want) {
+            halt(EV_STEPS);
+            return;
+        }
+    }
+}
+
+/* A new line: Bresenham's terms at the mid-point, its directions, where its steps start. */
 static void begin_line(uint8_t index)
 {
     fold_fired();
+    for (uint8_t i = 0; i < N_AXES; i++)
+        st_line_start[i] = st_moved[i];
     st_ln = &stepper_lines[index];
     st_base = st_ln->base;
     uint8_t moving = 0;
@@ -100,6 +123,7 @@ static uint8_t next_segment(void)
         return 0;
     }
     const segment_t *s = &st_ring[t];
+    fold_fired();                                 /* (the common tick leaves it to here) */
     st_seg_flags = s->flags;
     if (st_seg_flags & SEG_FIRST)
         begin_line(s->line);
@@ -159,14 +183,18 @@ void tick_body(void)
     if (st_ev_last) {
         st_ev_last = 0;
         st_events |= EV_DONE;
+        line_check(AMASS_MAX);
     }
-    prepare();
+    if (!st_halted)
+        prepare();
     uint8_t fast = st_plain && st_ticks_left && !st_ev_last;
     cli();
     if (st_state != TICKING)
         TIMSK1 = IDLE_TIMSK;
-    sei();
-    schedule();                                /* the next segment's period is known now */
-    finish_tick(fast);
+    schedule();                                /* the next segment's period is known now; */
+    finish_tick(fast);                         /* (read the counter and set the match with
+                                                  interrupts off: an interrupt between them
+                                                  let the counter pass the match, and the
+                                                  next tick waited for the 16-bit wrap) */
 }
 #pragma GCC diagnostic pop

@@ -38,6 +38,7 @@ class StatusFlags(IntFlag):
     COOLANT_ON = 1 << 13    # COOL M7 or M8
     INDEX_SEEN = 1 << 14    # an indexer start pulse (SIND) arrived since the spindle started
     PROBED = 1 << 15        # the last PROB stopped on the probe; cleared when a PROB starts, by INIT
+    STEP_ERROR = 1 << 16    # a line ended with other steps than its own: stopped (with ERROR)
 
 
 def flag_names(flags: int) -> list[str]:
@@ -115,9 +116,10 @@ def encode_reply(reply: Reply, machine: Machine | None = None) -> bytes:
         steps = {bits[name]: value for name, value in reply.steps}
         return op + pack_positions("POS", steps, machine)
     if isinstance(reply, Status):
-        if not 0 <= reply.queued <= 0xFF:
-            raise ValueError(f"STAT queued = {reply.queued}: must be 0..255")
-        return op + int(reply.flags).to_bytes(2, "big") + bytes((reply.queued,))
+        if not 0 <= reply.queued <= 0x0F:
+            raise ValueError(f"STAT queued = {reply.queued}: must be 0..15")
+        flags = int(reply.flags)               # bits 16-19 in the high nibble of the third byte
+        return op + (flags & 0xFFFF).to_bytes(2, "big") + bytes((reply.queued | (flags >> 16 & 0xF) << 4,))
     return op
 
 
@@ -137,5 +139,5 @@ def decode_reply(payload: bytes, machine: Machine | None = None) -> Reply:
     if cls is Err:
         return Err(args[0], args[1])
     if cls is Status:
-        return Status(StatusFlags(int.from_bytes(args[:2], "big")), args[2])
+        return Status(StatusFlags(int.from_bytes(args[:2], "big") | (args[2] >> 4) << 16), args[2] & 0x0F)
     return cls()
