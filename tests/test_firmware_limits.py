@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from retrofit.config import load_machine
-from retrofit.link import Position, Status, StatusFlags
+from retrofit.link import QUEUED, Position, Status, StatusFlags
 from retrofit.link.replies import decode_reply, encode_reply
 from tests.test_firmware_sim import Script, replies
 
@@ -40,7 +40,12 @@ def bench(tmp_path_factory):
 def polled_move(machine, elf, steps: dict[str, int], rate: float, poll_ms: float,
                 start: int = 2_200_000, seconds: float | None = None):
     """FMOV by ``steps`` from 0 with FFDR asking ``rate`` on the base axis, RDST every
-    ``poll_ms`` (0: none) until it must have ended, then RDPS and RDST; the log and answers."""
+    ``poll_ms`` (0: none) until it must have ended, then RDPS and RDST; the log and answers.
+
+    The polls are sent blind, whatever came back: every 2 ms they ask more than simavr's link
+    carries (its USART runs at 57 600 baud), so some are lost and the immediate channel's later
+    ones are answered ERR 5; the last RDPS and RDST go on the queued channel, whose numbers no
+    lost poll disturbs."""
     base = max(abs(v) for v in steps.values())
     mm = {a: v / machine.axis(a).steps_per_mm for a, v in steps.items()}
     length = math.sqrt(sum(v * v for v in mm.values()))
@@ -52,7 +57,7 @@ def polled_move(machine, elf, steps: dict[str, int], rate: float, poll_ms: float
     while poll_ms and t < end - 1_000_000:
         script.at(t, "RDST")
         t += int(poll_ms * S / 1000)
-    script.at(end - 600_000, "RDPS").at(end - 500_000, "RDST")
+    script.at(end - 600_000, "RDPS", QUEUED).at(end - 500_000, "RDST", QUEUED)
     log = fs.Harness(elf, machine, script=script.items, cycles=end).run()
     return log, replies(log, machine)
 
@@ -107,8 +112,9 @@ def test_a_position_at_the_edge_of_24_bits_reads_exactly(bench):
 @pytest.mark.parametrize("ratios", [(1.0,), (1.0, 1.0, 1.0), (1.0, 0.5, 0.25), (1.0, 0.67, 0.67)],
                          ids=["1", "1:1:1", "1:0.5:0.25", "1:0.67:0.67"])
 def test_no_stall_at_the_limit_under_polling(bench, poll_ms, ratios):
-    """A quarter-second move asked above any rate the firmware keeps: it runs at its limit, each
-    cruise interval within 1 us of the one before the last, none longer than 100 us more."""
+    """A quarter-second move asked above any rate the firmware keeps: it runs at its limit, no
+    interval 100 us longer than the cruise's, each cruise interval within 1 us of the median
+    (2 us with the blind 2 ms polling, which asks more than simavr's 57 600 baud carry)."""
     machine, elf = bench
     n = 12_000
     steps = {a: round(n * r) for a, r in zip("XYZA", ratios)}
@@ -118,7 +124,7 @@ def test_no_stall_at_the_limit_under_polling(bench, poll_ms, ratios):
     gaps = np.diff(rises)
     cruise = gaps[n // 8: -n // 8]
     assert gaps.max() < cruise.mean() + STALL_CYCLES
-    assert np.abs(cruise - np.median(cruise)).max() <= 16
+    assert np.abs(cruise - np.median(cruise)).max() <= (16 if poll_ms >= 20 else 32)
 
 
 @pytest.mark.parametrize("ratios", [(1.0, 0.5, 0.25), (1.0, 0.67, 0.67)], ids=["1:0.5:0.25", "1:0.67:0.67"])
@@ -171,11 +177,12 @@ def test_no_reset_and_no_extra_step_at_the_machines_rapid_on_1_to_4_axes(tmp_pat
             speed = min([machine.motion.rapid_feed_mm_min / 60]
                         + [machine.axis(a).max_velocity_mm_s * length / mm[a] for a in group]
                         + [20_000 / machine.axis(a).steps_per_mm * length / mm[a] for a in group])
-            end = t + int((length / speed * 1.3 + 0.15) * S)
-            while t < end:
+            end = t + int((length / speed * 1.3 + 0.25) * S)
+            while t < end - 1_600_000:                 # (a quiet 100 ms: the polls drain)
                 script.at(t, "RDST")
                 t += 32_000
-            script.at(t, "RDPS")
+            t = max(t, end)
+            script.at(t, "RDPS", QUEUED)
             checks.append({a: (reach[a] if out and a in group else 0) for a in machine.axis_names})
     log = fs.Harness(elf, machine, script=script.items, cycles=t + 400_000).run()
     assert log.answer_bytes().count(b"retrofit firmware") == 1          # no restart

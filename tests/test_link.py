@@ -256,7 +256,7 @@ def test_malformed_payloads_are_refused_with_the_err_code_to_answer(payload, cod
 
 @given(st.one_of(
     st.builds(Position, st.tuples(st.tuples(st.just("X"), pos_steps), st.tuples(st.just("Z"), pos_steps))),
-    st.builds(Status, st.integers(0, 0xFFFF).map(StatusFlags), st.integers(0, 255)),
+    st.builds(Status, st.integers(0, 0xFFFFF).map(StatusFlags), st.integers(0, 15)),
     st.builds(Err, st.integers(0, 255), st.integers(0, 255)),
     st.sampled_from((Ack(), Nak(), Busy()))))
 def test_replies_round_trip(reply):
