@@ -58,8 +58,10 @@ static uint8_t new_line(const move_t *m)
     line_slot = (uint8_t)(line_slot + 1 == LINES ? 0 : line_slot + 1);
     line_t *l = &stepper_lines[line_slot];
     uint8_t shift = m->indexer ? 0 : AMASS_MAX;
-    for (uint8_t i = 0; i < N_AXES; i++)
+    for (uint8_t i = 0; i < N_AXES; i++) {
         l->steps[i] = m->delta[i] << shift;
+        l->want[i] = (m->dir_bits >> i) & 1 ? -(int32_t)m->delta[i] : (int32_t)m->delta[i];
+    }
     l->base = m->events << shift;
     l->dir_bits = m->dir_bits;
     l->kind = m->kind;

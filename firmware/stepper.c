@@ -28,9 +28,12 @@ volatile uint8_t st_ring_head, st_ring_tail;   /* the main loop writes head, the
 volatile uint8_t st_state, st_halted, st_events, st_index_seen, st_index_wait, st_pulse_high;
 volatile uint8_t st_stepped_negative = 0xFF;  /* bit i: axis i last stepped towards - */
 int32_t st_position[N_AXES];                 /* 002's actual position, steps, ... */
-volatile int16_t st_moved[N_AXES];           /* ... plus the steps counted since its update, */
+volatile int16_t st_moved[N_AXES];           /* ... plus the steps it counted (wrapping), */
 volatile uint16_t st_fired;                   /* and events of the axes that step every one */
-int32_t st_line_start[N_AXES];               /* st_moved when the running line began */
+int16_t st_moved_seen[N_AXES];               /* st_moved at the running line's last look */
+static int16_t folded[N_AXES];               /* st_moved at the main loop's last fold */
+int32_t st_line_acc[N_AXES];
+volatile uint8_t st_fold_seq;
 
 /* The running segment and its line. */
 const line_t *st_ln;
@@ -157,14 +160,17 @@ ISR(INT0_vect)
         uint8_t neg = st_ln->dir_bits;
         FOR_EACH_AXIS(COUNT)
         uint8_t more = (!st_enc_ev || --st_enc_left != 0) && enc_prepare();
+        if (!more && st_state == ENCODER)
+            line_check();                        /* (its steps; a mismatch halts it) */
+        else if (!(st_enc_left & 0x3FFF))
+            line_absorb();
         cli();
         EIMSK |= _BV(INT0);
-        if (st_state != ENCODER)                  /* a limit halted the line */
+        if (st_state != ENCODER)                  /* a limit or the check halted the line */
             return;
         if (!more) {
             st_events |= EV_DONE;
             st_state = IDLE;
-            line_check(0);
             wake();                            /* the next segments, on the timer again */
             return;
         }
@@ -258,41 +264,38 @@ uint8_t stepper_take_events(void)
     return e;
 }
 
-/* The steps the interrupt counted in 16 bits (st_moved) go into the 32-bit position, one axis
- * at a time with the interrupts off for a few cycles. What is taken is taken from the running
- * line's start too, in the same breath, so the interrupt's check at the line's end (line_check)
- * sees the steps since the line began whenever it runs. The events of the axes that step at
- * every one (st_fired) are the interrupt's to fold (at most 16 384 of them wait). */
+/* The steps the interrupt counted (st_moved, 16-bit, counting freely) go into the 32-bit
+ * position: what each axis's count gained since the last fold (at least every 0.5 s: it wraps
+ * after 32 767). The interrupts stay off only to read a count; nothing the interrupt reads is
+ * written. The events of the axes that step at every one (st_fired) are the interrupt's to fold. */
 void stepper_fold(void)
 {
     for (uint8_t i = 0; i < N_AXES; i++) {
         int16_t m;
-        ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-            m = st_moved[i];
-            st_moved[i] = 0;
-            st_line_start[i] -= m;
-        }
-        st_position[i] += m;
+        ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { m = st_moved[i]; }
+        st_position[i] += (int16_t)(m - folded[i]);
+        folded[i] = m;
     }
 }
 
-/* The position now: what is folded, what the interrupt counted since, and its events not yet
- * folded, all read in one short breath (nothing is changed). */
+/* The position now: the folded one plus the events of the axes that step at every one not yet
+ * folded by the interrupt; read again if the interrupt folded them meanwhile. */
 void stepper_position(int32_t *steps)
 {
-    int16_t moved[N_AXES];
     uint16_t n;
-    uint8_t mask, neg;
-    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-        for (uint8_t i = 0; i < N_AXES; i++)
-            moved[i] = st_moved[i];
-        n = st_fired;
-        mask = st_always_axes;
-        neg = st_ev_neg;
-    }
+    uint8_t mask, neg, seq;
+    do {
+        seq = st_fold_seq;
+        stepper_fold();
+        ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+            n = st_fired;
+            mask = st_always_axes;
+            neg = st_ev_neg;
+        }
+    } while (seq != st_fold_seq);
     for (uint8_t i = 0; i < N_AXES; i++) {
         int32_t fired = !(mask & (1 << i)) ? 0 : (neg >> i) & 1 ? -(int32_t)n : (int32_t)n;
-        steps[i] = st_position[i] + moved[i] + fired;
+        steps[i] = st_position[i] + fired;
     }
 }
 
@@ -301,8 +304,7 @@ void stepper_set_position(uint8_t axis, int32_t steps)
     stepper_fold();
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
         st_position[axis] = steps;
-        st_line_start[axis] -= st_moved[axis];
-        st_moved[axis] = 0;
+        folded[axis] = st_moved[axis];
     }
 }
 

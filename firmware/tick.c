@@ -49,6 +49,7 @@ void fold_fired(void)
     uint16_t n = st_fired;
     uint8_t mask = st_always_axes, neg = st_ev_neg;
     st_fired = 0;
+    st_fold_seq++;
 #define FOLD(i, slot)                                                             \
     if (mask & (1 << (i)))                                                        \
         st_moved[i] += (neg >> (i)) & 1 ? -(int16_t)n : (int16_t)n;
@@ -75,30 +76,36 @@ static void set_level(uint8_t level)
     }
 }
 
-/* A line has made its last step: each axis's steps since the line began (st_moved, kept
- * relative to st_line_start across the main loop's folds) must be the line's own, else the
- * position is not what the plan says and everything stops (EV_STEPS). `shift`: AMASS_MAX for
- * a timed line's steps, 0 for an ISTP line's. */
-void line_check(uint8_t shift)
+/* What each axis's count gained since the last look, into the running line's count (at least
+ * every 16 384 events: st_moved is 16-bit). */
+#define ABSORB(i, slot)                                                           \
+    {                                                                             \
+        int16_t d = (int16_t)(st_moved[i] - st_moved_seen[i]);                    \
+        st_moved_seen[i] += d;                                                    \
+        st_line_acc[i] += d;                                                      \
+    }
+void line_absorb(void)
+{
+    FOR_EACH_AXIS(ABSORB)
+}
+
+/* A line has made its last step: each axis's steps since the line began must be the line's
+ * own, else the position is not what the plan says and everything stops (EV_STEPS). */
+#define CHECK(i, slot) || st_line_acc[i] != st_ln->want[i]
+void line_check(void)
 {
     fold_fired();
-    for (uint8_t i = 0; i < N_AXES; i++) {
-        int32_t want = (int32_t)(st_ln->steps[i] >> shift);
-        if ((st_ln->dir_bits >> i) & 1)
-            want = -want;
-        if ((int32_t)st_moved[i] - st_line_start[i] != want) {
-            halt(EV_STEPS);
-            return;
-        }
-    }
+    FOR_EACH_AXIS(ABSORB)
+    if (0 FOR_EACH_AXIS(CHECK))
+        halt(EV_STEPS);
 }
 
 /* A new line: Bresenham's terms at the mid-point, its directions, where its steps start. */
 static void begin_line(uint8_t index)
 {
     fold_fired();
-    for (uint8_t i = 0; i < N_AXES; i++)
-        st_line_start[i] = st_moved[i];
+#define RESTART(i, slot) st_moved_seen[i] = st_moved[i]; st_line_acc[i] = 0;
+    FOR_EACH_AXIS(RESTART)
     st_ln = &stepper_lines[index];
     st_base = st_ln->base;
     uint8_t moving = 0;
@@ -123,8 +130,10 @@ static uint8_t next_segment(void)
         return 0;
     }
     const segment_t *s = &st_ring[t];
-    fold_fired();                                 /* (the common tick leaves it to here) */
+    fold_fired();                                 /* (the common tick leaves them to here) */
     st_seg_flags = s->flags;
+    if (!(st_seg_flags & SEG_FIRST))
+        line_absorb();
     if (st_seg_flags & SEG_FIRST)
         begin_line(s->line);
     uint8_t level = s->level;
@@ -183,18 +192,20 @@ void tick_body(void)
     if (st_ev_last) {
         st_ev_last = 0;
         st_events |= EV_DONE;
-        line_check(AMASS_MAX);
+        line_check();
     }
     if (!st_halted)
         prepare();
     uint8_t fast = st_plain && st_ticks_left && !st_ev_last;
+    uint16_t t = st_tick_at + st_period;       /* the next segment's period is known now */
     cli();
     if (st_state != TICKING)
         TIMSK1 = IDLE_TIMSK;
-    schedule();                                /* the next segment's period is known now; */
-    finish_tick(fast);                         /* (read the counter and set the match with
-                                                  interrupts off: an interrupt between them
-                                                  let the counter pass the match, and the
-                                                  next tick waited for the 16-bit wrap) */
+    /* The counter read and the match set with interrupts off: an interrupt between them let
+     * the counter pass the match, and the next tick waited for the 16-bit wrap (32.8 ms). */
+    if ((int16_t)(t - TCNT1) < 3)
+        t = TCNT1 + 3;
+    set_next(t);
+    finish_tick(fast);
 }
 #pragma GCC diagnostic pop

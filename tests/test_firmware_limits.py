@@ -223,7 +223,7 @@ def test_a_line_whose_steps_are_not_its_own_stops_with_step_error(bench, tmp_pat
     shutil.copytree(fs.FIRMWARE, copy, ignore=shutil.ignore_patterns("build", "*.elf", "*.hex"))
     tick = copy / "tick.c"
     tick.write_text(tick.read_text().replace(
-        "st_line_start[i] = st_moved[i];", "st_line_start[i] = st_moved[i] + (i == 0);"))
+        "st_line_acc[i] = 0;", "st_line_acc[i] = (i == 0);"))
     elf = fs.build_copy(machine, tmp_path / "build", copy)
     script = (Script(machine).at(2_000_000, "FMOV X1 Y1").at(2_100_000, "FMOV X2")
               .at(6_000_000, "RDST").at(6_100_000, "FMOV X3").at(6_200_000, "INIT")
