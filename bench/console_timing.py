@@ -51,10 +51,12 @@ class OpenConsole:
         self.base = f"http://127.0.0.1:{self.port}"
         self.proc = subprocess.Popen([sys.executable, "-m", "retrofit.cli", "console", "--listen",
                                       f"127.0.0.1:{self.port}"], stdout=subprocess.PIPE, text=True)
-        self.proc.stdout.readline()
+        self.token = re.search(r"token=([\w-]+)", self.proc.stdout.readline())[1]
+        self.headers = {"X-Retrofit-Token": self.token}
         for _ in range(100):
             try:
-                urllib.request.urlopen(self.base + "/api/machine", timeout=1)
+                urllib.request.urlopen(urllib.request.Request(self.base + "/api/machine", headers=self.headers),
+                                       timeout=1)
                 break
             except OSError:
                 time.sleep(0.05)
@@ -67,12 +69,13 @@ class OpenConsole:
             threading.Thread(target=self._poll, daemon=True).start()
 
     def post(self, path: str, body: dict) -> dict:
-        req = urllib.request.Request(self.base + path, json.dumps(body).encode(), {"Content-Type": "application/json"})
+        req = urllib.request.Request(self.base + path, json.dumps(body).encode(),
+                                     {"Content-Type": "application/json", **self.headers})
         return json.loads(urllib.request.urlopen(req, timeout=30).read())
 
     def _poll(self) -> None:
         while not self.stop.is_set():
-            urllib.request.urlopen(self.base + "/api/state", timeout=5).read()
+            urllib.request.urlopen(urllib.request.Request(self.base + "/api/state", headers=self.headers), timeout=5).read()
             self.polls += 1
             self.stop.wait(0.1)
 
@@ -87,10 +90,11 @@ class OpenConsole:
                     f"--user-data-dir={tempfile.mkdtemp(prefix='console-bench-')}"):
             opts.add_argument(arg)
         driver = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=opts)
-        driver.get(self.base + "/")                   # the page polls /api/state every 100 ms
+        driver.get(f"{self.base}/?token={self.token}")  # the page polls /api/state every 100 ms
         return driver
 
     def run_program(self) -> None:
+        self.headers["X-Retrofit-Control"] = self.post("/api/control", {"take": True})["control"]
         self.post("/api/open", {"name": "lathe-profile.ngc"})
         self.post("/api/run", {"speed": 1})
 

@@ -46,24 +46,22 @@ from retrofit import firmware_runs as fr  # noqa: E402
 from retrofit import firmware_sim as fs  # noqa: E402
 from retrofit.commands import parse_command  # noqa: E402
 from retrofit.config import load_machine  # noqa: E402
-from retrofit.link import (IMMEDIATE, QUEUED, FrameDecoder, decode_reply, encode_command,  # noqa: E402
-                           encode_frame, seq_byte)
+from retrofit.link import IMMEDIATE, QUEUED, encode_command, encode_frame, seq_byte  # noqa: E402
+from retrofit.link.script import KEEPALIVE_S, ScriptedHost  # noqa: E402
 
 MACHINE = ROOT / "bench" / "steprate.toml"
 S = fs.F_CPU
 
 
 def frames(machine, texts: list[tuple[int, str]]) -> list[tuple[int, bytes]]:
-    out, n = [], {QUEUED: 0, IMMEDIATE: 0}
-    for cycle, text in [(1_000_000, "SYNC Q"), (1_000_000, "SYNC I")] + texts:
-        if text.startswith("SYNC"):
-            ch = QUEUED if text.endswith("Q") else IMMEDIATE      # SYNC and its session number
-            payload = bytes((0x7F,)) + (0x5EED0001 + ch).to_bytes(4, "big")
-        else:
-            cmd = parse_command(text)
-            ch, payload = (IMMEDIATE if cmd.immediate else QUEUED), encode_command(cmd, machine)
-        out.append((cycle, encode_frame(seq_byte(ch, n[ch]), payload)))
-        n[ch] += 1
+    """The frames of ``texts`` at their cycles, bound to the firmware's sessions, and a keep-alive
+    every 0.2 s so the heartbeat (docs/protocol.md §5.1) does not stop a long move."""
+    host = ScriptedHost(machine)
+    out = [(1_000_000, host.sync(QUEUED)), (1_000_000, host.sync(IMMEDIATE))]
+    out += [(cycle, host.frame(text)) for cycle, text in texts]
+    last = max(cycle for cycle, _ in out)
+    every = int(KEEPALIVE_S * S)
+    out += [(c, host.keepalive()) for c in range(1_100_000, last + 40 * every, every)]
     return out
 
 
@@ -195,7 +193,7 @@ def garbage() -> None:
         return fs.Harness(elf, machine, script=script, cycles=end).run()
 
     quiet, noisy = run(False), run(True)
-    answers = [decode_reply(f.payload, machine) for f in FrameDecoder().feed(noisy.answer_bytes())]
+    answers = ScriptedHost(machine).replies(noisy.answer_bytes())
     naks = sum(type(a).__name__ == "Nak" for a in answers)
     q, _, _ = fs.step_times(quiet, machine, "X")
     n, _, _ = fs.step_times(noisy, machine, "X")

@@ -30,8 +30,8 @@
 #define ST_COOLANT_ON  0x2000
 #define ST_INDEX_SEEN  0x4000
 #define ST_PROBED      0x8000
-/* Bits 16-19 travel in the high nibble of STAT's third byte (queued is at most 3). */
-#define ST_STEP_ERROR_NIBBLE 0x10      /* bit 16: a line's steps differed from its own */
+#define ST_HOST_LOST   0x10000UL       /* the heartbeat stopped the machine (docs/protocol.md §5) */
+#define ST_STEP_ERROR  0x20000UL       /* a line ended with steps other than its own */
 
 #define FEED_UNITS_PER_MM 10000.0f     /* feeds travel in 0.1 um per minute (or per rev) */
 
@@ -45,8 +45,9 @@ static uint8_t program_feed_waiting;   /* PFDR: applies at the next motion comma
 static uint8_t indexer;                /* ISTP: the spindle encoder is the step source */
 static float spindle_rpm;              /* SPIN's speed: the thread speed is checked against it */
 static uint8_t thread_chain;           /* the last move prepared was an ISTP PMOV */
-static uint16_t flags;                 /* HOMED, ERROR, STOPPED, SPINDLE_ON, COOLANT_ON, PROBED */
-static uint8_t step_error;             /* STEP_ERROR: the position is not the plan's */
+static uint32_t flags;                 /* HOMED, ERROR, STOPPED, SPINDLE_ON, COOLANT_ON, PROBED,
+                                          HOST_LOST,
+                                          STEP_ERROR (the position is not the plan's) */
 static uint8_t dwelling;
 static uint32_t dwell_left_ms;
 static uint8_t home_order[N_AXES], home_count, home_index, home_phase;
@@ -89,7 +90,6 @@ void interp_init(void)
     program_feed_waiting = 0;
     indexer = 0;
     flags &= ST_SPINDLE_ON | ST_COOLANT_ON;            /* INIT resets motion, not the spindle */
-    step_error = 0;
     stepper_clear_index_seen();
 }
 
@@ -170,7 +170,7 @@ uint8_t interp_position_answer(uint8_t *answer)
 
 uint8_t interp_status_answer(uint8_t *answer)
 {
-    uint16_t s = flags | switch_status();
+    uint32_t s = flags | switch_status();
     if (!idle())
         s |= ST_MOVING;
     if (queue_count() == QUEUE_DEPTH)
@@ -182,10 +182,11 @@ uint8_t interp_status_answer(uint8_t *answer)
     if ((flags & ST_SPINDLE_ON) && stepper_index_seen())
         s |= ST_INDEX_SEEN;
     answer[0] = ANS_STAT;
-    answer[1] = (uint8_t)(s >> 8);
-    answer[2] = (uint8_t)s;
-    answer[3] = (uint8_t)(queue_count() | (step_error ? ST_STEP_ERROR_NIBBLE : 0));
-    return 4;
+    answer[1] = (uint8_t)(s >> 16);
+    answer[2] = (uint8_t)(s >> 8);
+    answer[3] = (uint8_t)s;
+    answer[4] = queue_count();
+    return 5;
 }
 
 /* ---- homing (ZMOV) ---------------------------------------------------------------------
@@ -378,7 +379,8 @@ void interp_run(void)
     if (probe_running() && idle())                     /* a stop on the probe that came since: */
         events |= stepper_take_events();               /* at rest, no other can come */
     if (events & (EV_LIMIT | EV_STEPS)) {
-        step_error |= (events & EV_STEPS) != 0;        /* a line's steps were not its own */
+        if (events & EV_STEPS)
+            flags |= ST_STEP_ERROR;                    /* a line's steps were not its own */
         fault();
         return;
     }
@@ -418,6 +420,31 @@ void interp_run(void)
         fetch_at_rest(&cmd);
     else
         fetch_setup(&cmd);
+}
+
+/* ---- the heartbeat's stop (heartbeat.c, docs/protocol.md §5.1) ---------------------------- */
+
+uint8_t interp_has_work(void) { return !idle() || queue_count(); }
+
+uint8_t interp_host_lost(void) { return (flags & ST_HOST_LOST) != 0; }
+
+void interp_brake(float crawl_mm_min)
+{
+    queue_clear();                                     /* nothing more is fetched */
+    home_phase = HOME_IDLE;
+    planner_set_feed(FEED_FAST, crawl_mm_min);         /* every planned move slows down */
+    planner_set_feed(FEED_MACHINING, crawl_mm_min);
+    planner_set_feed(FEED_HOMING, crawl_mm_min);
+    flags |= ST_HOST_LOST | ST_STOPPED;                /* motion refused until INIT */
+}
+
+void interp_halt_outputs(void)
+{
+    forget_motion();
+    spindle_set(0, 0);
+    coolant_set(0);
+    spindle_rpm = 0.0f;
+    flags &= ~(uint32_t)(ST_SPINDLE_ON | ST_COOLANT_ON);
 }
 
 void interp_tick_1ms(void)

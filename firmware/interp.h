@@ -16,5 +16,12 @@ uint8_t interp_status_answer(uint8_t *answer);     /* STAT */
 void interp_run(void);
 /* Once a millisecond: dwell and homing time. */
 void interp_tick_1ms(void);
+/* The heartbeat's stop (heartbeat.c): work under way or waiting; HOST_LOST set; brake every
+ * planned move to `crawl_mm_min` and refuse motion (STOPPED, HOST_LOST) until INIT; at rest,
+ * drop what is left and switch the spindle and coolant off. */
+uint8_t interp_has_work(void);
+uint8_t interp_host_lost(void);
+void interp_brake(float crawl_mm_min);
+void interp_halt_outputs(void);
 
 #endif

@@ -11,6 +11,7 @@
 #define ANS_ERR   0x83
 #define ANS_POS   0x84
 #define ANS_STAT  0x85
+#define ANS_SESS  0x86
 
 /* ERR codes. */
 #define ERR_OPCODE      1
@@ -22,8 +23,12 @@
 
 #define OP_SYNC  0x7F
 
-/* Forget both channels, as at power-up: the host must SYNC again. */
+/* Forget both channels, as at power-up: the host must SYNC again (once at start: it counts the
+ * start in EEPROM, so session numbers never repeat). */
 void link_init(void);
+/* Once a millisecond: the heartbeat's count of milliseconds since the host's last frame. */
+void link_tick_1ms(void);
+uint16_t link_silent_ms(void);
 /* Feed one byte from the host; complete frames are checked, answered and delivered. */
 void link_receive(uint8_t byte);
 /* Whether the next byte may be fed: the answer it may complete fits the transmit buffer now, so

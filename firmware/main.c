@@ -8,7 +8,7 @@
  *
  * At start the firmware sends one line of text before any frame, so that a host that has just
  * opened the port knows the bootloader is over (docs/protocol.md §1):
- *   retrofit firmware machine=NAME link=2 reset=CAUSE
+ *   retrofit firmware machine=NAME link=3 reset=CAUSE
  * CAUSE is what MCUSR says: power-on, external (the reset pin: the USB adapter's DTR),
  * brown-out, watchdog (the main loop hung) or jtag; unknown when no flag is set (a bootloader
  * may clear them). The line holds no 0x7E or 0x7D, so a frame receiver skips it as noise. */
@@ -16,6 +16,7 @@
 #include <avr/pgmspace.h>
 #include <avr/wdt.h>
 
+#include "heartbeat.h"
 #include "interp.h"
 #include "io.h"
 #include "link.h"
@@ -25,7 +26,7 @@
 #include "switches.h"
 #include "uart.h"
 
-#define LINK_VERSION "2"
+#define LINK_VERSION "3"
 #define LINK_BYTES_A_TURN 8
 
 static void put_text(const char *flash_text)
@@ -80,6 +81,8 @@ int main(void)
         uint16_t now = io_millis();
         while (last_ms != now) {                       /* processing: time-driven parts */
             last_ms++;
+            link_tick_1ms();                           /* the host's silence, */
+            heartbeat_tick_1ms();                      /* and a stop when it lasts */
             interp_tick_1ms();
         }
     }

@@ -1,11 +1,16 @@
 """Output files that are either complete or absent: written beside, flushed to disk, renamed.
 
 Every file a run writes (report, plot, VCD, recordings, the spindle record, the tool table) goes
-through :func:`staged`: the writer gets a temporary name in the same folder; when it has finished,
+through :func:`staged`: the writer gets a temporary file in the same folder; when it has finished,
 the file is flushed to disk (fsync) and renamed over the real name, which is atomic on one file
 system. On an error or Ctrl-C the temporary file is removed, so a reader (or a power cut) sees the
 old file or the whole new one, never half of one. A file that cannot be written is one
 :class:`~retrofit.errors.OutputError` line naming it and the reason.
+
+Links are never written through. The temporary file is created new (``O_EXCL``, a random name,
+:func:`tempfile.mkstemp`), so a link planted at a name it may take is stepped over; it is renamed
+into place only if it is still the regular file created (a link swapped in for it is refused); and
+a link at the real name is replaced by the new file, its target left untouched.
 
 >>> import tempfile, pathlib
 >>> folder = pathlib.Path(tempfile.mkdtemp())
@@ -19,6 +24,8 @@ from __future__ import annotations
 import errno
 import json
 import os
+import stat
+import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
@@ -49,9 +56,26 @@ def reason(exc: OSError) -> str:
     return (exc.strerror or str(exc)).lower()
 
 
-def _temp_name(path: Path) -> Path:
+def _make_temp(path: Path) -> tuple[Path, os.stat_result]:
+    """A new, empty regular file beside ``path`` (O_EXCL: never an existing name or link), with
+    the permissions a new file gets (the umask's), and its identity (device, inode)."""
     # the suffix is kept: matplotlib and others choose the format from it
-    return path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
+    fd, name = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}", dir=path.parent)
+    try:
+        mask = os.umask(0)
+        os.umask(mask)
+        os.fchmod(fd, 0o666 & ~mask)
+        return Path(name), os.fstat(fd)
+    finally:
+        os.close(fd)
+
+
+def _still_ours(tmp: Path, made: os.stat_result) -> None:
+    """An OSError unless ``tmp`` is still the regular file :func:`_make_temp` created."""
+    now = os.lstat(tmp)
+    if not stat.S_ISREG(now.st_mode) or (now.st_dev, now.st_ino) != (made.st_dev, made.st_ino):
+        raise OSError(errno.EEXIST, f"the temporary file {tmp.name} was replaced (by a link or "
+                                    "another file) while it was written; nothing was renamed")
 
 
 def check_target(path: Path) -> None:
@@ -63,20 +87,28 @@ def check_target(path: Path) -> None:
 
 
 @contextmanager
-def staged(path: str | Path) -> Iterator[Path]:
+def staged(path: str | Path, keep_on_error: bool = False) -> Iterator[Path]:
     """Yield a temporary path to write ``path`` through; rename it into place when the block ends.
 
     An OSError inside the block or while finishing becomes one OutputError naming ``path``.
+    ``keep_on_error``: when the block fails but the writer has written something (a port's
+    recording, closed with the byte that stopped the machine last), that is renamed into place
+    too, and the error goes on.
     """
     path = Path(path)
     check_target(path)
-    tmp = _temp_name(path)
     try:
-        yield tmp
-        fsync_file(tmp)
-        os.replace(tmp, path)
-        fsync_dir(path.parent)
-        WRITTEN.append(path)
+        tmp, made = _make_temp(path)
+    except OSError as exc:
+        raise OutputError(f"{path}: cannot write the file: {reason(exc)}") from None
+    try:
+        try:
+            yield tmp
+        except BaseException:
+            if keep_on_error:
+                _keep(tmp, made, path)
+            raise
+        _finish(tmp, made, path)
     except OutputError as exc:
         raise OutputError(str(exc).replace(str(tmp), str(path))) from None
     except OSError as exc:
@@ -88,9 +120,26 @@ def staged(path: str | Path) -> Iterator[Path]:
             pass
 
 
+def _finish(tmp: Path, made: os.stat_result, path: Path) -> None:
+    _still_ours(tmp, made)
+    fsync_file(tmp)
+    os.replace(tmp, path)
+    fsync_dir(path.parent)
+    WRITTEN.append(path)
+
+
+def _keep(tmp: Path, made: os.stat_result, path: Path) -> None:
+    """What a failed writer left, put in place when it is not empty (else nothing)."""
+    try:
+        if os.lstat(tmp).st_size:
+            _finish(tmp, made, path)
+    except OSError:
+        pass                        # the run's own error is the one to report
+
+
 def fsync_file(path: Path) -> None:
     """Flush a written file's data to the disk."""
-    fd = os.open(path, os.O_RDONLY)
+    fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW)
     try:
         os.fsync(fd)
     finally:

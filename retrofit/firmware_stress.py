@@ -161,7 +161,7 @@ def stress_run(elf: Path, machine: Machine, *, seed: int, moves: int, top_rate: 
         host_addr, port = harness.address.rsplit(":", 1)
         sock = socket.create_connection((host_addr, int(port)), timeout=5)
         sock.settimeout(0.002)
-        host = HostEndpoint(machine, timeout_s=0.2, max_tries=50, session=seed)
+        host = HostEndpoint(machine, timeout_s=0.2, max_tries=50, nonce=seed)
         line = _Line(sock, rng, garbage, drop, run)
         last = [0.0, None]                         # when the next poll is due, the last one
 

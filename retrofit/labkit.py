@@ -24,7 +24,7 @@ from .errors import ConfigError
 from .labs import CHECK_SECONDS_ENV, Lab, check_lab, find_lab
 
 #: what stays with the teacher: never copied by :func:`export_lab`
-TEACHER_ONLY = ("solution.py", "teacher.md", "wrong", "out", "__pycache__", ".ipynb_checkpoints")
+TEACHER_ONLY = ("solution.py", "teacher.md", "wrong", "right", "out", "__pycache__", ".ipynb_checkpoints")
 
 
 def export_lab(lab: Lab, dest: str | Path) -> list[Path]:

@@ -10,6 +10,11 @@ Time on the device is the controller's tick, not the wall clock: between two loo
 the loop runs ticks as fast as it can while the controller has work (stretches in which nothing
 changes, such as most of a dwell, pass at once), for at most ``slice_s`` of wall time, so RDPS
 and RDST are answered within a few milliseconds even during a long move.
+
+The heartbeat (docs/protocol.md §5) counts the controller's ticks since the host's last frame.
+Because the loop may run ahead of the wall clock, it does not tick past the heartbeat's moment
+until the host has also been silent for HEARTBEAT_MS of wall time: a host that polls in time is
+never taken for dead because the device ran fast.
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ from typing import Callable
 from .config import Machine
 from .errors import LinkError, MotionError
 from .link import DeviceLink
+from .link.codec import HEARTBEAT_MS
 
 #: wall time the loop spends ticking the controller between two looks at the port
 SLICE_S = 0.004
@@ -146,19 +152,43 @@ class McuLoop:
 
     def __init__(self, port, machine: Machine, controller, *, slice_s: float = SLICE_S,
                  ticks_per_call: int = TICKS_PER_CALL,
-                 clock: Callable[[], float] = time.monotonic, name: str | None = None):
+                 clock: Callable[[], float] = time.monotonic, name: str | None = None,
+                 heartbeat_ms: float | None = HEARTBEAT_MS, sessions=None):
         self.port, self.controller, self.slice_s, self.clock = port, controller, slice_s, clock
         self.ticks_per_call = ticks_per_call
-        self.link = DeviceLink(port, machine, controller.submit, name=name)
+        self.heartbeat_s = None if heartbeat_ms is None else heartbeat_ms / 1000
+        if heartbeat_ms is not None:
+            controller.heartbeat_ticks = max(1, round(heartbeat_ms * 1000 / machine.tick_us))
+        self._heard_at = clock()
+        self._waiting = False           # ticked up to the heartbeat: wait for the wall clock
+        self.link = DeviceLink(port, machine, controller.submit, name=name, sessions=sessions,
+                               on_frame=self._heard)
+
+    def _heard(self) -> None:
+        self.controller.heard()
+        self._heard_at = self.clock()
+
+    def _budget(self) -> int:
+        """Ticks the controller may run now: not past the heartbeat's moment while the host's
+        silence is shorter than the heartbeat on the wall clock too."""
+        due = self.controller.heartbeat_due()
+        if due is None or self.clock() - self._heard_at >= self.heartbeat_s:
+            return self.ticks_per_call
+        return min(self.ticks_per_call, due - 1 - self.controller.ticks)
 
     def run_once(self) -> None:
         """One pass: look at the port (without waiting when there is work), then tick."""
-        self.port.timeout = 0 if not self.controller.idle else IDLE_WAIT_S
+        self.port.timeout = 0 if not (self.controller.idle or self._waiting) else IDLE_WAIT_S
         self.link.serve_once()
         end = self.clock() + self.slice_s
+        self._waiting = False
         while not self.controller.idle and self.clock() < end:
+            budget = self._budget()
+            if budget <= 0:
+                self._waiting = True
+                break
             try:                    # ticks, passing over stretches in which nothing changes
-                self.controller.run_until_idle(self.ticks_per_call)
+                self.controller.run_until_idle(budget)
             except MotionError:     # still busy after them: look at the port again soon
                 pass
 

@@ -4,6 +4,12 @@ Frames go out in slices of machine time, so a progress bar follows the work, and
 at each pause (a manual tool change, M0, M1, M60) for the operator when an output drives a real
 machine. File outputs (``vcd://``, ``parport+record://``) are written under a temporary name and
 renamed when complete (:mod:`retrofit.atomic`): an interrupted run leaves no half file.
+
+When the run fails or is stopped (an exception, Ctrl-C, SIGHUP, SIGTERM), every open output gets
+``safe_stop()`` first (:mod:`retrofit.failsafe`); a port's recording is then kept, ending with
+the byte that stopped the machine (what the port did, up to the stop), the other files removed.
+An output paced in real time gets frames a tenth of a second of its time at a time, so a signal
+is acted on within that even while the compiled loop writes.
 """
 
 from __future__ import annotations
@@ -14,6 +20,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from .failsafe import stop_all
 from .frames import PortFrames
 from .outputs import OutputURL, open_output
 from .outputs.sim import SimOutput
@@ -26,6 +33,8 @@ FILE_SCHEMES = ("vcd", "parport+record")
 SIMULATED_SCHEMES = ("sim", "vcd")
 #: ticks per slice of frames handed to the outputs (a progress step)
 SLICE_TICKS = 200_000
+#: the longest slice of real time an output paced in real time is handed at once (seconds)
+PACED_SLICE_S = 0.1
 
 
 def is_real(url: str) -> bool:
@@ -45,7 +54,8 @@ def staged_url(url: str, stack: ExitStack) -> str:
     parsed = OutputURL.parse(url)
     if parsed.scheme not in FILE_SCHEMES or not parsed.target:
         return url
-    tmp = stack.enter_context(staged(Path(parsed.target)))
+    # a port's recording is kept when the run stops early: it ends with the safe byte
+    tmp = stack.enter_context(staged(Path(parsed.target), keep_on_error=parsed.scheme == "parport+record"))
     return url.replace(parsed.target, str(tmp), 1)
 
 
@@ -71,8 +81,9 @@ def deliver(log: RunLog, urls: Sequence[str], pauses: Sequence[tuple[int, str]] 
             for out in outputs:
                 out.open()
                 opened.append(out)
-            _write_slices(log.frames, outputs, stops, wait, progress)
+            _write_slices(log.frames, outputs, stops, wait, progress, slice_ticks(outputs))
         except BaseException:
+            stop_all(opened)                # the machine stops before anything else
             for out in opened:              # their files are discarded: a failing close adds nothing
                 try:
                     out.close()
@@ -89,9 +100,16 @@ def deliver(log: RunLog, urls: Sequence[str], pauses: Sequence[tuple[int, str]] 
     return sim
 
 
-def _write_slices(frames: PortFrames, outputs, stops, wait, progress) -> None:
+def slice_ticks(outputs) -> int:
+    """Ticks per slice: :data:`SLICE_TICKS`, fewer for an output paced in real time (at most
+    :data:`PACED_SLICE_S` of its time: a signal is acted on between slices)."""
+    paced = [out.tick_ns for out in outputs if getattr(out, "opts", {}).get("paced") and hasattr(out, "tick_ns")]
+    return min([SLICE_TICKS] + [max(1, round(PACED_SLICE_S * 1e9 / tick_ns)) for tick_ns in paced])
+
+
+def _write_slices(frames: PortFrames, outputs, stops, wait, progress, step: int = SLICE_TICKS) -> None:
     end = int(frames.end_tick)
-    bounds = sorted({*range(0, end, SLICE_TICKS), *(t for t, _ in stops if 0 < t < end), end})
+    bounds = sorted({*range(0, end, step), *(t for t, _ in stops if 0 < t < end), end})
     says = {}
     for tick, words in stops:
         says.setdefault(min(max(tick, 0), end), []).append(words)

@@ -122,6 +122,11 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
             run.sim = stream_outputs(run, opts.urls, progress)
         else:
             run.sim = deliver_outputs(run, opts.urls, wait, progress, opened)
+    except BaseException:
+        from .failsafe import stop_all
+        link = getattr(getattr(prober, "cell", None), "output", None)
+        stop_all([link] if link is not None and link.is_open else [])    # the link's machine first
+        raise
     finally:
         if hasattr(prober, "close"):
             prober.close()          # (the link's port, when probing opened it)

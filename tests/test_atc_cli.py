@@ -1,8 +1,15 @@
 """retrofit tool / setter and retrofit run on the mill: the records they keep and what they print."""
 
 import json
+import os
+from pathlib import Path
 
 from retrofit.cli import main
+
+
+def sim_record():
+    """Where the simulated tul-mill's spindle record lives (the state folder of the tests)."""
+    return Path(os.environ["XDG_STATE_HOME"]) / "retrofit" / "tul-mill" / "spindle-sim.json"
 
 
 def run(capsys, *argv):
@@ -17,7 +24,7 @@ def test_tool_changes_and_remembers(tmp_path, capsys):
     assert code == 0
     assert "T0 -> T3, condition 1: pick" in out and "violations: 0" in out
     assert "sim: spindle T3; pockets 1:T1 2:T2 3:- 4:T4" in out
-    assert json.loads((tmp_path / "tul-mill.spindle.json").read_text())["spindle_tool"] == 3
+    assert json.loads(sim_record().read_text())["spindle_tool"] == 3
     code, out, _ = run(capsys, "tool", "T5", *where)
     assert "T3 -> T5, condition 2: put back, then pick" in out
     code, out, _ = run(capsys, "tool", *where)
@@ -28,7 +35,8 @@ def test_tool_refuses_13_and_a_corrupt_record(tmp_path, capsys):
     where = ["--tool-table", str(tmp_path / "tul-mill.tbl")]
     code, _, err = run(capsys, "tool", "T13", *where)
     assert code == 2 and "T13: no such tool on tul-mill" in err
-    (tmp_path / "tul-mill.spindle.json").write_text("{not json")
+    sim_record().parent.mkdir(parents=True)
+    sim_record().write_text("{not json")
     code, _, err = run(capsys, "tool", "T2", *where)
     assert code == 2 and "cannot be trusted" in err and "--recover" in err
     code, out, _ = run(capsys, "tool", "T4", "--recover", *where)
@@ -41,7 +49,7 @@ def test_setter_and_mill(tmp_path, capsys):
     where = ["--tool-table", str(tmp_path / "tul-mill.tbl")]
     code, _, err = run(capsys, "setter", "measure", "T3", *where)
     assert code == 2 and "no reference" in err
-    assert not (tmp_path / "tul-mill.spindle.json").exists()          # nothing moved
+    assert not sim_record().exists()                                 # nothing moved
     assert run(capsys, "setter", "reference", *where)[0] == 0
     code, out, _ = run(capsys, "setter", "measure", "T3", "T8", *where)
     assert code == 0 and "T3 length 24.6200 mm" in out and "T8 length 10.2500 mm" in out
@@ -64,7 +72,8 @@ def test_setter_and_mill(tmp_path, capsys):
 
 def test_tool_state_that_cannot_be_trusted_names_the_recovery(tmp_path, capsys):
     where = ["--tool-table", str(tmp_path / "tul-mill.tbl")]
-    record = tmp_path / "tul-mill.spindle.json"
+    record = sim_record()
+    record.parent.mkdir(parents=True)
     code, _, err = run(capsys, "tool", "T\u00b2".encode().decode("unicode_escape"), *where)
     assert code == 2 and "expected T followed by a number" in err
     for text, why in [("[" * 100000 + "]" * 100000, "unreadable"),

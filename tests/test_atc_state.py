@@ -60,8 +60,10 @@ def test_a_corrupt_record_gives_the_documented_error(record, content, why):
     message = str(err.value)
     assert message.startswith(f"{record}: the record of the tool in the spindle cannot be trusted: ")
     assert why in message
-    assert ("Recovery: look at the spindle, then run 'retrofit tool T<n> --recover --machine tul-mill'"
-            in message)
+    assert message.endswith("Recovery: look at the spindle, then, to rewrite the record, home the "
+                            "carousel and put that tool back into its pocket (T0), run this with n the "
+                            "tool you see there (T0 if it is empty): retrofit tool T<n> --recover "
+                            "--machine tul-mill")
 
 
 def test_a_change_cut_short_is_known_at_the_next_start(record):

@@ -6,44 +6,19 @@ from __future__ import annotations
 
 import re
 import shutil
-import socket
 import subprocess
-import threading
 import time
 from pathlib import Path
 
 import pytest
 
+from console_kit import DIALOGS, LONG_MOVE, Served
 from retrofit.config import load_machine
 from retrofit.runprogram import resolve_program
 
 CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
 pytestmark = pytest.mark.skipif(not (Path(CHROMIUM).exists() and Path(CHROMEDRIVER).exists()),
                                 reason="needs Debian's chromium and chromium-driver")
-
-#: a long cut at F150 (16 s of machine time) between two rapids
-LONG_MOVE = "G21 G90\nG0 X5 Z1\nG1 Z-39 F150\nG0 X10\nG0 Z5\nM30\n"
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def start_server(app):
-    """Serve ``app`` with uvicorn in a thread; (base URL, server) once it answers."""
-    import uvicorn
-    port = free_port()
-    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning"))
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
-    for _ in range(200):
-        if server.started:
-            break
-        time.sleep(0.02)
-    return f"http://127.0.0.1:{port}", server, thread
-
 
 def chromium(user_dir: Path):
     """Headless Chromium with a fresh profile and its network log on."""
@@ -70,14 +45,14 @@ def browser(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def console(browser):
-    from retrofit.console.server import Console, create_app
-    con = Console(load_machine("chivu-lathe"))
-    base, server, thread = start_server(create_app(con))
-    browser.get(base + "/")
-    wait_for(browser, "return document.getElementById('example').options.length > 0")
-    yield con
-    server.should_exit = True
-    thread.join(10)
+    from retrofit.console.server import Console
+    served = Served(Console(load_machine("chivu-lathe")))
+    browser.get(served.url)
+    wait_for(browser, "return document.getElementById('example').options.length > 0 && "
+                      "document.body.dataset.control === 'yours'")
+    assert "token" not in browser.current_url                # the page took it out of the address bar
+    yield served.console
+    served.close()
 
 
 @pytest.fixture(scope="module")
@@ -245,15 +220,15 @@ def ten_million_step_run(machine):
 
 @pytest.mark.slow
 def test_ten_million_step_run_zooms_within_a_second_per_step(browser, tmp_path):
-    from retrofit.console.server import Console, create_app
+    from retrofit.console.server import Console
     machine = load_machine("chivu-lathe")
     log = ten_million_step_run(machine)
     assert sum(log.steps_emitted.values()) >= 10_000_000
     con = Console(machine)
     con.show_run(log)
-    base, server, thread = start_server(create_app(con))
+    served = Served(con)
     try:
-        browser.get(base + "/")
+        browser.get(served.url)
         wait_for(browser, "return document.body.dataset.views === 'ready'", timeout=120)
         end = log.frames.end_tick
         centre = int(axis_steps_mid(log))
@@ -278,8 +253,7 @@ def test_ten_million_step_run_zooms_within_a_second_per_step(browser, tmp_path):
         single = browser.execute_script("return document.getElementById('pulses').data[0].name")
         assert not single.endswith("(busy)")              # the last window shows single pulses
     finally:
-        server.should_exit = True
-        thread.join(10)
+        served.close()
 
 
 def axis_steps_mid(log) -> int:
@@ -289,10 +263,10 @@ def axis_steps_mid(log) -> int:
 
 @pytest.mark.skipif(shutil.which("rs274") is None, reason="needs LinuxCNC's rs274")
 def test_a_mill_program_is_previewed_in_3d_inside_its_work_envelope(browser, tmp_path):
-    from retrofit.console.server import Console, create_app
-    base, server, thread = start_server(create_app(Console(load_machine("engraver"))))
+    from retrofit.console.server import Console
+    served = Served(Console(load_machine("engraver")))
     try:
-        browser.get(base + "/")
+        browser.get(served.url)
         wait_for(browser, "return document.getElementById('example').options.length > 0")
         browser.execute_script("document.getElementById('example').value = 'engraving.ngc'")
         browser.find_element("id", "open").click()
@@ -310,8 +284,7 @@ def test_a_mill_program_is_previewed_in_3d_inside_its_work_envelope(browser, tmp
         assert drawn["box"] == [machine.axis("X").min_mm, machine.axis("X").max_mm]
         browser.save_screenshot(str(tmp_path / "mill-preview.png"))
     finally:
-        server.should_exit = True
-        thread.join(10)
+        served.close()
 
 
 def count_null_traverses(path: Path) -> int:
@@ -327,3 +300,69 @@ def count_null_traverses(path: Path) -> int:
             null += 1
         here = values[:3]
     return null
+
+
+def test_a_second_tab_watches_and_takes_control_only_when_asked(browser):
+    """Two tabs on one console: the second shows who holds control and cannot act; its STOP says
+    it takes control, and does; the first tab then watches."""
+    from retrofit.console.server import Console
+    served = Served(Console(load_machine("chivu-lathe")))
+    first = browser.current_window_handle
+    try:
+        browser.switch_to.new_window("tab")
+        operator = browser.current_window_handle
+        browser.get(served.url)
+        wait_for(browser, "return document.body.dataset.control === 'yours'")
+        open_text(browser, "tool-change.cmds", DIALOGS)
+        run(browser, "0")
+        wait_for(browser, "return document.getElementById('dialog').open")
+        browser.switch_to.new_window("tab")
+        browser.get(served.url)
+        wait_for(browser, "return document.body.dataset.control === 'watching' && "
+                          "document.getElementById('message').textContent.includes('waiting for the operator')")
+        assert not browser.execute_script("return document.getElementById('dialog').open")   # not the watcher's
+        assert "operator 1" in browser.find_element("id", "control").text
+        assert browser.find_element("id", "stop").text == "Take control + STOP"
+        refusal = browser.execute_async_script("act('hold').then(() => 'acted', e => e.message)"
+                                                ".then(arguments[arguments.length - 1])")
+        assert "held by operator 1" in refusal
+        assert served.state()["dialog"]["kind"] == "tool"         # the watcher's hold was refused
+        browser.find_element("id", "stop").click()
+        wait_for(browser, "return document.getElementById('state').textContent === 'stopped' && "
+                          "document.body.dataset.control === 'yours'")
+        browser.switch_to.window(operator)
+        wait_for(browser, "return document.body.dataset.control === 'watching' && "
+                          "document.getElementById('control').textContent.includes('operator 2')")
+    finally:
+        for handle in browser.window_handles:
+            if handle != first:
+                browser.switch_to.window(handle)
+                browser.close()
+        browser.switch_to.window(first)
+        served.close()
+
+
+def test_an_error_in_the_run_is_shown_and_stop_still_answers(browser):
+    from retrofit.console.server import Console
+    served = Served(Console(load_machine("chivu-lathe")))
+    first = browser.current_window_handle
+    try:
+        browser.switch_to.new_window("tab")
+        browser.get(served.url)
+        wait_for(browser, "return document.body.dataset.control === 'yours'")
+        open_text(browser, "long-move.ngc", LONG_MOVE)
+        run(browser, "1")
+        wait_for(browser, "return +document.getElementById('time').textContent > 0.5")
+
+        def broken(limit):
+            raise RuntimeError("a fault in the planner")
+        served.console.run.ctl.run_until_idle = broken
+        wait_for(browser, "return document.getElementById('state').textContent === 'error' && "
+                          "document.getElementById('message').textContent.includes('a fault in the planner')")
+        browser.find_element("id", "stop").click()
+        wait_for(browser, "return document.getElementById('message').textContent.includes('a fault in the planner')")
+        assert served.console.run.outputs == [] and served.state()["state"] == "error"
+    finally:
+        browser.close()
+        browser.switch_to.window(first)
+        served.close()

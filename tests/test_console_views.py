@@ -3,17 +3,15 @@ pulse windows, the timeline's velocity, the measured feed of a move; its API's e
 
 from __future__ import annotations
 
-import json
 import subprocess
 import sys
-import urllib.request
 
 import numpy as np
 import pytest
 
 from retrofit.config import load_machine
 from retrofit.console.runreport import measured_feed
-from retrofit.console.server import Console, command_list, create_app
+from retrofit.console.server import Console, command_list
 from retrofit.console.views import PulseIndex, axis_steps, timeline
 from retrofit.errors import RetrofitError
 from retrofit.gcode.program import compile_program
@@ -90,18 +88,15 @@ def test_console_refuses_a_run_without_a_program(lathe):
 
 
 def test_api_answers_bad_input_with_one_line_naming_the_line(lathe):
-    from test_console_browser import start_server
-    base, server, thread = start_server(create_app(Console(lathe)))
+    from console_kit import Served
+    served = Served(Console(lathe))
     try:
-        req = urllib.request.Request(base + "/api/open", json.dumps({"name": "bad.ngc", "text": "G0 X1\nG1 Z-2 Q7\n"}).encode(),
-                                     {"Content-Type": "application/json"})
-        with pytest.raises(urllib.error.HTTPError) as err:
-            urllib.request.urlopen(req, timeout=10)
-        message = json.loads(err.value.read())["error"]
-        assert message.startswith("bad.ngc:2:") and "\n" not in message
+        served.take_control()
+        status, answer = served.call("POST", "/api/open", {"name": "bad.ngc", "text": "G0 X1\nG1 Z-2 Q7\n"})
+        assert status == 400
+        assert answer["error"].startswith("bad.ngc:2:") and "\n" not in answer["error"]
     finally:
-        server.should_exit = True
-        thread.join(10)
+        served.close()
 
 
 def test_console_command_rejects_a_bad_listen_address():

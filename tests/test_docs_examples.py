@@ -101,7 +101,8 @@ def test_json_and_toml_examples_parse(page):
 
 @pytest.fixture(scope="module")
 def page_dir(tmp_path_factory):
-    """One working directory per page, shared by its commands (a later one may read an earlier's file)."""
+    """One working directory per page, shared by its commands (a later one may read an earlier's file,
+    or the machine state it left)."""
     made = {}
 
     def folder(page: str) -> Path:
@@ -118,7 +119,8 @@ def test_cli_examples_run(page, line, command, page_dir):
             pytest.skip(f"{page}:{line} `{command}`: {why}")
     folder = page_dir(page)
     args = shlex.split(command, comments=True)[1:]
-    env = dict(os.environ, MPLBACKEND="Agg")
+    # the machines' state (tool table, spindle record) is the page's too: a later command sees it
+    env = dict(os.environ, MPLBACKEND="Agg", XDG_STATE_HOME=str(folder / ".state"))
     proc = subprocess.run([sys.executable, "-m", "retrofit.cli", *args], cwd=folder, env=env,
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, f"{page}:{line} `{command}` exited {proc.returncode}:\n{proc.stderr[-2000:]}"

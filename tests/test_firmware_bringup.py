@@ -39,7 +39,7 @@ def test_the_host_waits_out_the_bootloader_then_runs_the_program(board):
     finally:
         out.close()
     assert remote["position_steps"] == {"X": 50, "Z": 0}
-    assert remote["banner"] == {"machine": "mitic-lathe", "link": 2, "reset": "external"}
+    assert remote["banner"] == {"machine": "mitic-lathe", "link": 3, "reset": "external"}
 
 
 def test_without_the_wait_the_bootloader_swallows_the_first_frames():
@@ -62,10 +62,10 @@ def test_a_firmware_built_for_another_machine_is_refused_by_its_banner():
 
 
 def test_the_start_line_is_found_among_noise_and_another_link_version_is_refused():
-    line = b"\x00\xff\r\nretrofit firmware machine=tul-mill link=3 reset=brown-out\r\n\x7e\x01"
+    line = b"\x00\xff\r\nretrofit firmware machine=tul-mill link=2 reset=brown-out\r\n\x7e\x01"
     banner = Banner.find(line)
-    assert banner == Banner("tul-mill", 3, "brown-out")
-    with pytest.raises(LinkError, match="speaks link version 3; this host speaks 2"):
+    assert banner == Banner("tul-mill", 2, "brown-out")
+    with pytest.raises(LinkError, match="speaks link version 2; this host speaks 3"):
         banner.check("tul-mill", "serial:///dev/ttyACM0")
     assert Banner.find(b"retrofit firmware machine=tul-mill link=2 reset=power") is None  # unfinished
 
@@ -97,7 +97,7 @@ def test_the_firmware_starts_after_the_bootloader_and_says_so_first():
     assert [cause for _, cause in banners(log)] == ["external"]      # the DTR reset's bootloader
     first_pin = min(changes[0][0] for changes in log.ports.values())
     assert first_pin >= int(0.1 * S) and banners(log)[0][0] > first_pin
-    assert log.answer_bytes().startswith(b"\r\nretrofit firmware machine=mitic-lathe link=2 ")
+    assert log.answer_bytes().startswith(b"\r\nretrofit firmware machine=mitic-lathe link=3 ")
     log = fs.Harness(elf, machine, cycles=int(0.05 * S)).run()
     assert [cause for _, cause in banners(log)] == ["power-on"]
 

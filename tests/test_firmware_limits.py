@@ -237,11 +237,10 @@ def test_a_line_whose_steps_are_not_its_own_stops_with_step_error(bench, tmp_pat
     assert type(answers[-3]).__name__ == "Err"                        # FMOV X3 refused
 
 
-def test_step_error_travels_in_the_high_nibble_of_stats_last_byte():
+def test_step_error_is_bit_17_of_stats_24_bit_word():
     payload = encode_reply(Status(StatusFlags.STEP_ERROR | StatusFlags.ERROR, queued=3))
-    assert payload == bytes((0x85, 0x01, 0x00, 0x13))
+    assert payload == bytes((0x85, 0x02, 0x01, 0x00, 0x03))
     assert decode_reply(payload) == Status(StatusFlags.STEP_ERROR | StatusFlags.ERROR, 3)
-    assert decode_reply(bytes((0x85, 0x00, 0x01, 0x02))) == Status(StatusFlags.MOVING, 2)
 
 
 @pytest.mark.parametrize("seed", [2, 11])

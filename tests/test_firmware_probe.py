@@ -16,7 +16,8 @@ import pytest
 from retrofit.atc.beam import SimBeam
 from retrofit.atc.settings import tools_of
 from retrofit.config import load_machine
-from retrofit.link import QUEUED, FrameDecoder, Position, decode_reply, encode_frame, seq_byte
+from retrofit.link import Err, Position, Status
+from retrofit.link.script import ScriptedHost
 from tests.test_firmware_sim import OFF_LIMIT_CYCLES, Script
 
 pytestmark = pytest.mark.skipif(
@@ -39,23 +40,17 @@ class ProbeScript(Script):
         mask = sum(1 << bits[a] for a in steps)
         body = b"".join((steps[a] & 0xFFFFFF).to_bytes(3, "big")
                         for a in sorted(steps, key=bits.get))
-        number = self.next[QUEUED]
-        self.next[QUEUED] = (number + 1) % 128
-        payload = bytes((0x11, flags, mask)) + body
-        self.items.append((cycle, encode_frame(seq_byte(QUEUED, number), payload)))
-        return self
-
-
-def payloads(log) -> list[bytes]:
-    return [f.payload for f in FrameDecoder().feed(log.answer_bytes())]
+        return self.payload(cycle, bytes((0x11, flags, mask)) + body)
 
 
 def statuses(log) -> list[int]:
-    return [p[1] << 8 | p[2] for p in payloads(log) if p[0] == 0x85]
+    return [int(r.flags) for r in ScriptedHost(None).replies(log.answer_bytes())
+            if isinstance(r, Status)]
 
 
 def positions(log, machine) -> list[dict[str, int]]:
-    return [dict(decode_reply(p, machine).steps) for p in payloads(log) if p[0] == 0x84]
+    return [dict(r.steps) for r in ScriptedHost(machine).replies(log.answer_bytes())
+            if isinstance(r, Position)]
 
 
 @pytest.fixture(scope="module")
@@ -180,7 +175,7 @@ def test_prob_with_an_unknown_flag_is_err_3(mill):
     machine, elf = mill
     script = ProbeScript(machine).prob(3_300_000, 0x02, {"Z": -100})
     log = fs.Harness(elf, machine, script=script.items, cycles=3_600_000, tool=TOOL).run()
-    assert payloads(log)[-1] == bytes((0x83, 3, 0x11))
+    assert ScriptedHost(machine).replies(log.answer_bytes())[-1] == Err(3, 0x11)
 
 
 def test_prob_on_a_machine_without_a_setter_is_refused_and_init_clears_the_error():
@@ -190,8 +185,8 @@ def test_prob_on_a_machine_without_a_setter_is_refused_and_init_clears_the_error
     script = ProbeScript(machine).prob(3_300_000, 0, {"Z": -100})
     script.at(3_400_000, "RDST").at(3_500_000, "INIT").at(3_600_000, "RDST")
     log = fs.Harness(elf, machine, script=script.items, cycles=3_700_000).run()
-    answers = payloads(log)
-    assert bytes((0x83, 6, 0x11)) in answers       # refused by the controller: ERR 6
+    answers = ScriptedHost(machine).replies(log.answer_bytes())
+    assert Err(6, 0x11) in answers                 # refused by the controller: ERR 6
     before, after = statuses(log)
     assert before & ERROR and not after & ERROR
     rises, _, _ = fs.step_times(log, machine, "Z")

@@ -30,9 +30,11 @@ fs = pytest.importorskip("retrofit.firmware_sim")
 
 
 def spindle_holds(machine, table, tool: int) -> None:
-    """The spindle record beside ``table`` says ``tool`` is in the spindle."""
-    _, record = state_paths(machine, table)
-    SpindleStore(machine.name, record, machine.parts["atc"].pockets).save(tool)
+    """The spindle records (the machine's and the simulated one) say ``tool`` is in the spindle."""
+    for simulated in (False, True):
+        _, record = state_paths(machine, table, simulated)
+        record.parent.mkdir(parents=True, exist_ok=True)
+        SpindleStore(machine.name, record, machine.parts["atc"].pockets).save(tool)
 
 
 def setter(machine, table, output: str, *words: str) -> None:

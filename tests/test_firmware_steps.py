@@ -18,7 +18,8 @@ import pytest
 
 from retrofit.commands import parse_command
 from retrofit.config import load_machine
-from retrofit.link import QUEUED, FrameDecoder, decode_reply, encode_command, encode_frame, seq_byte
+from retrofit.link import QUEUED, encode_command, encode_frame, seq_byte
+from retrofit.link.script import ScriptedHost
 from retrofit.motion.lookahead import Kinematics, junction_speed
 from tests.test_firmware_sim import Script
 
@@ -278,7 +279,7 @@ def test_framed_garbage_during_a_move_leaves_every_step_interval_as_planned(mill
         return fs.Harness(elf, machine, script=script.items, cycles=end).run()
 
     quiet, noisy = run(False), run(True)
-    answers = [decode_reply(f.payload, machine) for f in FrameDecoder().feed(noisy.answer_bytes())]
+    answers = ScriptedHost(machine).replies(noisy.answer_bytes())
     naks = sum(type(a).__name__ == "Nak" for a in answers)
     assert naks == int(0.6 * S / 35_200)
     assert dict(answers[-1].steps)["X"] == 3000                       # executed once

@@ -15,6 +15,7 @@ from retrofit.cli import main
 from retrofit.errors import ConfigError
 from retrofit.labkit import Limits, export_lab, grade, write_grades
 from retrofit.labs import CHECK_SECONDS_ENV, check_lab, find_lab, list_labs
+from retrofit.labwrong import apply_variant, variants
 
 ROOT = Path(__file__).resolve().parent.parent / "labs"
 LABS = list_labs(ROOT)
@@ -149,7 +150,7 @@ def test_export_holds_no_solution_code(lab, tmp_path):
     names = {p.relative_to(tmp_path).as_posix() for p in written}
     assert f"{lab.path.name}/student.py" in names and f"{lab.path.name}/checks.py" in names
     assert f"{lab.path.name}/README.md" in names
-    assert not any(n.endswith(("solution.py", "teacher.md")) or "/wrong/" in n for n in names), names
+    assert not any(n.endswith(("solution.py", "teacher.md")) or "/wrong/" in n or "/right/" in n for n in names), names
     bodies = _solution_bodies(lab.path / "solution.py", lab.path / "student.py")
     assert len(bodies) >= 3, f"{lab.path.name}: the solution should differ from the stub"
     code = (_code(line) for p in written for line in p.read_text(encoding="utf-8", errors="replace").splitlines())
@@ -242,11 +243,16 @@ def test_teacher_notes_have_objectives_time_key_and_rubric(lab):
     assert sum(ch.isdigit() for ch in key) >= 6, "the answer key gives the expected numbers"
 
 
+def _first_wrong(lab):
+    """Lab 10's first 14 known-wrong variants (w01..w14), the class's wrong students."""
+    return [v for v in variants(lab.path, "wrong") if re.match(r"w\d\d_", v.name)]
+
+
 def _class_of_thirty(lab) -> dict[str, tuple[str, str]]:
     """30 submissions of lab 10: student -> (kind, text). 8 copies of the reference, every one of its
     14 known-wrong files (4 of them twice), 2 endless loops in interpret() and 2 files that do not parse."""
     solution = lab.file(solution=True).read_text(encoding="utf-8")
-    wrong = sorted((lab.path / "wrong").glob("*.py"))
+    wrong = _first_wrong(lab)
     endless = solution.replace("    for line in text.splitlines():", "    while True:\n        pass\n    for line in text.splitlines():")
     broken = solution.replace("def target(state: State, words: dict[str, float])", "def target(state: State, words")
     students = {}
@@ -255,7 +261,7 @@ def _class_of_thirty(lab) -> dict[str, tuple[str, str]]:
         text = {"right": solution, "endless": endless, "syntax": broken}.get(kind)
         if kind == "wrong":
             source = wrong[i % len(wrong)]
-            text, kind = source.read_text(encoding="utf-8"), f"wrong:{source.stem}"
+            text, kind = apply_variant(source, solution), f"wrong:{source.name}"
         students[f"s{i:02d}"] = (kind, text)
     return students
 
@@ -298,7 +304,7 @@ def test_grade_a_class_of_thirty_on_lab_10(part, tmp_path):
         elif kind == "endless":                  # only the checks of interpret() hang
             assert row["failed"] == "TODO 4" and 0 < points < full, row
         else:
-            todo = re.search(r"TODO (\d)", (lab.path / "wrong" / f"{kind[6:]}.py").read_text())[0]
+            todo = f"TODO {next(v.todo for v in _first_wrong(lab) if v.name == kind[6:])}"
             assert todo in row["failed"].split(" TODO ") or todo in row["failed"], (kind, row)
             assert points < full, row
     hung = [c for s in data["students"] if kinds[s["student"]] == "endless" for c in s["checks"]
@@ -315,6 +321,6 @@ def test_the_class_of_thirty_covers_every_kind_and_every_wrong_file():
     kinds = [kind for kind, _ in students.values()]
     assert len(students) == 30 and kinds.count("right") == 8
     assert (kinds.count("endless"), kinds.count("syntax")) == (2, 2)
-    assert {k[6:] for k in kinds if k.startswith("wrong:")} == {p.stem for p in (lab.path / "wrong").glob("*.py")}
+    assert {k[6:] for k in kinds if k.startswith("wrong:")} == {v.name for v in _first_wrong(lab)}
     parts = [{kinds[i] for i in range(part, 30, CLASS_PARTS)} for part in range(CLASS_PARTS)]
     assert sum("endless" in p for p in parts) == 2

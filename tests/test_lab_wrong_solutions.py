@@ -1,10 +1,12 @@
-"""The labs' checks reject wrong work: every known-wrong solution kept in a lab's ``wrong/`` folder
-fails at least one check, and the first check it fails is one of the TODO its docstring names.
+"""The labs' checks reject wrong work and accept right work: every known-wrong variant kept in a
+lab's ``wrong/`` folder fails a check, first one of the TODO its description names, and every
+known-right variant in ``right/`` (another valid way to write the lab) passes every check.
 
-Each wrong solution is the reference solution with one mistake a student could make (off-by-one
-counters, sign errors, truncation for rounding, constants written in, swapped axes, closed forms
-that skip the algorithm the lab teaches). The reference solution passing every check is proved in
-tests/test_labs.py. One process per lab; each wrong solution runs until its first failed check.
+A variant is the reference solution plus a small change, kept as a patch (``retrofit.labwrong``).
+Among the wrong ones: off-by-one counters, sign errors, truncation for rounding, constants written
+in, swapped axes, closed forms that skip the algorithm the lab teaches, inputs assumed regular
+(whole-step radii, a carriage at 0, samples 1 ms apart), and files that call the library's own
+answer instead of computing it (``oracle_*``). The reference passing is proved in tests/test_labs.py.
 """
 
 import ast
@@ -13,17 +15,19 @@ from pathlib import Path
 
 import pytest
 
-from retrofit.labs import CHECK_SECONDS_ENV as SECONDS_ENV, check_lab, list_labs
+from retrofit.labcheck import borrowed
+from retrofit.labs import CHECK_SECONDS_ENV as SECONDS_ENV, check_lab, list_labs, result_lines
+from retrofit.labwrong import materialise, variants
 
 ROOT = Path(__file__).resolve().parent.parent / "labs"
-# labs 01-08 (labs 09 and 10 prove their own wrong solutions in tests/test_lab_09.py and _10.py)
-LABS = [lab for lab in list_labs(ROOT) if (lab.path / "wrong").is_dir() and int(lab.number) <= 8]
-DOC = re.compile(r"^Wrong in TODO (\d+): .+\.$")
-HANGS = {"waits_for_the_pulse.py"}     # never returns: proved with a short time limit below
+LABS = [lab for lab in list_labs(ROOT) if int(lab.number) <= 10]
+HANGS = {"waits_for_the_pulse"}     # never returns: proved with a short time limit below
+WRONG = [(lab, v) for lab in LABS for v in variants(lab.path, "wrong") if v.name not in HANGS]
+RIGHT = [(lab, v) for lab in LABS for v in variants(lab.path, "right")]
 
 
-def wrong_files(lab):
-    return sorted((lab.path / "wrong").glob("*.py"))
+def _ids(cases):
+    return [f"{lab.number}-{v.name}" for lab, v in cases]
 
 
 def todos_named(title: str) -> set[int]:
@@ -38,15 +42,15 @@ def todos_named(title: str) -> set[int]:
     return numbers
 
 
-def test_every_lab_of_the_eight_has_ten_wrong_solutions_with_a_docstring_naming_the_mistake():
-    assert len(LABS) >= 8
+def test_every_lab_keeps_wrong_and_right_variants_of_its_own():
+    assert len(LABS) == 10
     for lab in LABS:
-        files = wrong_files(lab)
-        assert len(files) >= 10, f"{lab.path.name}: {len(files)} wrong solutions"
-        for path in files:
-            doc = ast.get_docstring(ast.parse(path.read_text(encoding="utf-8")))
-            assert doc and "\n" not in doc and DOC.match(doc), f"{path}: docstring {doc!r}"
-            assert "TODO" not in path.read_text(encoding="utf-8").split('"""', 2)[2], f"{path}: a stub, not a solution"
+        assert not list((lab.path / "wrong").glob("*.py")), f"{lab.path.name}: wrong/ holds patches, not copies"
+        wrong, right = variants(lab.path, "wrong"), variants(lab.path, "right")
+        assert len(wrong) >= 12, f"{lab.path.name}: {len(wrong)} wrong variants"
+        assert len(right) >= 3, f"{lab.path.name}: {len(right)} right variants"
+        assert all(not v.right for v in wrong) and all(v.right for v in right)
+        assert any(v.name.startswith("oracle_") for v in wrong), f"{lab.path.name}: no file calling the library's answer"
 
 
 def test_title_parsing():
@@ -56,30 +60,54 @@ def test_title_parsing():
     assert todos_named("Your whole analysis: ...") == set()
 
 
-@pytest.mark.parametrize("lab", LABS, ids=[lab.path.name for lab in LABS])
-def test_wrong_solutions_fail_a_check_of_their_todo(lab, monkeypatch):
-    monkeypatch.setenv(SECONDS_ENV, "10")
-    escaped, blamed = [], []
-    for path in (p for p in wrong_files(lab) if p.name not in HANGS):
-        todo = int(DOC.match(ast.get_docstring(ast.parse(path.read_text(encoding="utf-8"))))[1])
-        results = check_lab(lab, target=path, first_failure=True)
-        failed = [r for r in results if r.status == "failed"]
-        if not failed:
-            escaped.append(path.name)
-        elif todo not in todos_named(failed[0].title):
-            blamed.append(f"{path.name} (TODO {todo}) first fails: {failed[0].title}")
-        else:
-            assert "Traceback" not in failed[0].message and failed[0].message, failed[0].message
-    assert not escaped, f"{lab.path.name}: wrong solutions that pass every check: {escaped}"
-    assert not blamed, f"{lab.path.name}: caught by a check of another TODO:\n" + "\n".join(blamed)
+@pytest.mark.parametrize("lab, variant", WRONG, ids=_ids(WRONG))
+def test_wrong_variant_fails_a_check_of_its_todo(lab, variant, tmp_path, monkeypatch):
+    monkeypatch.setenv(SECONDS_ENV, "30")   # the first check in a fresh checkout compiles kernels
+    results = check_lab(lab, target=materialise(lab.path, variant, tmp_path), first_failure=True)
+    failed = [r for r in results if r.status == "failed"]
+    assert failed, f"{variant.path.name} passes every check:\n" + "\n".join(result_lines(results))
+    assert variant.todo in todos_named(failed[0].title), \
+        f"{variant.path.name} (TODO {variant.todo}) first fails: {failed[0].title}"
+    assert failed[0].message and "Traceback" not in failed[0].message, failed[0].message
 
 
-def test_a_solution_that_never_returns_fails_naming_its_todo(monkeypatch):
+@pytest.mark.parametrize("lab, variant", RIGHT, ids=_ids(RIGHT))
+def test_right_variant_passes_every_check(lab, variant, tmp_path, monkeypatch):
+    monkeypatch.setenv(SECONDS_ENV, "20")
+    results = check_lab(lab, target=materialise(lab.path, variant, tmp_path))
+    assert all(r.status == "passed" for r in results), \
+        f"{variant.path.name}: {variant.description}\n" + "\n".join(result_lines(results))
+
+
+def test_a_solution_that_never_returns_fails_naming_its_todo(monkeypatch, tmp_path):
     monkeypatch.setenv(SECONDS_ENV, "1")
     lab = next(lab for lab in LABS if lab.number == "02")
-    results = check_lab(lab, target=lab.path / "wrong" / "waits_for_the_pulse.py", first_failure=True)
+    variant = next(v for v in variants(lab.path, "wrong") if v.name == "waits_for_the_pulse")
+    results = check_lab(lab, target=materialise(lab.path, variant, tmp_path), first_failure=True)
     failed = [r for r in results if r.status == "failed"]
     assert [r.title.split(":")[0] for r in failed] == ["TODO 2"]
     message = failed[0].message
     assert message.startswith("TODO 2") and "did not finish within 1 s" in message and "\n" not in message
     assert "waits_for_the_pulse.py line" in message and "in set_pas_avans" in message
+
+
+#: per lab, the library functions that would hand over the answer: no check may take its expected
+#: values from them (a student's file could call them too); an empty set forbids the whole module
+ANSWERS = {"01": ({"retrofit.demo": set()}, frozenset()),
+           "02": ({"retrofit.motion.stepgen": set()}, frozenset()),
+           "03": ({"retrofit.motion.bresenham": set(), "retrofit.motion.dda": set()}, frozenset()),
+           "05": ({}, frozenset({"max_accel_steps_s2", "max_rate_steps_s"})),
+           "07": ({"retrofit.camlink.model": {"Comparison", "compare"}}, frozenset({"overshoot", "following_error"})),
+           "08": ({}, frozenset({"pocket_position"})),
+           "09": ({"retrofit.link": {"encode_frame"}, "retrofit.link.framing": {"encode_frame", "stuff"}}, frozenset()),
+           "10": ({"retrofit.gcode": set()}, frozenset())}
+#: the checks of the checks, worth no points, may compare the checks' oracle with the library's
+CHECKS_OF_CHECKS = {"by_retrofit", "test_recorded_and_retrofit_agree_where_both_run"}
+
+
+@pytest.mark.parametrize("lab", [lab for lab in LABS if lab.number in ANSWERS], ids=lambda lab: lab.number)
+def test_no_check_takes_its_expected_values_from_the_library(lab):
+    tree = ast.parse(lab.checks.read_text(encoding="utf-8"))
+    names = {node.name for node in tree.body if isinstance(node, (ast.FunctionDef, ast.ClassDef))} - CHECKS_OF_CHECKS
+    modules, methods = ANSWERS[lab.number]
+    assert borrowed(lab.checks, modules, within=names, methods=methods, strings=False) == []

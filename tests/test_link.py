@@ -19,9 +19,10 @@ from retrofit.commands import (COMMANDS, DEVICE_COMMANDS, CommandError, Cool, CS
 from retrofit.config import load_machine
 from retrofit.errors import LinkError, MotionError
 from retrofit.link import (FEED_UNIT_MM, IMMEDIATE, POS_MAX, QUEUED, Ack, BadFrame, Busy,
-                           DeviceLink, Err, Frame, FrameDecoder, HostLink, Nak, PayloadError,
-                           Position, Status, StatusFlags, decode_command, decode_reply,
-                           encode_command, encode_frame, encode_reply, seq_byte)
+                           DeviceEndpoint, DeviceLink, Err, Frame, FrameDecoder, HostLink, Nak,
+                           PayloadError, Position, Session, SessionNumbers, Status, StatusFlags,
+                           decode_command, decode_reply, encode_command, encode_frame,
+                           encode_reply, seq_byte)
 from retrofit.link.crc import CHECK, crc16_ccitt_false, crc32, crc32_bitwise
 
 LATHE = load_machine("chivu-lathe")
@@ -57,31 +58,43 @@ def test_crc_bitwise_form_matches_zlib_and_appended_crc_gives_the_residue(data):
 
 # -- worked examples of docs/protocol.md ------------------------------------------------------
 
+SQ, SI = 0x00010000, 0x00010001    # the sessions of the worked example (a second boot's first)
+
 EXAMPLES = [
-    ("PMOV", lambda: encode_frame(seq_byte(QUEUED, 1), encode_command(parse_command("PMOV X12.5 Z-3"), LATHE)),
-     "7E 08 01 04 05 00 01 F4 FF FF 6A 85 EB F4 05"),
-    ("stuffed FMOV", lambda: encode_frame(seq_byte(QUEUED, 5),
-                                          encode_command(parse_command("FMOV X-3.25 Z2.52"), LATHE)),
-     "7E 08 05 02 05 FF FF 7D 5E 00 00 7D 5E B8 2A A2 C3"),
-    ("ACK", lambda: encode_frame(0x01, encode_reply(Ack())), "7E 01 01 80 0A 20 01 44"),
     ("SYNC queued", lambda: encode_frame(0x00, bytes.fromhex("7F 00000001")),
      "7E 05 00 7F 00 00 00 01 C3 D1 B7 51"),
-    ("SYNC answer", lambda: encode_frame(0x00, encode_reply(Ack())), "7E 01 00 80 13 3B 30 05"),
+    ("SESS queued", lambda: encode_frame(0x00, encode_reply(Session(SQ))),
+     "7E 05 00 86 00 01 00 00 F0 30 DF DC"),
     ("SYNC immediate", lambda: encode_frame(0x80, bytes.fromhex("7F 00000002")),
      "7E 05 80 7F 00 00 00 02 44 68 F2 33"),
-    ("SYNC immediate answer", lambda: encode_frame(0x80, encode_reply(Ack())),
-     "7E 01 80 80 28 B8 A8 4E"),
-    ("RDPS", lambda: encode_frame(seq_byte(IMMEDIATE, 0), encode_command(Rdps(), LATHE)),
-     "7E 01 80 0D BB B1 57 D3"),
-    ("POS", lambda: encode_frame(0x80, encode_reply(Position((("X", 500), ("Z", -150))))),
-     "7E 08 80 84 05 00 01 F4 FF FF 6A A7 FE 65 D3"),
-    ("STAT", lambda: encode_frame(0x81, encode_reply(Status(
-        StatusFlags.MOVING | StatusFlags.QUEUE_FULL | StatusFlags.HOMED, 3))),
-     "7E 04 81 85 00 83 03 F5 F5 A6 AC"),
+    ("SESS immediate", lambda: encode_frame(0x80, encode_reply(Session(SI))),
+     "7E 05 80 86 00 01 00 01 99 87 FB 92"),
+    ("PMOV", lambda: encode_frame(seq_byte(QUEUED, 1),
+                                  encode_command(parse_command("PMOV X12.5 Z-3"), LATHE), SQ),
+     "7E 08 01 04 05 00 01 F4 FF FF 6A 6A 4C 3C 31"),
+    ("ACK", lambda: encode_frame(0x01, encode_reply(Ack()), SQ), "7E 01 01 80 A3 51 D4 8D"),
+    ("stuffed FMOV", lambda: encode_frame(seq_byte(QUEUED, 5),
+                                          encode_command(parse_command("FMOV X-3.25 Z2.52"), LATHE), SQ),
+     "7E 08 05 02 05 FF FF 7D 5E 00 00 7D 5E 57 8D 6A F7"),
+    ("RDPS", lambda: encode_frame(seq_byte(IMMEDIATE, 1), encode_command(Rdps(), LATHE), SI),
+     "7E 01 81 0D B3 67 D4 3E"),
+    ("POS", lambda: encode_frame(0x81, encode_reply(Position((("X", 500), ("Z", -150)))), SI),
+     "7E 08 81 84 05 00 01 F4 FF FF 6A 9E AC 66 64"),
+    ("ERR 3", lambda: encode_frame(0x82, encode_reply(Err(3, 0x0D)), SI), "7E 03 82 83 03 0D 57 E0 49 52"),
+    ("STAT", lambda: encode_frame(0x82, encode_reply(Status(
+        StatusFlags.MOVING | StatusFlags.QUEUE_FULL | StatusFlags.HOMED, 3)), SI),
+     "7E 05 82 85 00 00 83 03 B9 0E E5 E8"),
+    ("STAT host lost", lambda: encode_frame(0x83, encode_reply(Status(
+        StatusFlags.STOPPED | StatusFlags.HOST_LOST, 0)), SI),
+     "7E 05 83 85 01 04 00 00 44 40 63 C6"),
     ("NAK", lambda: encode_frame(0x00, encode_reply(Nak())), "7E 01 00 81 64 3C 00 93"),
-    ("BUSY", lambda: encode_frame(0x02, encode_reply(Busy())), "7E 01 02 82 CF 03 33 AB"),
-    ("ERR", lambda: encode_frame(0x02, encode_reply(Err(4, 0))), "7E 03 02 83 04 00 AC 94 25 9B"),
-    ("ERR 3", lambda: encode_frame(0x81, encode_reply(Err(3, 0x0D))), "7E 03 81 83 03 0D 62 88 D6 34"),
+    ("BUSY", lambda: encode_frame(0x02, encode_reply(Busy()), SQ), "7E 01 02 82 66 72 E6 62"),
+    ("ERR 4", lambda: encode_frame(0x02, encode_reply(Err(4, 0))), "7E 03 02 83 04 00 AC 94 25 9B"),
+    ("PMOV unbound", lambda: encode_frame(seq_byte(QUEUED, 1),
+                                          encode_command(parse_command("PMOV X12.5 Z-3"), LATHE)),
+     "7E 08 01 04 05 00 01 F4 FF FF 6A 85 EB F4 05"),
+    ("SESS again", lambda: encode_frame(0x00, encode_reply(Session(SQ + 2))),
+     "7E 05 00 86 00 01 00 02 1E 3E BE F0"),
 ]
 
 
@@ -92,9 +105,27 @@ def test_worked_examples_in_the_spec_are_what_the_encoder_sends(make, wire):
 
 
 def test_spec_crc_of_the_worked_example_body():
-    body = bytes.fromhex("08 01 04 05 00 01 F4 FF FF 6A")
-    assert crc32_bitwise(body) == 0x85EBF405
-    assert "0x85EBF405" in DOCS.read_text()
+    body = bytes.fromhex("00 01 00 00 08 01 04 05 00 01 F4 FF FF 6A")    # the session, then LEN ...
+    assert crc32_bitwise(body) == 0x6A4C3C31
+    assert "0x6A4C3C31" in DOCS.read_text()
+
+
+def test_the_worked_example_session_runs_on_a_device_and_a_replay_of_it_is_refused():
+    """The worked example's bytes, sent to a device whose next session numbers are SQ, SI: the
+    PMOV runs once; the same bytes again, after another session opened, run nothing."""
+    delivered = []
+    device = DeviceEndpoint(LATHE, lambda cmd: delivered.append(cmd), sessions=SessionNumbers(SQ))
+    wire = bytes.fromhex("7E 05 00 7F 00 00 00 01 C3 D1 B7 51 7E 05 80 7F 00 00 00 02 44 68 F2 33"
+                         " 7E 08 01 04 05 00 01 F4 FF FF 6A 6A 4C 3C 31")
+    device.receive(wire)
+    assert hexs(device.take_output()) == ("7E 05 00 86 00 01 00 00 F0 30 DF DC "
+                                          "7E 05 80 86 00 01 00 01 99 87 FB 92 "
+                                          "7E 01 01 80 A3 51 D4 8D")
+    device.receive(encode_frame(0x00, bytes.fromhex("7F 00000009")))     # another host's SYNC
+    device.receive(wire)                                                  # the replay
+    assert delivered == [PMov((("X", 12.5), ("Z", -3.0)))]
+    out = FrameDecoder().feed(device.take_output())
+    assert [decode_reply(f.payload, LATHE) for f in out][-1] == Nak()
 
 
 # -- framing -----------------------------------------------------------------------------------
@@ -213,7 +244,9 @@ def test_prob_is_a_flags_byte_then_positions_as_pmov(text, wire):
 
 def test_probed_is_bit_15_of_the_status_word():
     assert StatusFlags.PROBED == 1 << 15
-    assert hexs(encode_reply(Status(StatusFlags.PROBED | StatusFlags.HOMED, 0))) == "85 80 80 00"
+    assert hexs(encode_reply(Status(StatusFlags.PROBED | StatusFlags.HOMED, 0))) == "85 00 80 80 00"
+    assert StatusFlags.HOST_LOST == 1 << 16
+    assert hexs(encode_reply(Status(StatusFlags.HOST_LOST | StatusFlags.STOPPED, 0))) == "85 01 04 00 00"
 
 
 @pytest.mark.parametrize("cmd, message", [
@@ -256,7 +289,7 @@ def test_malformed_payloads_are_refused_with_the_err_code_to_answer(payload, cod
 
 @given(st.one_of(
     st.builds(Position, st.tuples(st.tuples(st.just("X"), pos_steps), st.tuples(st.just("Z"), pos_steps))),
-    st.builds(Status, st.integers(0, 0xFFFFF).map(StatusFlags), st.integers(0, 15)),
+    st.builds(Status, st.integers(0, 0xFFFF).map(StatusFlags), st.integers(0, 255)),
     st.builds(Err, st.integers(0, 255), st.integers(0, 255)),
     st.sampled_from((Ack(), Nak(), Busy()))))
 def test_replies_round_trip(reply):

@@ -78,10 +78,10 @@ def test_a_duplicated_frame_is_answered_again_but_delivered_once():
     t = host.send(PMov((("X", 2.0),)), 0.0)
     frame = host.take_output()
     device.receive(frame + frame)
-    answers = FrameDecoder().feed(device.take_output())
-    assert answers == [Frame(frame[2], b"\x80")] * 2
+    answers = FrameDecoder(lambda seq: device.session(seq >> 7)).feed(device.take_output())
+    assert answers == [Frame(frame[2], b"\x80", bound=True)] * 2
     assert app.delivered.count(PMov((("X", 2.0),))) == 1 and device.stats.duplicates == 1
-    host.receive(encode_frame(frame[2], b"\x80") * 2, 0.0)
+    host.receive(encode_frame(frame[2], b"\x80", device.session(QUEUED)) * 2, 0.0)
     assert t.reply == Ack() and host.stats.stale == 1
 
 
@@ -171,9 +171,9 @@ def test_a_device_reset_is_reported_then_the_link_synchronises_again():
     bench = LinkBench(host, device)
     host.send(Init(), 0.0)
     bench.run()
-    device.reset()
+    device.reset()              # its session is gone: the host's frames fail its CRC check
     host.send(PMov((("X", 1.0),)), bench.now)
-    with pytest.raises(LinkError, match="not synchronised"):
+    with pytest.raises(LinkError, match="not acknowledged"):
         bench.run()
     t = host.send(PMov((("X", 2.0),)), bench.now)
     bench.run()

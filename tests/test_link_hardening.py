@@ -1,4 +1,5 @@
-"""The link under hostile timing and values: stale SYNCs, answers that cannot be encoded, give-ups."""
+"""The link under hostile timing and values: stale SYNCs, replayed and foreign frames, answers
+that cannot be encoded, give-ups."""
 
 import pytest
 
@@ -6,7 +7,8 @@ from retrofit.commands import Init, PMov, Pstn, Rdps, Rdst, ZMov
 from retrofit.config import load_machine
 from retrofit.errors import LinkError, MotionError
 from retrofit.link import (IMMEDIATE, QUEUED, Ack, DeviceEndpoint, Err, FrameDecoder, HostEndpoint,
-                           HostLink, Position, Status, StatusFlags, decode_reply, encode_command, encode_frame, seq_byte)
+                           HostLink, Nak, Position, Session, SessionNumbers, Status, StatusFlags,
+                           decode_reply, encode_command, encode_frame, seq_byte)
 from retrofit.link.faultbench import run_faults
 from retrofit.link.simwire import FaultyWire
 
@@ -23,41 +25,71 @@ class Recorder:
 
 
 def answers(device):
-    """The (sequence byte, reply) of every frame the device sent since the last call."""
-    return [(f.seq, decode_reply(f.payload, LATHE)) for f in FrameDecoder().feed(device.take_output())]
+    """The (sequence byte, reply) of every frame the device sent since the last call (frames
+    bound to a session the device runs, or to none)."""
+    decoder = FrameDecoder(lambda seq: device.session(seq >> 7))
+    return [(f.seq, decode_reply(f.payload, LATHE)) for f in decoder.feed(device.take_output())]
 
 
-def sync_frame(channel, number, session):
-    return encode_frame(seq_byte(channel, number), bytes((0x7F,)) + session.to_bytes(4, "big"))
+def sync_frame(channel, number, nonce):
+    return encode_frame(seq_byte(channel, number), bytes((0x7F,)) + nonce.to_bytes(4, "big"))
 
 
-def test_a_stale_sync_after_the_next_command_does_not_rewind_so_the_resend_runs_once():
-    """The reproducer: SYNC N=0 is ACKed, PMOV N=1 delivered but its ACK lost, a late copy of the
-    SYNC arrives, then the host's resend of the PMOV: it must be a duplicate, not a new move."""
+def bound(device, channel, number, payload):
+    """A frame bound to the session the device runs on ``channel``."""
+    return encode_frame(seq_byte(channel, number), payload, device.session(channel))
+
+
+def test_a_stale_sync_after_the_next_command_opens_a_new_session_so_the_resend_runs_once():
+    """SYNC N=0 answered SESS, PMOV N=1 delivered but its ACK lost, a late copy of the SYNC
+    arrives, then the host's resend of the PMOV: it must not run a second time."""
     app = Recorder()
-    device = DeviceEndpoint(LATHE, app)
+    device = DeviceEndpoint(LATHE, app, sessions=SessionNumbers(0x1000))
     sync = sync_frame(QUEUED, 0, 0xC0FFEE)
-    move = encode_frame(seq_byte(QUEUED, 1), encode_command(PMov((("X", -9.925), ("Z", -184.08))),
-                                                            LATHE))
     device.receive(sync)
+    assert answers(device) == [(0x00, Session(0x1000))]
+    move = bound(device, QUEUED, 1, encode_command(PMov((("X", -9.925), ("Z", -184.08))), LATHE))
+    device.receive(sync)                                      # the host's resend of the SYNC
+    assert answers(device) == [(0x00, Session(0x1000))]       # the same session, nothing rewound
     device.receive(move)
     device.take_output()                                      # ... the ACK of the move is lost
-    device.receive(sync)                                      # the stale copy of the SYNC
-    assert answers(device) == [(0x00, Ack())]                 # answered, nothing rewound
-    device.receive(move)                                      # the host's resend
-    assert answers(device) == [(0x01, Ack())]
+    device.receive(sync)                                      # a late copy of the SYNC
+    assert answers(device) == [(0x00, Session(0x1001))]       # a new session
+    device.receive(move)                                      # the host's resend: of the old one
+    assert answers(device) == [(0x00, Nak())]
     assert app.delivered == [PMov((("X", -9.925), ("Z", -184.08)))]
-    assert device.stats.duplicates == 1 and device.stats.stale_syncs == 1
+    assert device.stats.stale_syncs == 1
 
 
 def test_a_sync_of_a_new_session_restarts_the_channel():
     app = Recorder()
-    device = DeviceEndpoint(LATHE, app)
-    device.receive(sync_frame(QUEUED, 0, 1) + encode_frame(seq_byte(QUEUED, 1), b"\x01"))
-    device.receive(sync_frame(QUEUED, 40, 2))                 # a new host: session 2 at N = 40
-    device.receive(encode_frame(seq_byte(QUEUED, 41), b"\x01"))
-    assert [r for _, r in answers(device)] == [Ack(), Ack(), Ack(), Ack()]
+    device = DeviceEndpoint(LATHE, app, sessions=SessionNumbers(7))
+    device.receive(sync_frame(QUEUED, 0, 1))
+    device.receive(bound(device, QUEUED, 1, b"\x01"))
+    first = answers(device)
+    device.receive(sync_frame(QUEUED, 40, 2))                 # a new host: nonce 2 at N = 40
+    device.receive(bound(device, QUEUED, 41, b"\x01"))
+    assert [r for _, r in first + answers(device)] == [Session(7), Ack(), Session(8), Ack()]
     assert app.delivered == [Init(), Init()]
+
+
+def test_frames_of_another_session_or_of_none_are_not_delivered():
+    """Replayed frames of an earlier session fail the CRC (NAK); frames bound to no session
+    (version 2's) are ERR 4; a session's numbers do not wrap (N = 0 after 127 is ERR 4)."""
+    app = Recorder()
+    device = DeviceEndpoint(LATHE, app, sessions=SessionNumbers(0xA0))
+    device.receive(sync_frame(QUEUED, 0, 1))
+    old = bound(device, QUEUED, 1, b"\x01")
+    device.receive(sync_frame(QUEUED, 0, 2))                  # another session starts
+    answers(device)
+    device.receive(old)                                       # the earlier session's INIT
+    device.receive(encode_frame(seq_byte(QUEUED, 1), b"\x01"))   # an INIT bound to nothing
+    assert answers(device) == [(0x00, Nak()), (0x01, Err(4, 0))]
+    assert app.delivered == [] and device.stats.unbound == 1
+    for n in range(1, 128):
+        device.receive(bound(device, QUEUED, n, encode_command(Rdst(), LATHE)))
+    device.receive(bound(device, QUEUED, 0, encode_command(Rdst(), LATHE)))
+    assert answers(device)[-1] == (0x00, Err(4, 0)) and len(app.delivered) == 127
 
 
 def test_a_sync_of_the_wrong_length_is_err_2():
@@ -67,7 +99,7 @@ def test_a_sync_of_the_wrong_length_is_err_2():
 
 
 def test_the_host_takes_a_new_session_for_every_sync():
-    host = HostEndpoint(LATHE, session=0xFFFFFFFE, timeout_s=0.01, max_tries=1)
+    host = HostEndpoint(LATHE, nonce=0xFFFFFFFE, timeout_s=0.01, max_tries=1)
     host.send(Init(), 0.0)
     first = FrameDecoder().feed(host.take_output())[0]
     with pytest.raises(LinkError):
@@ -81,22 +113,22 @@ def test_the_host_takes_a_new_session_for_every_sync():
 def test_an_answer_the_payload_cannot_carry_is_err_3_and_the_device_keeps_serving():
     big = Recorder(lambda cmd: Position((("X", 1 << 23), ("Z", 0))) if isinstance(cmd, Rdps)
                    else None)
-    device = DeviceEndpoint(LATHE, big)
+    device = DeviceEndpoint(LATHE, big, sessions=SessionNumbers(5))
     device.receive(sync_frame(IMMEDIATE, 0, 7))
-    device.receive(encode_frame(seq_byte(IMMEDIATE, 1), b"\x0d"))      # RDPS
-    device.receive(encode_frame(seq_byte(IMMEDIATE, 1), b"\x0d"))      # its resend: same answer
-    device.receive(encode_frame(seq_byte(IMMEDIATE, 2), b"\x0e"))      # RDST still answered
-    assert answers(device) == [(0x80, Ack()), (0x81, Err(3, 0x0D)), (0x81, Err(3, 0x0D)),
+    device.receive(bound(device, IMMEDIATE, 1, b"\x0d"))      # RDPS
+    device.receive(bound(device, IMMEDIATE, 1, b"\x0d"))      # its resend: same answer
+    device.receive(bound(device, IMMEDIATE, 2, b"\x0e"))      # RDST still answered
+    assert answers(device) == [(0x80, Session(5)), (0x81, Err(3, 0x0D)), (0x81, Err(3, 0x0D)),
                                (0x82, Ack())]
 
 
 def test_a_controller_that_raises_is_answered_err_6():
     def refuse(cmd):
         raise MotionError("PMOV X99: outside the soft limits")
-    device = DeviceEndpoint(LATHE, refuse)
+    device = DeviceEndpoint(LATHE, refuse, sessions=SessionNumbers(5))
     device.receive(sync_frame(QUEUED, 0, 7))
-    device.receive(encode_frame(seq_byte(QUEUED, 1), encode_command(PMov((("X", 1.0),)), LATHE)))
-    assert answers(device) == [(0x00, Ack()), (0x01, Err(6, 0x04))]
+    device.receive(bound(device, QUEUED, 1, encode_command(PMov((("X", 1.0),)), LATHE)))
+    assert answers(device) == [(0x00, Session(5)), (0x01, Err(6, 0x04))]
 
 
 class DeafQueue:
@@ -116,9 +148,11 @@ class DeafQueue:
 
     def write(self, data):
         self.device.receive(data)
-        frames = FrameDecoder().feed(self.device.take_output())
-        self.pending += b"".join(encode_frame(f.seq, f.payload) for f in frames
-                                 if f.seq >> 7 or f.seq == 0)    # immediate, or the SYNC's ACK
+        out = self.device.take_output()
+        frames = FrameDecoder(lambda seq: self.device.session(seq >> 7)).feed(out)
+        self.pending += b"".join(
+            encode_frame(f.seq, f.payload, self.device.session(f.seq >> 7) if f.bound else None)
+            for f in frames if f.seq >> 7 or f.seq == 0)   # immediate, or the SYNC's SESS
 
     @property
     def in_waiting(self):

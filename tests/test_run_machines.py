@@ -1,8 +1,10 @@
 """`retrofit run` for every machine: tool changes inside the run, pauses, exit codes, the summary."""
 
 import json
+import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -25,6 +27,11 @@ def retrofit(*args, cwd, stdin=None):
                           cwd=cwd, input=stdin, timeout=120)
 
 
+def state(name: str) -> Path:
+    """A file of tul-mill's state folder (the tests' XDG_STATE_HOME)."""
+    return Path(os.environ["XDG_STATE_HOME"]) / "retrofit" / "tul-mill" / name
+
+
 def write(tmp_path, name, text):
     (tmp_path / name).write_text(text)
     return name
@@ -42,17 +49,19 @@ def test_tool_changes_run_inside_the_run_and_end_with_an_empty_spindle(tmp_path)
     # program left them (G0 X5 Y5 at Z-5)
     for axis, mm in {"X": 5.0, "Y": 5.0, "Z": -5.0, "E": 0.0}.items():
         assert rep["axes"][axis]["carriage_mm"] == pytest.approx(mm, abs=0.01)
-    assert "tool table: tul-mill.tbl; spindle record: tul-mill.spindle.json (T0" in proc.stdout
-    assert json.loads((tmp_path / "tul-mill.spindle.json").read_text())["spindle_tool"] == 0
+    summary = " ".join(proc.stdout.split())
+    assert f"tool table: {state('tool.tbl')}; simulated spindle record: {state('spindle-sim.json')} (T0" \
+        in summary
+    assert json.loads(state("spindle-sim.json").read_text())["spindle_tool"] == 0
     assert all(len(line) <= 80 for line in proc.stdout.splitlines())
 
 
 def test_the_spindle_record_is_where_the_next_run_starts(tmp_path):
     prog = write(tmp_path, "pick.ngc", "T3 M6\nM2\n")
     assert retrofit("run", prog, "--machine", "tul-mill", cwd=tmp_path).returncode == 0
-    assert json.loads((tmp_path / "tul-mill.spindle.json").read_text())["spindle_tool"] == 3
+    assert json.loads(state("spindle-sim.json").read_text())["spindle_tool"] == 3
     proc = retrofit("tool", "--machine", "tul-mill", cwd=tmp_path)
-    assert "T3 in the spindle" in proc.stdout and "tul-mill.spindle.json" in proc.stdout
+    assert "T3 in the spindle" in proc.stdout and "spindle-sim.json" in proc.stdout
     again = retrofit("run", write(tmp_path, "back.ngc", "T0 M6\nM2\n"), "--machine", "tul-mill",
                      "--report", "r.json", cwd=tmp_path)
     assert again.returncode == 0, again.stderr
@@ -166,19 +175,21 @@ def test_a_run_cut_short_during_tool_changes_leaves_the_record_untrusted(tmp_pat
     from retrofit.config import load_machine
     from retrofit.errors import ToolStateError
     prog = write(tmp_path, "pick.ngc", "T3 M6\nM2\n")
-    record = tmp_path / "tul-mill.spindle.json"
+    record = state("spindle.json")                        # the machine's, not the simulation's
+    record.parent.mkdir(parents=True)
     SpindleStore("tul-mill", record).begin(0, 3)          # what a run cut short leaves behind
-    proc = retrofit("run", prog, "--machine", "tul-mill", cwd=tmp_path)
+    url = "serial+socket://127.0.0.1:9"                  # refused before anything is sent
+    proc = retrofit("run", prog, "--machine", "tul-mill", "--output", url, cwd=tmp_path)
     assert proc.returncode == 2
     assert "the change from T0 to T3 was cut short" in proc.stderr
-    assert "retrofit tool T<n> --recover --machine tul-mill" in proc.stderr
+    assert f"retrofit tool T<n> --recover --machine tul-mill --output {url}" in proc.stderr
+    assert retrofit("run", prog, "--machine", "tul-mill", cwd=tmp_path).returncode == 0   # simulated
     with pytest.raises(ToolStateError):
         SpindleStore("tul-mill", record, load_machine("tul-mill").parts["atc"].pockets).load()
 
 
 @pytest.mark.skipif(not __import__("shutil").which("script"), reason="script (util-linux) is not installed")
 def test_a_manual_change_on_a_real_output_waits_for_enter_at_the_terminal(tmp_path):
-    from pathlib import Path
     from tests.conformance.targets import McuTarget
     root = Path(__file__).resolve().parents[1]
     prog = write(tmp_path, "eng.ngc", "G0 X1 Y1\nT2 M6\nG0 X3 Y2\nM2\n")
@@ -201,4 +212,5 @@ def test_a_manual_change_on_a_real_output_waits_for_enter_at_the_terminal(tmp_pa
     rep = json.loads((tmp_path / "r.json").read_text())
     assert rep["remote"][0]["position_mm"]["X"] == 3.0 and rep["remote"][0]["position_mm"]["Y"] == 2.0
     assert rep["pauses"] == [{"line": 2, "says": "manual tool change (M6): put T2 in the spindle"}]
-    assert json.loads((tmp_path / "engraver.spindle.json").read_text())["spindle_tool"] == 2
+    record = Path(os.environ["XDG_STATE_HOME"]) / "retrofit" / "engraver" / "spindle.json"
+    assert json.loads(record.read_text())["spindle_tool"] == 2           # the machine's record

@@ -1,6 +1,8 @@
 """One Z convention on every shipped mill: Z+ up, so one program runs on each of them."""
 
 import json
+import os
+from pathlib import Path
 
 import pytest
 
@@ -58,7 +60,8 @@ def test_a_tool_change_cycle_with_g43_on_tul_mill_ends_with_an_empty_spindle(tmp
         assert proc.returncode == 0, proc.stderr + proc.stdout
     from retrofit.tooltable import ToolTable
     # T3 is 24.62 mm long, the reference T1 20 mm: a longer tool has a positive offset (Z+ up)
-    assert ToolTable.load(tmp_path / "tul-mill.tbl")[3].z_offset_mm == pytest.approx(4.62, abs=0.01)
+    table = Path(os.environ["XDG_STATE_HOME"]) / "retrofit" / "tul-mill" / "tool.tbl"
+    assert ToolTable.load(table)[3].z_offset_mm == pytest.approx(4.62, abs=0.01)
     prog = write(tmp_path, "cycle.ngc", CYCLE)
     proc = retrofit("run", prog, "--machine", "tul-mill", "--report", "r.json", "--progress", "off",
                     cwd=tmp_path)
@@ -67,7 +70,7 @@ def test_a_tool_change_cycle_with_g43_on_tul_mill_ends_with_an_empty_spindle(tmp
     assert rep["violations"] == []
     assert [c["line"] for c in rep["tool"]["changes"]] == [2, 10]
     assert (rep["tool"]["start"], rep["tool"]["end"]) == (0, 0)
-    assert json.loads((tmp_path / "tul-mill.spindle.json").read_text())["spindle_tool"] == 0
+    assert json.loads(table.with_name("spindle-sim.json").read_text())["spindle_tool"] == 0
     # G49 leaves the machine where it is (as rs274); the last move goes to Z-5 with no offset
     ends = {axis: rep["axes"][axis]["carriage_mm"] for axis in "XYZE"}
     assert ends == pytest.approx({"X": 5.0, "Y": 5.0, "Z": -5.0, "E": 0.0}, abs=0.001)

@@ -1,18 +1,26 @@
-"""Checks of lab 02 (step pulses): run with `retrofit lab check 02`, or pytest on this file."""
+"""Checks of lab 02 (step pulses): run with `retrofit lab check 02`, or pytest on this file.
 
-import random
+Besides the paper's timings, the checks draw random pulse timings and random patterns of wanted
+steps (seeded: RETROFIT_CHECK_SEED draws them again). The expected bits and counters are worked
+here, from the paper's PasAvans and SetPasAvans, never by retrofit's own step generator.
+"""
+
+from pathlib import Path
 
 import pytest
 
-from retrofit.labs import expect, load_target
-from retrofit.motion.stepgen import StepGenerator, StepTiming
+from retrofit.labcheck import borrowed, cases, seed_note
+from retrofit.labs import expect, load_target, target_path
 
-TIMINGS = [(1, 1), (2, 2), (2, 3), (5, 5)]
+_DRAW = cases("02 patterns")
+_LONG_HIGH = [(high, _DRAW.randint(1, high - 1)) for high in (_DRAW.randint(2, 9), _DRAW.randint(2, 9))]
+TIMINGS = [(1, 1), (2, 2), (2, 3), (5, 5)] + _LONG_HIGH + [(_DRAW.randint(1, 9), _DRAW.randint(1, 9)) for _ in range(2)]
 PATTERNS = {
     "a step wanted every tick": [True] * 40,
     "a step wanted every 3rd tick": [t % 3 == 0 for t in range(40)],
     "bursts of wanted steps": [t in (0, 1, 2, 3, 11, 12, 25) for t in range(40)],
-    "random wanted steps": [random.Random(7).random() < 0.4 for _ in range(60)],
+    "random wanted steps": [_DRAW.random() < 0.4 for _ in range(60)],
+    "random bursts and gaps": [_DRAW.random() < density for density in (0.9, 0.05, 0.6, 0.0, 0.3) for _ in range(25)],
 }
 COUNTER_RULE = ("while dunu > 0 the bit is 1 and both dunu and perioada count down; "
                 "else while perioada > 0 the bit is 0 and perioada counts down")
@@ -24,47 +32,48 @@ def lab():
     return load_target(__file__)
 
 
-def library_bits(high, low, requests, gen=None):
-    """What retrofit's StepGenerator (or ``gen``, shaped like it) puts on the wire for the wanted steps."""
-    gen = gen or StepGenerator(StepTiming(high, low))
-    bits, pending = [], 0
-    for wanted in requests:
-        bits.append(gen.frame()[0])
-        pending += int(wanted)
-        if pending and gen.start_step():
-            pending -= 1
+class PaperCounters:
+    """The paper's PasAvans and SetPasAvans, worked by the checks (to test timer_ticks on its own)."""
+
+    def __init__(self, high, low):
+        self.high, self.low, self.dunu, self.perioada = high, low, 0, 0
+
+    def pas_avans(self):
+        bit = int(self.dunu > 0)
+        if self.dunu > 0:
+            self.dunu -= 1
+        if self.perioada > 0:
+            self.perioada -= 1
+        return bit
+
+    def set_pas_avans(self):
+        if self.perioada:
+            return False
+        self.dunu, self.perioada = self.high, self.high + self.low
+        return True
+
+
+def paper_bits(high, low, requests, counters=None):
+    """The step bit of every tick when each tick runs PasAvans, then SetPasAvans while steps are wanted."""
+    counters, bits, owed = counters or PaperCounters(high, low), [], 0
+    for tick in range(len(requests)):
+        bits += [int(counters.pas_avans())]
+        owed += 1 if requests[tick] else 0
+        owed -= 1 if owed > 0 and counters.set_pas_avans() else 0
     return bits
 
 
-class StudentGenerator:
-    """The student's counters behind StepGenerator's names, so the same tick loop drives both."""
-
-    def __init__(self, counters):
-        self.counters = counters
-
-    def frame(self):
-        return (int(self.counters.pas_avans()),)
-
-    def start_step(self):
-        return self.counters.set_pas_avans()
-
-
 def counter_bits(lab, high, low, requests):
-    """The student's counters in the library's tick loop."""
-    return library_bits(high, low, requests, StudentGenerator(lab.PulseCounters(high, low)))
+    """The student's counters in the paper's tick loop."""
+    return paper_bits(high, low, requests, lab.PulseCounters(high, low))
 
 
-class LibraryCounters:
-    """StepGenerator behind the names of the lab's counters, to check timer_ticks on its own."""
-
-    def __init__(self, high, low):
-        self.gen = StepGenerator(StepTiming(high, low))
-
-    def pas_avans(self):
-        return self.gen.frame()[0]
-
-    def set_pas_avans(self):
-        return self.gen.start_step()
+def test_counters_are_your_own(lab):
+    """TODO 1, 2: PulseCounters counts with its own dunu and perioada, not retrofit's StepGenerator"""
+    places = borrowed(target_path(Path(__file__).parent), {"retrofit.motion.stepgen": set()})
+    expect(not places, "where your counters come from", expected="your own pas_avans and set_pas_avans",
+           got="retrofit's step generator: " + "; ".join(places),
+           hint="the lab is to write the two counters; write pas_avans and set_pas_avans yourself")
 
 
 def first_difference(got, want):
@@ -108,12 +117,12 @@ def test_no_step_while_a_pulse_is_in_progress(lab):
 
 @pytest.mark.parametrize("high,low", TIMINGS, ids=[f"high{h}-low{lo}" for h, lo in TIMINGS])
 def test_counters_equal_the_step_generator_tick_by_tick(lab, high, low):
-    """TODO 1, 2: tick by tick, your counters give the bits of retrofit's StepGenerator"""
+    """TODO 1, 2: tick by tick, your counters give the paper's bits, for the paper's and random timings"""
     for label, requests in PATTERNS.items():
-        got, want = counter_bits(lab, high, low, requests), library_bits(high, low, requests)
+        got, want = counter_bits(lab, high, low, requests), paper_bits(high, low, requests)
         t = first_difference(got, want)
-        expect(t is None, f"the step bit at tick {t} with pulse_high={high}, pulse_low={low}, {label}",
-               expected=f"{want[t] if t is not None else ''} (StepGenerator; ticks 0..{t}: {want[:t + 1 if t is not None else 0]})",
+        expect(t is None, f"the step bit at tick {t} with pulse_high={high}, pulse_low={low}, {label}; {seed_note()}",
+               expected=f"{want[t] if t is not None else ''} (ticks 0..{t}: {want[:t + 1 if t is not None else 0]})",
                got=f"{got[t] if t is not None else ''} (ticks 0..{t}: {got[:t + 1 if t is not None else 0]})",
                hint=COUNTER_RULE + "; a new pulse only when perioada == 0")
 
@@ -134,10 +143,11 @@ def paper_counters(high, low, requests):
     return states
 
 
-@pytest.mark.parametrize("high,low", TIMINGS[1:3], ids=[f"high{h}-low{lo}" for h, lo in TIMINGS[1:3]])
-def test_counter_values_tick_by_tick(lab, high, low):
+@pytest.mark.parametrize("high,low", TIMINGS[1:], ids=[f"high{h}-low{lo}" for h, lo in TIMINGS[1:]])
+@pytest.mark.parametrize("label", ["bursts of wanted steps", "random bursts and gaps"], ids=["bursts", "random"])
+def test_counter_values_tick_by_tick(lab, high, low, label):
     """TODO 1, 2: after every tick, dunu and perioada hold the paper's values"""
-    requests = PATTERNS["bursts of wanted steps"]
+    requests = PATTERNS[label]
     counters, pending = lab.PulseCounters(high, low), 0
     for t, want in enumerate(paper_counters(high, low, requests)):
         counters.pas_avans()
@@ -145,7 +155,7 @@ def test_counter_values_tick_by_tick(lab, high, low):
         if pending and counters.set_pas_avans():
             pending -= 1
         got = (counters.dunu, counters.perioada)
-        expect(got == want, f"dunu and perioada after tick {t}, pulse_high={high}, pulse_low={low}, bursts of wanted steps",
+        expect(got == want, f"dunu and perioada after tick {t}, pulse_high={high}, pulse_low={low}, {label}; {seed_note()}",
                expected=f"dunu {want[0]}, perioada {want[1]}", got=f"dunu {got[0]}, perioada {got[1]}",
                hint=COUNTER_RULE + "; a pulse starts with dunu = pulse_high, perioada = dunu + pulse_low")
 
@@ -164,19 +174,20 @@ def test_shortest_step_period_is_high_plus_low(lab):
 def test_timer_tick_order(lab):
     """TODO 3: timer_ticks runs PasAvans first, then SetPasAvans, and retries refused steps
 
-    Checked with retrofit's own counters behind your timer_ticks, so only TODO 3 is tested here.
+    Checked with the paper's counters, worked by the checks, behind your timer_ticks, so only TODO 3
+    is tested here.
     """
-    for high, low in TIMINGS[:3]:
+    for high, low in TIMINGS:
         for label, requests in PATTERNS.items():
-            got = [int(b) for b in lab.timer_ticks(LibraryCounters(high, low), requests)]
-            want = library_bits(high, low, requests)
+            got = [int(b) for b in lab.timer_ticks(PaperCounters(high, low), requests)]
+            want = paper_bits(high, low, requests)
             t = first_difference(got, want)
             if t is None and len(got) == len(want):
                 continue
             hint = ("one bit per tick: len(bits) == len(requests)" if len(got) != len(want) else
                     "each tick append pas_avans() first, then ask set_pas_avans(); keep a count of "
                     "wanted steps and ask again next tick when it says False")
-            expect(False, f"timer_ticks with pulse_high={high}, pulse_low={low}, {label}",
+            expect(False, f"timer_ticks with pulse_high={high}, pulse_low={low}, {label}; {seed_note()}",
                    expected=f"{len(want)} bits, tick {t}: {want[t] if t is not None else '-'}",
                    got=f"{len(got)} bits, tick {t}: {got[t] if t is not None and t < len(got) else '-'}",
                    hint=hint)

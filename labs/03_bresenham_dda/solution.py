@@ -14,11 +14,13 @@ _DRAW = random.Random(4)
 LINES = {"2:1": (8, 4), "3:2": (9, 6), "random": (_DRAW.randint(12, 30), _DRAW.randint(3, 11))}
 
 
-def bresenham_steps(dx: int, dy: int) -> list[tuple[int, int]]:
-    """Execute phase of 002's Bresenham for a move of (dx, dy) steps: the step of each axis per cycle.
+def bresenham_trace(dx: int, dy: int) -> list[tuple[int, int, int, int]]:
+    """Execute phase of 002's Bresenham for a move of (dx, dy) steps: each axis's step and error term per cycle.
 
     The base axis (the longer one) steps every cycle; the other steps when the ideal line is
-    more than half a step ahead of it. Each entry is (x step, y step), each -1, 0 or +1.
+    more than half a step ahead of it. Each entry is (x step, y step, x error term, y error term)
+    after the cycle: the steps -1, 0 or +1, the error terms as the handout counts them (starting
+    at 0, growing by 2|d| each cycle, dropping by 2n when the axis steps).
     """
     n = max(abs(dx), abs(dy))
     sx, sy = (dx > 0) - (dx < 0), (dy > 0) - (dy < 0)
@@ -34,8 +36,13 @@ def bresenham_steps(dx: int, dy: int) -> list[tuple[int, int]]:
         if error_y > n:
             error_y -= 2 * n
             step_y = sy
-        steps.append((step_x, step_y))
+        steps.append((step_x, step_y, error_x, error_y))
     return steps
+
+
+def bresenham_steps(dx: int, dy: int) -> list[tuple[int, int]]:
+    """The step of each axis per cycle, (x step, y step), from :func:`bresenham_trace`."""
+    return [(step_x, step_y) for step_x, step_y, *_ in bresenham_trace(dx, dy)]
 
 
 class DigitalIntegrator:

@@ -14,14 +14,21 @@ _DRAW = random.Random(4)
 LINES = {"2:1": (8, 4), "3:2": (9, 6), "random": (_DRAW.randint(12, 30), _DRAW.randint(3, 11))}
 
 
-def bresenham_steps(dx: int, dy: int) -> list[tuple[int, int]]:
-    """Execute phase of 002's Bresenham for a move of (dx, dy) steps: the step of each axis per cycle.
+def bresenham_trace(dx: int, dy: int) -> list[tuple[int, int, int, int]]:
+    """Execute phase of 002's Bresenham for a move of (dx, dy) steps: each axis's step and error term per cycle.
 
     The base axis (the longer one) steps every cycle; the other steps when the ideal line is
-    more than half a step ahead of it. Each entry is (x step, y step), each -1, 0 or +1.
+    more than half a step ahead of it. Each entry is (x step, y step, x error term, y error term)
+    after the cycle: the steps -1, 0 or +1, the error terms as the handout counts them (starting
+    at 0, growing by 2|d| each cycle, dropping by 2n when the axis steps).
     """
     # TODO 1 (README, task 1; do this one or TODO 2, or both): the hints there open one at a time.
-    raise NotImplementedError("TODO 1: write bresenham_steps(dx, dy): the steps of every cycle")
+    raise NotImplementedError("TODO 1: write bresenham_trace(dx, dy): the steps and error terms of every cycle")
+
+
+def bresenham_steps(dx: int, dy: int) -> list[tuple[int, int]]:
+    """The step of each axis per cycle, (x step, y step), from :func:`bresenham_trace`."""
+    return [(step_x, step_y) for step_x, step_y, *_ in bresenham_trace(dx, dy)]
 
 
 class DigitalIntegrator:

@@ -1,4 +1,12 @@
-"""Checks of lab 06 (threading): run with `retrofit lab check 06`, or pytest on this file."""
+"""Checks of lab 06 (threading): run with `retrofit lab check 06`, or pytest on this file.
+
+Besides the lab's thread, cut here through the controller, the checks draw passes at random
+(seeded: RETROFIT_CHECK_SEED draws them again): any start, pitch and turn, samples at irregular
+angles, lead-ins that creep off the start rather than rest exactly on it, motors that start
+anywhere. The expected values are worked here.
+"""
+
+import math
 
 import numpy as np
 import pytest
@@ -7,6 +15,7 @@ from retrofit.commands import IStp, Spin
 from retrofit.config import load_machine
 from retrofit.controller.program import run_commands
 from retrofit.gcode import compile_program
+from retrofit.labcheck import cases, seed_note
 from retrofit.labs import expect, load_target
 from retrofit.sim import SimMachine
 
@@ -65,6 +74,35 @@ def test_split_passes_on_a_short_list(lab):
                     "first: start); a new pass begins at each such step that follows a step the other way")
 
 
+def split_reference(motor, start):
+    """Every run of steps towards -Z, worked by the checks."""
+    groups, previous, last_down = [], start, False
+    for i, steps in enumerate(motor):
+        down = steps < previous
+        if down and not last_down:
+            groups.append([])
+        if down:
+            groups[-1].append(i)
+        last_down, previous = down, steps
+    return groups
+
+
+def test_split_passes_random_motors(lab):
+    """TODO 1: split_passes on random motor paths that start anywhere"""
+    rng = cases("06 split passes")
+    for _ in range(40):
+        start = rng.randint(-500, 500)
+        motor, at = [], start
+        for _ in range(rng.randint(0, 40)):
+            at += rng.choice([-1, -1, 1, 1, 0]) if rng.random() < 0.8 else rng.choice([-3, 2])
+            motor.append(at)
+        got = [list(map(int, g)) for g in lab.split_passes(motor, start)]
+        want = split_reference(motor, start)
+        expect(got == want, f"split_passes({motor}, start={start}); {seed_note()}", expected=want, got=got,
+               hint="a step is towards -Z when the motor's position is below the one before it (before the first: "
+                    "start, whatever it is); a new pass begins at each such step that follows a step the other way")
+
+
 def synthetic_pass(n, z_start, pitch, offset, lead_in, samples=60):
     """A pass on the helix z = z_start - pitch (revs - n), ``offset`` of a turn late, still at the start
     for its first ``lead_in`` samples (the lead-in, off the helix)."""
@@ -105,6 +143,54 @@ def test_advance_per_rev(lab):
            expected="[1.9, 2.1] (positive, one per whole revolution between the first and last sample)",
            got=np.round(got, 6).tolist(), hint="np.interp the carriage at every whole revolution, then the "
                                                "differences, sign turned so that the advance is positive")
+
+
+def random_pass(rng):
+    """A pass at random: the helix through z_start at turn n + offset, irregular angles, a lead-in that
+    creeps off the start (the carriage speeding up: behind the helix, not resting on z_start)."""
+    n, z_start, pitch = rng.randint(1, 60), round(rng.uniform(-8.0, 12.0), 3), round(rng.uniform(0.4, 4.0), 3)
+    offset, samples = rng.uniform(-0.45, 0.45), rng.randint(30, 150)
+    first = n + offset + rng.uniform(-0.1, 0.05)
+    revs = np.sort(first + np.cumsum([rng.uniform(0.02, 0.3) for _ in range(samples)]))
+    helix = z_start - pitch * (revs - n - offset)
+    lead = rng.randint(0, samples * 2 // 5)
+    creep = np.array([(k / max(lead, 1)) ** 2 for k in range(lead)])
+    z = helix.copy()
+    z[:lead] = np.minimum(z_start, z_start + creep * (helix[:lead] - z_start) * rng.uniform(0.2, 0.9))
+    return n, z_start, pitch, offset, lead, z, revs
+
+
+def test_sync_revolution_random_passes(lab):
+    """TODO 3: sync_revolution on random passes: any start, pitch and turn, lead-ins that creep off the start"""
+    rng = cases("06 sync")
+    for _ in range(60):
+        n, z_start, pitch, offset, lead, z, revs = random_pass(rng)
+        got = lab.sync_revolution(z, revs, z_start, pitch)
+        expect(got == n and isinstance(got, (int, np.integer)),
+               f"sync_revolution on a helix through {z_start:g} mm at turn {n + offset:.3f} (pitch {pitch:g} mm), "
+               f"{len(z)} samples at irregular angles, the first {lead} on a lead-in off the helix; {seed_note()}",
+               expected=f"{n} (an int: the median of revs + (z - z_start) / pitch, rounded to the nearest turn)",
+               got=repr(got), hint="the median keeps the lead-in from pulling the estimate, whatever the lead-in does; "
+                                   "round to the nearest whole revolution; use the z_start and pitch you are given")
+
+
+def test_advance_per_rev_random(lab):
+    """TODO 4: advance_per_rev on random passes: irregular angles, first samples on or off a whole turn"""
+    rng = cases("06 advance")
+    for k in range(30):
+        pitch = round(rng.uniform(0.4, 4.0), 3)
+        first = rng.randint(0, 30) + (0.0 if k % 3 == 0 else rng.uniform(0.01, 0.99))
+        revs = first + np.concatenate([[0.0], np.cumsum([rng.uniform(0.05, 0.6) for _ in range(rng.randint(3, 40))])])
+        z = rng.uniform(-5, 5) - pitch * revs + np.array([rng.uniform(-0.01, 0.01) for _ in revs])
+        whole = np.arange(math.ceil(revs[0]), math.floor(revs[-1]) + 1)
+        want = -np.diff(np.interp(whole, revs, z))
+        got = np.asarray(lab.advance_per_rev(z, revs), float)
+        ok = got.shape == want.shape and np.allclose(got, want, atol=1e-9)
+        expect(ok, f"advance_per_rev on a pass from turn {revs[0]:.3f} to {revs[-1]:.3f}, pitch {pitch:g}; {seed_note()}",
+               expected=f"{np.round(want, 4).tolist()} (one per whole revolution from the first whole one at or after "
+                        "the first sample to the last at or before the last)", got=np.round(got, 4).tolist(),
+               hint="np.interp the carriage at every whole revolution from ceil(first) to floor(last), then the "
+                    "differences, sign turned so that the advance is positive")
 
 
 def test_split_passes_finds_every_pass(lab, cut):

@@ -1,13 +1,21 @@
-"""Checks of lab 07 (position-loop tuning): run with `retrofit lab check 07`, or pytest on this file."""
+"""Checks of lab 07 (position-loop tuning): run with `retrofit lab check 07`, or pytest on this file.
+
+Besides the mill's own step responses, the checks draw cases at random (seeded: RETROFIT_CHECK_SEED
+draws them again): steps up and down of any size that come at any sample, samples at irregular
+times that do not start at 0, set-points that change, bands and gain tables of any kind. The
+expected values are worked here, never by the library's own comparison.
+"""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from retrofit.camlink.model import step_comparison
 from retrofit.config import load_machine
-from retrofit.labs import expect, load_target
+from retrofit.labcheck import borrowed, cases, seed_note
+from retrofit.labs import expect, load_target, target_path
 
 
 @pytest.fixture(scope="module")
@@ -46,9 +54,53 @@ def test_overshoot(lab, mill):
                got=f"{got:g}", hint="100 * (peak - step) / step, the step being the last set-point; never below "
                                     "0; a step down peaks at its minimum")
     c = step_comparison(mill, "X", 0.2, 200)
-    got = float(lab.overshoot_percent(c.setpoint, c.sim))
-    expect(abs(got - 100 * c.overshoot("sim")) < 1e-9, "overshoot_percent on the simulated 0.2 mm step, kp 0.5",
-           expected=f"{100 * c.overshoot('sim'):.2f} %", got=f"{got:.2f}")
+    got, want = float(lab.overshoot_percent(c.setpoint, c.sim)), overshoot_reference(c.setpoint, c.sim)
+    expect(abs(got - want) < 1e-9, "overshoot_percent on the simulated 0.2 mm step, kp 0.5",
+           expected=f"{want:.2f} %", got=f"{got:.2f}")
+
+
+def overshoot_reference(setpoint, position):
+    """Overshoot worked by the checks: past the last set-point, in per cent of it, never below 0."""
+    step = float(setpoint[-1])
+    beyond = max((float(y) - step) * (1 if step > 0 else -1) for y in position)
+    return max(0.0, 100.0 * beyond / abs(step))
+
+
+def settling_reference(t_s, setpoint, position, band):
+    """Settling time worked by the checks: the sample after the last one outside the band, in ms."""
+    step = abs(float(setpoint[-1]))
+    last = max((i for i in range(len(position)) if abs(float(setpoint[i]) - float(position[i])) > band * step),
+               default=None)
+    if last is None:
+        return 0.0
+    return math.inf if last == len(position) - 1 else float(t_s[last + 1]) * 1000.0
+
+
+def random_response(rng, samples):
+    """A step from 0 that comes at a random sample, to a random level up or down, and a response to it
+    (the set-point may change on the way: a first level, then the step)."""
+    level = rng.choice([-1, 1]) * round(rng.uniform(5.0, 900.0), rng.choice([0, 2]))
+    at = rng.randint(0, samples // 3)
+    setpoint = [0.0] * at + [level * (rng.uniform(0.3, 0.8) if rng.random() < 0.4 and k < at + 3 else 1.0)
+                             for k in range(at, samples)]
+    gain, wiggle = rng.uniform(0.15, 0.7), rng.uniform(0.0, 0.35)
+    position, y = [], 0.0
+    for k in range(samples):
+        y += gain * (setpoint[k] - y) + (wiggle * level * math.sin(k) * rng.random() if k < samples - 6 else 0.0)
+        position.append(round(y, 3))
+    return setpoint, position
+
+
+def test_overshoot_random_steps(lab):
+    """TODO 2: overshoot of random steps, up and down, of any size, coming at any sample"""
+    rng = cases("07 overshoot")
+    for _ in range(40):
+        setpoint, position = random_response(rng, rng.randint(6, 40))
+        got, want = float(lab.overshoot_percent(setpoint, position)), overshoot_reference(setpoint, position)
+        expect(abs(got - want) < 1e-9, f"overshoot_percent({setpoint}, {position}); {seed_note()}"[:900],
+               expected=f"{want:g} %", got=f"{got:g}",
+               hint="the step is the last set-point (the one the response settles to), up or down; the peak is "
+                    "the furthest the response goes past it; in per cent of the step, never below 0")
 
 
 def test_settling_time(lab):
@@ -65,6 +117,58 @@ def test_settling_time(lab):
                expected=f"{want:g} ms", got=f"{got:g}",
                hint="the sample after the last one outside the band, t_s in seconds -> ms; math.inf if "
                     "the last sample is outside; 0 if none is")
+
+
+def test_settling_time_random(lab):
+    """TODO 3: settling time on samples at irregular times, not from 0, set-points that change, any band"""
+    rng = cases("07 settling")
+    for _ in range(40):
+        samples = rng.randint(5, 40)
+        setpoint, position = random_response(rng, samples)
+        t0 = rng.choice([0.0, round(rng.uniform(0.001, 3.0), 4)])
+        t_s = np.cumsum([t0] + [rng.uniform(0.0002, 0.004) for _ in range(samples - 1)])
+        band = rng.choice([0.02, 0.05, round(rng.uniform(0.005, 0.2), 3)])
+        got, want = float(lab.settling_time_ms(t_s, setpoint, position, band)), settling_reference(t_s, setpoint,
+                                                                                                  position, band)
+        expect(got == want or abs(got - want) < 1e-9,
+               f"settling_time_ms(t_s {np.round(t_s, 5).tolist()}, set-points {setpoint}, positions {position}, "
+               f"band {band:g}); {seed_note()}"[:1200], expected=f"{want:g} ms", got=f"{got:g}",
+               hint="the time t_s (seconds, as given: not 1 ms apart, not from 0) of the sample after the last one "
+                    "farther than band x |step| from its own set-point, in ms; math.inf if the last sample is "
+                    "outside; 0 if none is")
+
+
+def best_reference(metrics, allowed):
+    kept = [(settle, kp) for kp, (over, settle) in metrics.items() if over <= allowed]
+    return min(kept)[1]
+
+
+def test_best_gain_random_tables(lab):
+    """TODO 4: the best gain of random tables: overshoot within what is allowed, soonest settled, ties to the smaller"""
+    rng = cases("07 best gain")
+    for _ in range(40):
+        gains = sorted(rng.sample([round(0.05 * k, 2) for k in range(1, 60)], rng.randint(2, 8)))
+        rng.shuffle(gains)
+        settles = [round(rng.uniform(10.0, 200.0)) for _ in range(3)] + [math.inf]
+        metrics = {kp: (round(rng.uniform(0.0, 20.0), 1), rng.choice(settles)) for kp in gains}
+        allowed = rng.choice([5.0, 10.0, round(rng.uniform(1.0, 15.0), 1)])
+        first = gains[0]
+        metrics[first] = (min(metrics[first][0], allowed), metrics[first][1] if metrics[first][1] < math.inf else 99.0)
+        want, got = best_reference(metrics, allowed), lab.best_gain(metrics, allowed)
+        table = ", ".join(f"{kp}: ({o:g} %, {s:g} ms)" for kp, (o, s) in metrics.items())
+        expect(got == want, f"best_gain({{{table}}}, max_overshoot={allowed:g}); {seed_note()}", expected=repr(want),
+               got=repr(got), hint="keep the gains whose overshoot is at most max_overshoot; of those, the one that "
+                                   "settles soonest (the smaller gain on a tie); the table is in no particular order")
+
+
+def test_analysis_is_your_own(lab):
+    """TODO 2, 3: overshoot and settling time are worked out by you, not by the library's comparison"""
+    places = borrowed(target_path(Path(__file__).parent), {"retrofit.camlink.model": set(), "retrofit.camlink": set()},
+                      within={"overshoot_percent", "settling_time_ms", "best_gain"},
+                      methods=frozenset({"overshoot", "following_error"}))
+    expect(not places, "how your overshoot_percent and settling_time_ms get their figures",
+           expected="from the set-points and positions you are given", got="the library's own: " + "; ".join(places),
+           hint="the lab is to write them: the peak past the last set-point; the last sample outside the band")
 
 
 BEST_GAIN_CASES = [
@@ -95,7 +199,7 @@ def test_chosen_gain_is_good_in_the_simulation(lab, mill):
     sim = lab.metrics_of(runs, "sim")
     best = lab.best_gain(sim)
     c = step_comparison(lab.with_gains(mill, best), "X", 0.2, 300)
-    over = 100 * max(c.overshoot("sim"), 0.0)
+    over = overshoot_reference(c.setpoint, c.sim)
     settled = np.abs(c.setpoint - c.sim)[-50:].max() <= 0.02 * 200
     expect(over <= 5.0 + 1e-9 and settled, f"the simulated step with your best gain kp = {best}",
            expected="overshoot at most 5 % and within 2 % of the step over the last 50 ms",
@@ -105,6 +209,6 @@ def test_chosen_gain_is_good_in_the_simulation(lab, mill):
 def test_model_agrees_with_simulation(lab, mill):
     """With the shipped gain, the python-control model and the simulation overshoot alike (within 3 points)"""
     c = step_comparison(lab.with_gains(mill, 0.5), "X", 0.2, 200)
-    model, sim = 100 * c.overshoot("model"), 100 * c.overshoot("sim")
+    model, sim = overshoot_reference(c.setpoint, c.model), overshoot_reference(c.setpoint, c.sim)
     expect(abs(model - sim) <= 3.0, "overshoot of model and simulation at kp 0.5", expected="within 3 points",
            got=f"model {model:.1f} %, simulation {sim:.1f} %")

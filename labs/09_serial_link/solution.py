@@ -10,7 +10,7 @@ from retrofit.commands import PMov
 from retrofit.config import load_machine
 from retrofit.labs import pyplot, save_figure
 from retrofit.link import DeviceEndpoint, Frame, FrameDecoder, HostEndpoint, crc32
-from retrofit.link.framing import ESC, ESC_XOR, SOF
+from retrofit.link.framing import BadFrame, ESC, ESC_XOR, SOF
 from retrofit.link.simwire import FaultyWire, LinkBench
 
 MACHINE = "chivu-lathe"
@@ -48,17 +48,27 @@ def count_wrong(sent: list[bytes], received: list[bytes]) -> int:
     return sum(a != b for a, b in zip(sent, received))
 
 
-def crc_catches(seq: int, payload: bytes) -> tuple[int, int]:
-    """Flip every bit of the frame, one at a time: (flips the receiver refused, flips tried)."""
+def refusals(seq: int, payload: bytes) -> dict[str, int]:
+    """Flip every bit of the frame, one at a time, and give each damaged frame (then a SOF) to a fresh
+    ``FrameDecoder``: of the flips it refused, how many for each reason (``BadFrame.reason``: length,
+    crc, escape, truncated; ``lost`` when it gave no frame at all). A flip is refused when the decoder
+    does not hand back ``Frame(seq, payload)``.
+    """
     good = frame(seq, payload)
-    caught = 0
+    counts: dict[str, int] = {}
     for bit in range(8 * len(good)):
         damaged = bytearray(good)
         damaged[bit // 8] ^= 1 << (bit % 8)
         events = FrameDecoder().feed(bytes(damaged) + bytes((SOF,)))
         if Frame(seq, payload) not in events:
-            caught += 1
-    return caught, 8 * len(good)
+            reason = next((e.reason for e in events if isinstance(e, BadFrame)), "lost")
+            counts[reason] = counts.get(reason, 0) + 1
+    return counts
+
+
+def crc_catches(seq: int, payload: bytes) -> tuple[int, int]:
+    """(single-bit flips the receiver refused, flips tried), from :func:`refusals`."""
+    return sum(refusals(seq, payload).values()), 8 * len(frame(seq, payload))
 
 
 def run_protocol(commands: list, flip: float, seed: int = 1):

@@ -10,7 +10,7 @@ from retrofit.commands import PMov
 from retrofit.config import load_machine
 from retrofit.labs import pyplot, save_figure
 from retrofit.link import DeviceEndpoint, Frame, FrameDecoder, HostEndpoint, crc32
-from retrofit.link.framing import ESC, ESC_XOR, SOF
+from retrofit.link.framing import BadFrame, ESC, ESC_XOR, SOF
 from retrofit.link.simwire import FaultyWire, LinkBench
 
 MACHINE = "chivu-lathe"
@@ -41,11 +41,20 @@ def count_wrong(sent: list[bytes], received: list[bytes]) -> int:
     # TODO 3: compare command by command.
     raise NotImplementedError("TODO 3: write count_wrong(sent, received): commands that arrived changed")
 
-def crc_catches(seq: int, payload: bytes) -> tuple[int, int]:
-    """Flip every bit of the frame, one at a time: (flips the receiver refused, flips tried)."""
+def refusals(seq: int, payload: bytes) -> dict[str, int]:
+    """Flip every bit of the frame, one at a time, and give each damaged frame (then a SOF) to a fresh
+    ``FrameDecoder``: of the flips it refused, how many for each reason (``BadFrame.reason``: length,
+    crc, escape, truncated; ``lost`` when it gave no frame at all). A flip is refused when the decoder
+    does not hand back ``Frame(seq, payload)``.
+    """
     # TODO 4 (README, task 4): damage one bit at a time and give each damaged frame to a new
-    # FrameDecoder; when is a flip caught?
-    raise NotImplementedError("TODO 4: write crc_catches(seq, payload): single-bit flips refused, flips tried")
+    # FrameDecoder; when is a flip refused, and for what reason?
+    raise NotImplementedError("TODO 4: write refusals(seq, payload): single-bit flips refused, by reason")
+
+
+def crc_catches(seq: int, payload: bytes) -> tuple[int, int]:
+    """(single-bit flips the receiver refused, flips tried), from :func:`refusals`."""
+    return sum(refusals(seq, payload).values()), 8 * len(frame(seq, payload))
 
 def run_protocol(commands: list, flip: float, seed: int = 1):
     """With the protocol: send ``commands`` over two noisy wires; (commands delivered, host stats)."""

@@ -40,8 +40,12 @@ class State:
 
 
 def parse_words(line: str) -> list[tuple[str, float]]:
-    """The words of a block: ``"G1 X10 F200"`` -> [("G", 1.0), ("X", 10.0), ("F", 200.0)]."""
-    return [(letter, float(value)) for letter, value in _WORD.findall(line.upper())]
+    """The words of a block: ``"G1 X10 F200"`` -> [("G", 1.0), ("X", 10.0), ("F", 200.0)].
+
+    Any case; spaces and tabs anywhere, even inside a number (RS274NGC ignores them: ``x1 0.5`` is X10.5).
+    """
+    block = "".join(line.upper().split())
+    return [(letter, float(value)) for letter, value in _WORD.findall(block)]
 
 
 def target(state: State, words: dict[str, float]) -> tuple[float, float, float]:

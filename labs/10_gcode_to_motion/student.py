@@ -40,7 +40,10 @@ class State:
 
 
 def parse_words(line: str) -> list[tuple[str, float]]:
-    """The words of a block: ``"G1 X10 F200"`` -> [("G", 1.0), ("X", 10.0), ("F", 200.0)]."""
+    """The words of a block: ``"G1 X10 F200"`` -> [("G", 1.0), ("X", 10.0), ("F", 200.0)].
+
+    Any case; spaces and tabs anywhere, even inside a number (RS274NGC ignores them: ``x1 0.5`` is X10.5).
+    """
     # TODO 1 (README, task 1): a letter, then a number (maybe signed, maybe with a point).
     raise NotImplementedError("TODO 1: write parse_words(line): the (letter, value) words of a block")
 

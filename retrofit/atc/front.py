@@ -9,7 +9,8 @@ a device: before planning, :func:`expand_host_commands` replaces each one.
   The sequence's positions are the machine's; when the program has shifted its coordinates
   (PSTN: G92, G43) they are expressed in the program's. After the change the axes go back
   (one rapid move) to where the program left them, so the program goes on from where it was.
-- Elsewhere ``TOOL Tn`` becomes a manual change: a pause (``PAUS M6``) for the operator.
+- Elsewhere ``TOOL Tn`` becomes a manual change: a pause (``PAUS M6``) for the operator; none
+  when Tn is already in the spindle (T1 -> T1 is no change).
 - Every pause is a :class:`HostEvent` the run records (``sim://``) or waits on (a real output).
 """
 
@@ -74,6 +75,8 @@ def expand_host_commands(program, machine: Machine, spindle_tool: int = 0) -> Ex
             spinning = cmd.direction != 0 and cmd.rpm > 0
         if isinstance(cmd, Tool) and atc is not None:
             spinning = _auto_change(out, atc, machine, cmd.number, line, spinning, frame)
+        elif isinstance(cmd, Tool) and cmd.number == out.end_tool:
+            continue                                  # the tool asked for is in the spindle: no change
         elif isinstance(cmd, Tool):
             says = f"{PAUSE_REASONS[6]}: put T{cmd.number} in the spindle" if cmd.number else \
                 f"{PAUSE_REASONS[6]}: take the tool out of the spindle"

@@ -3,7 +3,8 @@
 Each module ``retrofit/cli/<name>.py`` has ``add_commands(subparsers)`` and imports heavy
 libraries only inside its command functions, so building the parser stays cheap. Exit codes of
 every command: 0 done, 1 ran and the simulated machine reported violations, 2 refused input or
-an output that cannot be used, 130 interrupted (Ctrl-C).
+an output that cannot be used, 130 interrupted (Ctrl-C), 128 + n stopped by signal n (129
+SIGHUP, 143 SIGTERM: :mod:`retrofit.failsafe`).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from importlib import import_module
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from ..errors import RetrofitError
+from ..failsafe import Terminated
 
 #: modules of this package that are not sub-command groups
 _NOT_COMMANDS = {"__main__"}
@@ -71,19 +73,24 @@ def _deliver_ctrl_c(unraisable) -> None:
     """A Ctrl-C that lands while a finalizer or weak-reference callback runs is not lost: Python
     would print it as "Exception ignored" and carry on; it is raised again at the next Python call
     the command makes (raised inside this hook, it would be ignored again)."""
-    if issubclass(unraisable.exc_type, KeyboardInterrupt):
+    from ..failsafe import Terminated
+    if issubclass(unraisable.exc_type, (KeyboardInterrupt, Terminated)):
+        _LOST.append(unraisable.exc_value or unraisable.exc_type())
         sys.settrace(_raise_ctrl_c)
     else:
         sys.__unraisablehook__(unraisable)
 
 
+#: a Ctrl-C or an ending signal kept from a finalizer, to raise again
+_LOST: list[BaseException] = []
+
+
 def _raise_ctrl_c(frame, event, arg):
     sys.settrace(None)
-    raise KeyboardInterrupt
+    raise _LOST.pop() if _LOST else KeyboardInterrupt
 
 
 def _command(argv: list[str] | None) -> int:
-    from ..atomic import not_written
     try:
         parser = _parser()
         args = parser.parse_args(argv)
@@ -97,18 +104,29 @@ def _command(argv: list[str] | None) -> int:
     except KeyboardInterrupt:
         import signal
         signal.signal(signal.SIGINT, signal.SIG_IGN)      # one Ctrl-C ends the run, quietly
-        from ..atomic import PLANNED, WRITTEN
-        lost = ", ".join(str(p) for p in not_written())
-        if lost:
-            lost = f"; not written: {lost}"
-        elif not PLANNED and not WRITTEN:          # before the command knew its files
-            lost = "; nothing was written"
-        print(f"retrofit: interrupted{lost}", file=sys.stderr)
+        _say_stopped("interrupted")
         return 130
+    except Terminated as exc:                 # SIGHUP, SIGTERM: the outputs are safe already
+        _say_stopped(f"stopped by {exc.name}")
+        return exc.exit_code
     except BrokenPipeError:                # output piped into `head` and the reader went away
         import os
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
+
+
+def _say_stopped(what: str) -> None:
+    """One line: the command was stopped, and which of its files were not written."""
+    from ..atomic import PLANNED, WRITTEN, not_written
+    lost = ", ".join(str(p) for p in not_written())
+    if lost:
+        lost = f"; not written: {lost}"
+    elif not PLANNED and not WRITTEN:          # before the command knew its files
+        lost = "; nothing was written"
+    try:
+        print(f"retrofit: {what}{lost}", file=sys.stderr, flush=True)
+    except OSError:                            # SIGHUP: the terminal may be gone
+        pass
 
 
 def _parser() -> argparse.ArgumentParser:

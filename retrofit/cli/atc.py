@@ -1,9 +1,11 @@
 """Utilities of the mill with the tool changer: ``retrofit tool`` and ``retrofit setter``.
 
 Each runs on the simulated machine (``sim://``), which starts at home with the tools where the
-spindle record says they are, and each reads and updates the same records as ``retrofit run``:
-the tool table (``tool.tbl`` next to the machine file, or ``--tool-table``) and the spindle
-record beside it (:func:`retrofit.atc.state.state_paths`). Part programs run with
+simulated spindle's record says they are, or on the controller at the far end of a serial link
+(``--output``), with the machine's record; each reads and updates the same records as
+``retrofit run`` in the machine's state folder (:mod:`retrofit.atc.state`): the tool table and
+the spindle record. On a machine without a tool changer ``retrofit tool`` shows the record and
+``--recover`` sets it (tools are changed by hand). Part programs run with
 ``retrofit run PROGRAM --machine tul-mill``.
 """
 
@@ -41,8 +43,8 @@ def _common(p) -> None:
                         "controller on the serial link (serial:///dev/ttyACM0, serial+socket://HOST:PORT, "
                         "e.g. the firmware in retrofit firmware sim); it starts with INIT at home")
     p.add_argument("--tool-table", metavar="FILE.tbl",
-                   help="LinuxCNC tool table (default: next to the machine file; for a shipped "
-                        "machine NAME.tbl in the current folder); the spindle record is beside it")
+                   help="LinuxCNC tool table (default: in the machine's state folder, see "
+                        "docs/atc.md); the spindle record stays in the state folder")
 
 
 def _tool_number(text: str) -> int:
@@ -59,21 +61,19 @@ class _Mill:
         from ..atc.cell import SimCell
         from ..atc.changer import ToolChanger
         from ..atc.magazine import MagazineState
-        from ..atc.state import SpindleStore
+        from ..atc.state import spindle_store
         from ..atc.tooltable import ToolTableStore
         from ..config import load_machine
         self.machine = load_machine(args.machine)
-        from ..atc.state import state_paths
-        name = self.machine.name
-        tbl, spindle = state_paths(self.machine, args.tool_table)
-        atc = self.machine.parts.get("atc")
-        self.store = SpindleStore(name, spindle, getattr(atc, "pockets", None))
-        self.tables = ToolTableStore(name, tbl.with_name(f"{tbl.stem}.setter.json"), tbl)
+        self.url = getattr(args, "output", None) or "sim://"
+        tbl, self.store = spindle_store(self.machine, args.machine, [self.url], args.tool_table)
+        self.tables = ToolTableStore(self.machine.name, tbl.with_name(f"{tbl.stem}.setter.json"), tbl)
+        self.output = self.changer = self._cell = None
+        if not self.store.changer:                 # tools changed by hand: only the record
+            return
         recover = getattr(args, "recover", False)
         self.changer = ToolChanger(self.machine, self.store, read_record=not recover)
         tool = _tool_number(args.tool) if recover and args.tool else self.changer.spindle_tool
-        self.output = None
-        self.url = getattr(args, "output", None) or "sim://"
         self._cell = (SimCell(self.machine, MagazineState.loaded(self.machine, tool or 0))
                       if self.url.split("://")[0] == "sim" else None)
 
@@ -117,24 +117,22 @@ class _Mill:
 def cmd_tool(args) -> int:
     """``retrofit tool [Tn] [--recover]``."""
     if args.recover and args.tool is None:
-        raise RetrofitError("--recover needs the tool you see in the spindle, e.g. retrofit tool T3 --recover")
-    mill = _Mill(args)
-    try:
-        return _tool(args, mill)
-    finally:
-        mill.close()
+        import shlex
+        raise RetrofitError("--recover needs the tool you see in the spindle, e.g. retrofit tool T3 "
+                            f"--recover --machine {shlex.quote(args.machine)}")
+    return _on_mill(args, _tool)
 
 
 def _tool(args, mill) -> int:
+    if mill.changer is None:
+        return _manual_tool(args, mill)
     if args.recover:
         seen = _tool_number(args.tool)
         steps = mill.changer.recover(seen, mill.cell)
         _print_steps(f"{mill.machine.name}: recovery with T{seen} in the spindle", steps)
         return mill.finish()
     if args.tool is None:
-        tool = mill.changer.spindle_tool
-        print(f"{mill.machine.name}: {'T%d' % tool if tool else 'no tool'} in the spindle "
-              f"(record {mill.store.path})")
+        _print_spindle(mill, mill.changer.spindle_tool)
         return 0
     seq = mill.changer.change(_tool_number(args.tool), mill.cell)
     title = {0: "already in the spindle, nothing to do", 1: "condition 1: pick",
@@ -143,17 +141,34 @@ def _tool(args, mill) -> int:
     return mill.finish()
 
 
+def _manual_tool(args, mill) -> int:
+    """A machine whose tools are changed by hand: show the record, or set it (--recover)."""
+    if args.tool is not None and not args.recover:
+        tool = _tool_number(args.tool)
+        raise RetrofitError(f"{mill.machine.name} has no tool changer (no [atc] section in "
+                            f"{mill.machine.source}): put T{tool} in the spindle by hand, then record "
+                            f"it with: retrofit tool T{tool} --recover {mill.store.recover}")
+    if args.recover:
+        mill.store.save(_tool_number(args.tool))
+    _print_spindle(mill, mill.store.load())
+    return 0
+
+
+def _print_spindle(mill, tool: int) -> None:
+    which = "" if mill.store.real else " (simulated)"
+    print(f"{mill.machine.name}: {'T%d' % tool if tool else 'no tool'} in the spindle{which} "
+          f"(record {mill.store.path})")
+
+
 def cmd_setter(args) -> int:
     """``retrofit setter reference | measure T.. | table``."""
-    mill = _Mill(args)
-    try:
-        return _setter(args, mill)
-    finally:
-        mill.close()
+    return _on_mill(args, _setter)
 
 
 def _setter(args, mill) -> int:
     from ..atc.measure import ToolSetter
+    from ..atc.settings import atc_of
+    atc_of(mill.machine)                   # the setter's tools are changed by the changer
     table = mill.tables.load()
     setter = ToolSetter(mill.machine, table)
     name = mill.machine.name
@@ -176,6 +191,22 @@ def _setter(args, mill) -> int:
         _print_table(name, table, mill.tables.path)
         return 0
     return mill.finish()
+
+
+def _on_mill(args, command) -> int:
+    """``command(args, mill)`` on the mill; an error or a stop (Ctrl-C, SIGHUP, SIGTERM) puts the
+    link's output in a safe state before anything else."""
+    from ..failsafe import signals_raise
+    with signals_raise():
+        mill = _Mill(args)
+        try:
+            return command(args, mill)
+        except BaseException:
+            if mill.output is not None:
+                mill.output.safe_stop()
+            raise
+        finally:
+            mill.close()
 
 
 def _print_steps(title: str, steps) -> None:

@@ -8,6 +8,8 @@ from ..errors import RetrofitError
 
 #: how much a console that drives only sim:// lowers its own priority
 CONSOLE_NICENESS = 10
+#: how long the server waits for open requests when it ends (s); the outputs are safe before
+SHUTDOWN_S = 5
 
 
 def add_commands(sub) -> None:
@@ -16,8 +18,13 @@ def add_commands(sub) -> None:
     c.add_argument("--machine", default="chivu-lathe", help="shipped machine name or path to a .toml file")
     c.add_argument("--output", action="append", metavar="URL",
                    help="where the port frames go besides sim:// (repeatable); see 'retrofit outputs'")
+    c.add_argument("--programs", metavar="DIR", help="folder whose programs the page may open (besides "
+                                                     "the shipped examples)")
     c.add_argument("--listen", default="127.0.0.1:8080", metavar="HOST:PORT",
                    help="address the page is served on (default 127.0.0.1:8080)")
+    c.add_argument("--allow-remote", action="store_true",
+                   help="allow a --listen address other computers reach (anyone with the printed "
+                        "address, token included, can then move the machine)")
     c.add_argument("--no-backlash-comp", action="store_true", help="turn backlash compensation off")
     c.set_defaults(func=cmd_console)
 
@@ -35,17 +42,51 @@ def listen_address(text: str) -> tuple[str, int]:
 
 
 def cmd_console(args) -> int:
+    import secrets
+    import sys
+
     import uvicorn
     from ..config import load_machine
-    from ..console.server import Console, create_app
-    from ..outputs import OutputURL, output_class
+    from ..console.guard import is_loopback
+    from ..console.api import create_app
+    from ..console.server import Console
     host, port = listen_address(args.listen)
+    remote = not is_loopback(host)
+    if remote and not args.allow_remote:
+        raise RetrofitError(f"--listen {args.listen}: not a loopback address; other computers could move the "
+                            "machine. Add --allow-remote if that is meant (read docs/console.md first)")
     machine = load_machine(args.machine)
-    for url in args.output or []:
-        output_class(OutputURL.parse(url).scheme)          # an unknown output fails here, not mid-run
-    console = Console(machine, args.output, backlash_comp=not args.no_backlash_comp)
+    console = Console(machine, args.output, backlash_comp=not args.no_backlash_comp, programs=args.programs)
     if not console.output_urls and hasattr(os, "nice"):
         os.nice(CONSOLE_NICENESS)     # only sim://: a paced port loop on this computer goes first
-    print(f"retrofit console for {machine.name}: http://{host}:{port}/  (Ctrl-C ends it)", flush=True)
-    uvicorn.run(create_app(console), host=host, port=port, log_level="warning")
+    token = secrets.token_urlsafe(24)
+    if remote:
+        print(f"retrofit console: WARNING: serving on {host}:{port}, reachable from other computers; whoever "
+              "has the address below can move the machine", file=sys.stderr, flush=True)
+    shown = "127.0.0.1" if host in ("0.0.0.0", "::", "[::]") else host
+    print(f"retrofit console for {machine.name}: http://{shown}:{port}/?token={token}  (Ctrl-C ends it)", flush=True)
+    app = create_app(console, token=token, remote=remote, listen_host=host)
+    server = safe_server(uvicorn.Config(app, host=host.strip("[]"), port=port, log_level="warning",
+                                        timeout_graceful_shutdown=SHUTDOWN_S), console)
+    try:
+        server.run()
+    finally:
+        console.make_safe()
     return 0
+
+
+def safe_server(config, console):
+    """uvicorn's server, whose exit on SIGINT, SIGTERM and SIGHUP first puts the outputs safe."""
+    import signal
+
+    import uvicorn
+
+    class SafeServer(uvicorn.Server):
+        def handle_exit(self, sig, frame):
+            console.make_safe()                           # STOP, drivers off, pins at rest: first
+            if sig == signal.SIGHUP:                      # a second SIGHUP (re-raised on exit) ends us
+                signal.signal(signal.SIGHUP, signal.SIG_DFL)
+            super().handle_exit(sig, frame)
+    server = SafeServer(config)
+    signal.signal(signal.SIGHUP, server.handle_exit)
+    return server

@@ -24,15 +24,18 @@ def add_commands(sub) -> None:
 
     r = sub.add_parser("run", help="run a G-code part program on a machine",
                        description="Run PROGRAM on the machine: tool changes (the changer's sequences, "
-                                   "or a pause for a manual change), homing, threads, pauses. Exit 0: "
-                                   "clean; 1: the simulated machine reported violations; 2: refused "
-                                   "input or an unusable output; 130: interrupted.")
+                                   "or a pause for a manual change), homing, threads, pauses. Any "
+                                   "error or stop puts the outputs in a safe state first (enable off, "
+                                   "step bits low). Exit 0: clean; 1: the simulated machine reported "
+                                   "violations; 2: refused input or an unusable output; 130: "
+                                   "interrupted (Ctrl-C); 128+N: stopped by signal N (129 SIGHUP, "
+                                   "143 SIGTERM).")
     r.add_argument("program", help="G-code file (.ngc), a shipped example (lathe-profile.ngc, "
                                    "engraving.ngc), or - for standard input")
     motion_options(r)
     r.add_argument("--tool-table", metavar="FILE.tbl",
-                   help="LinuxCNC tool table (default: next to the machine file; for a shipped "
-                        "machine NAME.tbl in the current folder); the spindle record is beside it")
+                   help="LinuxCNC tool table (default: in the machine's state folder, see "
+                        "docs/atc.md); the spindle record stays in the state folder")
     r.add_argument("--reference", action="store_true",
                    help="step by the readable per-tick reference path instead of the compiled fast path")
     r.add_argument("--controller", action="store_true",
@@ -66,6 +69,12 @@ def cmd_machines(args) -> int:
 
 
 def cmd_demo(args) -> int:
+    from ..failsafe import signals_raise
+    with signals_raise():              # SIGHUP, SIGTERM: the outputs go safe, as on Ctrl-C
+        return _demo(args)
+
+
+def _demo(args) -> int:
     from ..config import load_machine
     from ..demo import circle_targets
     from ..motion.errorloop import PositionErrorLoop
@@ -97,15 +106,17 @@ def cmd_run(args) -> int:
     # command) and almost no reference cycles: refcounting frees them, and the cyclic collector
     # would only walk them again and again (a tenth of a long run's CPU). This process ends with
     # the run, so the collector stays off for it.
+    from ..failsafe import signals_raise
     gc.disable()
     try:
-        return _run(args)
+        with signals_raise():              # SIGHUP, SIGTERM: the outputs go safe, as on Ctrl-C
+            return _run(args)
     finally:
         gc.enable()
 
 
 def _run(args) -> int:
-    from ..atc.state import SpindleStore, state_paths
+    from ..atc.state import spindle_store
     from ..config import load_machine
     from ..progress import Progress
     from ..runprogram import STAGE_WEIGHTS, read_program, run_program
@@ -114,16 +125,15 @@ def _run(args) -> int:
     machine = load_machine(args.machine)
     text, name = read_program(args.program)
     files = output_files(args)
-    table_path, spindle_path = state_paths(machine, args.tool_table)
-    atc = machine.parts.get("atc")
-    store = SpindleStore(machine.name, spindle_path, getattr(atc, "pockets", None))
+    urls = args.output or ["sim://"]
+    table_path, store = spindle_store(machine, args.machine, urls, args.tool_table)
     table, start_tool = ToolTable.load(table_path), store.load()
 
-    def mark(run) -> None:                 # the record says "changing" until the run has ended
-        if run.expanded.events:
+    def mark(run) -> None:                 # the machine's record says "changing" until the run has ended
+        if store.real and changes_tools(run.expanded):
             store.begin(start_tool, run.expanded.end_tool)
     opts = SimpleNamespace(backlash_comp=not args.no_backlash_comp, reference=args.reference,
-                           controller=args.controller, urls=args.output or ["sim://"],
+                           controller=args.controller, urls=urls,
                            keep_frames=bool(getattr(args, "html", None)),
                            keep_commands=bool(getattr(args, "plot", None)),
                            before_outputs=mark)
@@ -133,17 +143,22 @@ def _run(args) -> int:
     finally:
         progress.close()
     exp = run.expanded
-    if exp.events:
+    if changes_tools(exp):
         store.save(exp.end_tool)
     title = f"{machine.name}: {name}, {run.command_count} commands, {run.how}"
     lines = summary_lines(run.report, title)
-    lines += [f"  tool table: {table_path}; spindle record: {spindle_path} "
-              f"(T{exp.end_tool} in the spindle)"] if exp.events or "atc" in machine.parts else []
+    lines += [f"  tool table: {table_path}; {store.describe()} (T{exp.end_tool} in the spindle)"
+              ] if exp.events or "atc" in machine.parts else []
     lines += remote_lines(run.report.get("remote") or [])
     files_lines = write_files(files, args, run.log, run.sim, run.report,     # a path is not wrapped
                               run.program.commands, (name, text), run.program)
     print("\n".join(fit(lines) + files_lines))
     return exit_code(run.report, args)
+
+
+def changes_tools(expanded) -> bool:
+    """Whether the run changes the tool in the spindle (by the changer or by hand)."""
+    return any(e.tool is not None for e in expanded.events)
 
 
 def exit_code(report: dict, args) -> int:

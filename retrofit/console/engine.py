@@ -5,7 +5,9 @@ on a simulated machine in a thread of its own, a chunk of ticks at a time. Betwe
 hands the operator's actions to the controller as 002's immediate commands -- STOP, MFDR and
 FFDR act on the tick they arrive, mid-move -- and publishes a snapshot (DRO, line, flags) for
 the page. Host commands (TOOL, PAUS) wait for the machine to stand still, then for the
-operator's answer. Time inside is the tick; only the paced mode compares it with the clock.
+operator's answer. Any exception in the run STOPs the controller and puts every output safe
+(:meth:`SteeredRun.fail`); STOP acts in every state. Time inside is the tick; only the paced
+mode compares it with the clock.
 """
 
 from __future__ import annotations
@@ -13,8 +15,9 @@ from __future__ import annotations
 import threading
 import time
 from collections import deque
+from contextlib import suppress
 
-from ..commands import PAUSE_REASONS, Command, FFdr, FMov, MFdr, PFdr, Stop, Tool
+from ..commands import PAUSE_REASONS, Command, FFdr, MFdr, PFdr, Stop, Tool
 from ..config import Machine
 from ..errors import MotionError
 
@@ -24,6 +27,12 @@ CHUNK_S = 0.02
 HOLD_RAMP_S = 1.0
 #: the feed a hold ramps to, as a fraction of the feed in force
 HOLD_FRACTION = 1e-4
+#: the longest the paced loop sleeps at once (s): it looks at the operator's actions at least this often
+MAX_WAIT_S = 0.1
+#: how long STOP waits for the run's thread to take it (s) before putting the outputs safe itself
+STOP_WAIT_S = 2.0
+#: what :meth:`SteeredRun.act` takes
+ACTIONS = ("stop", "hold", "resume", "feed", "rapid", "answer", "speed")
 
 
 class SteeredRun:
@@ -57,6 +66,8 @@ class SteeredRun:
         self.held = False
         self.dialog: dict | None = None
         self.state = "ready"
+        self.error: str | None = None
+        self._halted = threading.Event()      # set once stopped or in error
         self.tool = 0
         self._actions: deque = deque()
         self._wake = threading.Event()
@@ -92,6 +103,8 @@ class SteeredRun:
     def act(self, kind: str, **args) -> None:
         """Queue an operator's action: stop, hold, resume, feed (pct), rapid (pct), answer,
         speed (factor; 0 = as fast as possible). Jog, home and MDI are commands: :meth:`extend`."""
+        if kind not in ACTIONS:
+            raise ValueError(f"unknown action {kind!r}; known: {', '.join(ACTIONS)}")
         self._actions.append((kind, args))
         self._wake.set()
 
@@ -105,21 +118,63 @@ class SteeredRun:
 
     # -- the loop --------------------------------------------------------------------------------
     def _loop(self) -> None:
-        """Step chunk after chunk; when paced, wait until the clock catches up with machine time."""
-        wall0, tick0 = time.perf_counter(), self.ctl.ticks
-        while self.step():
-            if self._repace or self.waiting:
-                if self.waiting:
-                    self._wake.wait(0.05)
-                    self._wake.clear()
-                wall0, tick0, self._repace = time.perf_counter(), self.ctl.ticks, False
-            elif self.paced and self.speed > 0:
-                ahead = (self.ctl.ticks - tick0) * self.machine.tick_s / self.speed - (time.perf_counter() - wall0)
-                if ahead > 0:
-                    self._wake.wait(ahead)
-                    self._wake.clear()
-        self._send_frames()
-        self._publish()
+        """Step chunk after chunk; when paced, wait until the clock catches up with machine time.
+        Any exception stops the machine and puts the outputs safe before anything else."""
+        try:
+            wall0, tick0 = time.perf_counter(), self.ctl.ticks
+            while self.step():
+                if self._repace or self.waiting:
+                    if self.waiting:
+                        self._wake.wait(0.05)
+                        self._wake.clear()
+                    wall0, tick0, self._repace = time.perf_counter(), self.ctl.ticks, False
+                elif self.paced and self.speed > 0:
+                    ahead = (self.ctl.ticks - tick0) * self.machine.tick_s / self.speed - (time.perf_counter() - wall0)
+                    if ahead > 0:
+                        self._wake.wait(min(ahead, MAX_WAIT_S))
+                        self._wake.clear()
+            self._send_frames()
+            self._publish()
+        except BaseException as exc:                # noqa: BLE001 -- whatever it is, the machine stops
+            self.fail(exc)
+
+    def fail(self, exc: BaseException) -> None:
+        """STOP the controller and put every output safe, then say what went wrong (state error)."""
+        with suppress(BaseException):               # the outputs go safe whatever the controller does
+            self.ctl.submit(Stop())
+        self.make_outputs_safe()
+        self.error = f"{type(exc).__name__}: {exc}".replace("\n", " ")
+        self.state, self.dialog = "error", None
+        self._halted.set()
+        self._snap = dict(self._snap, state="error", fault=self.error)
+        with suppress(BaseException):
+            self._event("error", f"the run stopped on an error: {self.error}")
+            self._publish()
+
+    def make_outputs_safe(self) -> None:
+        """Every output at once in its safe state (drivers off, data pins at rest), then closed."""
+        outputs, self.outputs = self.outputs, []
+        for out in outputs:
+            with suppress(Exception):               # the next output goes safe all the same
+                out.abort()
+
+    def stop(self) -> None:
+        """STOP in every state: through the run's thread when it steps, else here and now; a thread
+        that does not answer within STOP_WAIT_S gets its outputs put safe from here."""
+        if self._thread is not None and self._thread.is_alive():
+            self.act("stop")
+            if not self._halted.wait(STOP_WAIT_S):
+                self.fail(MotionError(f"the run did not answer STOP within {STOP_WAIT_S:g} s"))
+            return
+        with self._lock:
+            if self.state == "error":
+                self.make_outputs_safe()
+                return
+            try:
+                self._do_stop()
+                self._publish()
+            except BaseException as exc:            # noqa: BLE001
+                self.fail(exc)
 
     def begin(self) -> None:
         """Hand the program to the controller (what :meth:`start` does before its thread steps)."""
@@ -136,7 +191,7 @@ class SteeredRun:
         publish the snapshot; False once the run has ended (done, stopped or in error)."""
         if self._apply_actions():
             self._repace = True
-        if self.state == "stopped":
+        if self.state in ("stopped", "error"):       # error: failed from outside (STOP not taken)
             self._publish()
             return False
         if self.waiting:
@@ -147,8 +202,10 @@ class SteeredRun:
         self._send_frames()
         going = True
         if self.ctl.fault:
+            self.make_outputs_safe()
             self._event("error", self.ctl.fault)
-            self.state, going = "error", False
+            self.state, self.error, going = "error", str(self.ctl.fault), False
+            self._halted.set()
         elif idle:
             with self._lock:
                 if not self._after_idle():
@@ -208,6 +265,7 @@ class SteeredRun:
         self.dialog = None
         self._event("stop", "STOP")
         self.state = "stopped"
+        self._halted.set()
 
     def _do_feed(self, pct: float) -> None:
         self.feed_pct = float(pct)
@@ -297,7 +355,7 @@ class SteeredRun:
             "flags": [f.name for f in type(status.flags) if f in status.flags],
             "spindle": list(ctl.processor.spindle_cmd), "coolant": ctl.processor.coolant,
             "tool": self.tool, "feed_pct": self.feed_pct, "rapid_pct": self.rapid_pct,
-            "dialog": self.dialog, "events": len(self.events),
+            "dialog": self.dialog, "events": len(self.events), "fault": self.error,
         }
 
     def _event(self, kind: str, text: str, line: int | None = None) -> None:
@@ -338,8 +396,3 @@ def programmed_feeds(commands: list[Command], default: float) -> list[float]:
         feeds.append(feed)
     return feeds
 
-
-def jog_command(machine: Machine, position_mm: dict, axis: str, step_mm: float) -> Command:
-    """A jog of ``step_mm`` on ``axis`` from ``position_mm``, as an FMOV."""
-    target = position_mm[axis.upper()] + step_mm
-    return FMov(axes=((axis.upper(), round(target, 6)),))

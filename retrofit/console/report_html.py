@@ -17,7 +17,7 @@ import numpy as np
 
 from ..config import Machine
 from ..frames import PortFrames
-from .server import STATIC, plotly_js
+from .api import STATIC, plotly_js
 from .views import axis_steps, preview, timeline
 
 #: points of the embedded timeline (the page thins them to its window)

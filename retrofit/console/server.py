@@ -1,44 +1,37 @@
-"""The console's web server: a Starlette app serving the page and a small JSON API.
+"""The state behind the console's page: the machine, the program opened, the run and its views.
 
-The page (``static/``) and its one library (plotly.js, from the ``plotly`` Python package) are
-served from the installed packages, so the console works offline with no build step. The API:
-
-=======================  ====================================================================
-``GET  /api/machine``    the machine: axes, soft limits, lathe or not; the shipped programs
-``POST /api/open``       ``{"path": ...}`` or ``{"name": ..., "text": ...}``: listing + preview
-``POST /api/run``        ``{"speed": 0}`` as fast as possible, ``{"speed": f}`` paced at f x machine time
-``POST /api/action``     ``{"kind": "stop" | "hold" | "resume" | "feed" | "rapid" | "answer" |
-                         "speed" | "jog" | "home" | "mdi", ...}``
-``GET  /api/state``      DRO, line, flags, dialog; ``?since=n``: the backplot points from n on
-``GET  /api/report``     the run's report (docs/report.md, plus ``events`` and ``moves``)
-``GET  /api/timeline``   ``?t0=&t1=`` (ticks): position, velocity, acceleration, carriage error
-``GET  /api/pulses``     ``?t0=&t1=`` (ticks): the step and direction lines
-=======================  ====================================================================
+One run at a time, started under a lock; STOP in every state; the programs it may open come from
+:mod:`.programs`; the web app in front of it is :mod:`.api` (``create_app``).
 """
 
 from __future__ import annotations
 
-from importlib import resources
+import threading
+from contextlib import contextmanager
 from pathlib import Path
 
 from ..config import Machine
 from ..errors import RetrofitError
 
-STATIC = resources.files("retrofit.console") / "static"
-
-
-def plotly_js() -> Path:
-    """plotly.min.js as the ``plotly`` package ships it."""
-    import plotly
-    return Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
+#: how long the console waits for a stopped run's thread to end before it puts the outputs safe
+STOP_JOIN_S = 5.0
 
 
 class Console:
-    """The state behind the page: the machine, the program opened, the run and its views."""
+    """The state behind the page: the machine, the program opened, the run and its views.
 
-    def __init__(self, machine: Machine, outputs: list[str] | None = None, backlash_comp: bool = True):
+    ``outputs``: frame outputs besides sim:// (a command-level output, such as serial://, is
+    refused here); ``programs``: the folder whose programs may be opened besides the examples.
+    """
+
+    def __init__(self, machine: Machine, outputs: list[str] | None = None, backlash_comp: bool = True,
+                 programs: str | Path | None = None):
+        from .programs import ProgramFolder
         self.machine = machine
         self.output_urls = [u for u in (outputs or []) if not u.startswith("sim://")]
+        for url in self.output_urls:
+            check_output(url)
+        self.folder = ProgramFolder(programs)
         self.backlash_comp = backlash_comp
         self.program = None
         self.source = ""
@@ -47,43 +40,75 @@ class Console:
         self._steps = self._frames = self._pulses = None
         self._recorded = None                  # (frames, sim or None) of a run made elsewhere
         self.run_id = 0                        # which run the page's state belongs to
+        self._run_lock = threading.Lock()      # one start (or jog, home, MDI) at a time
+        self._stops = 0                        # STOPs so far: one during a start stops the new run
 
     # -- program ------------------------------------------------------------------------------------
     def open(self, path: str | None = None, name: str | None = None, text: str | None = None) -> dict:
-        """Compile a program (a path, a shipped name, or the text of a picked file); its listing
-        and preview. A ``.cmds`` file is a command list: one command a line in the text form
-        (``FMOV X5 Z1``, ``TOOL T2``, ``PAUS M0``), ``#`` starting a comment."""
+        """Compile a program (one the console lists, by ``name`` or ``path``, or the ``text`` of a
+        picked file); its listing and preview. A ``.cmds`` file is a command list: one command a
+        line in the text form (``FMOV X5 Z1``, ``TOOL T2``, ``PAUS M0``), ``#`` starting a comment."""
         from ..gcode.program import compile_program
-        from ..runprogram import resolve_program
         from .views import preview
         if text is None:
-            file = resolve_program(path or name or "")
-            text, name = file.read_text(errors="replace"), file.name
-        name = name or "program.ngc"
+            text, name = self.folder.read(path if path is not None else name or "")
+        name = Path(name or "program.ngc").name
         if name.endswith(".cmds"):
-            self.program = command_list(text, name)
+            program = command_list(text, name)
         else:
-            self.program = compile_program(text, self.machine, name)
-        self.source = text
-        return {"name": self.program.file, "listing": text.splitlines(),
-                "preview": preview(self.program, self.machine, text)}
+            program = compile_program(text, self.machine, name)
+        listing = {"name": program.file, "listing": text.splitlines(),
+                   "preview": preview(program, self.machine, text)}
+        self.program, self.source = program, text
+        return listing
 
     # -- run ------------------------------------------------------------------------------------------
     def start(self, speed: float = 0.0) -> dict:
-        """Run the opened program from the machine's zero on sim:// (and the real outputs)."""
+        """Run the opened program from the machine's zero on sim:// (and the real outputs); one
+        start at a time: Busy (409) while another starts or a run is under way."""
         from .engine import SteeredRun
-        if self.program is None:
-            raise RetrofitError("no program open; open one first (a path or a shipped example)")
-        if self.run is not None and not self.run.finished:
-            raise RetrofitError("a run is under way; STOP it or wait for its end")
-        self.close()
-        self._report = self._steps = self._frames = self._pulses = self._recorded = None
-        self.run = SteeredRun(self.machine, self.program.commands, self.program.lines,
-                              backlash_comp=self.backlash_comp, paced=speed > 0, speed=speed or 1.0,
-                              outputs=self._open_outputs())
-        self.run_id += 1
-        self.run.start()
+        with self._exclusive():
+            if self.program is None:
+                raise RetrofitError("no program open; open one first (a program the console lists, or an uploaded file)")
+            if self.run is not None and not self.run.finished:
+                raise Busy("a run is under way; STOP it or wait for its end")
+            stops = self._stops
+            self.close()
+            self._report = self._steps = self._frames = self._pulses = self._recorded = None
+            self.run = SteeredRun(self.machine, self.program.commands, self.program.lines,
+                                  backlash_comp=self.backlash_comp, paced=speed > 0, speed=speed or 1.0,
+                                  outputs=self._open_outputs())
+            self.run_id += 1
+            self.run.start()
+            if self._stops != stops:           # STOP came while the run was being set up
+                self.run.stop()
+            return self.state()
+
+    @contextmanager
+    def _exclusive(self):
+        """The run lock, taken at once or Busy (409)."""
+        if not self._run_lock.acquire(blocking=False):
+            raise Busy("another start, jog, home or MDI is under way")
+        try:
+            yield
+        finally:
+            self._run_lock.release()
+
+    def stop(self) -> dict:
+        """STOP, in every state: the run stops (or its outputs go safe if its thread is gone)."""
+        self._stops += 1
+        run = self.run
+        if run is not None:
+            run.stop()
         return self.state()
+
+    def make_safe(self) -> None:
+        """The console ends (a signal): STOP, then every output safe (drivers off, pins at rest)."""
+        run = self.run
+        if run is not None:
+            run.stop()
+            run.join(STOP_JOIN_S)
+            run.make_outputs_safe()
 
     def close(self) -> None:
         """End the run shown (its real outputs finished); the console closes with this too."""
@@ -92,49 +117,66 @@ class Console:
 
     def _open_outputs(self) -> list:
         from ..outputs import open_output
-        outs = [open_output(u, self.machine) for u in self.output_urls]
-        for out in outs:
-            out.open()
+        outs = []
+        try:
+            for url in self.output_urls:
+                outs.append(open_output(url, self.machine))
+                outs[-1].open()
+        except BaseException:
+            for out in outs:
+                out.abort()
+            raise
         return outs
 
     def act(self, kind: str, **args) -> dict:
         """An operator's action on the run (or, for jog / home / MDI, on a stopped machine)."""
-        from .engine import jog_command
+        if kind == "stop":
+            return self.stop()
         if kind in ("jog", "home", "mdi"):
-            run = self._manual_run()
-            if kind == "jog":
-                cmds = [jog_command(self.machine, run.snapshot()["commanded_mm"], args["axis"], float(args["step"]))]
-                lines = [0]
-            elif kind == "home":
-                from ..commands import FMov
-                cmds, lines = [FMov(axes=tuple((a.name, 0.0) for a in self.machine.axes))], [0]
-            else:
-                cmds, lines = self._mdi(run, str(args.get("text", "")))
-            run.extend(cmds, lines)
-            return self.state()
+            with self._exclusive():
+                fresh = self._fresh_run_needed()
+                here = ({a.name: 0.0 for a in self.machine.axes} if fresh
+                        else self.run.snapshot()["commanded_mm"])
+                cmds = self._manual(here, kind, args)          # a refusal here changes nothing
+                run = self._manual_run(fresh)
+                run.extend(cmds, [0] * len(cmds))
+                return self.state()
         if self.run is None:
             raise RetrofitError(f"{kind}: nothing is running")
         self.run.act(kind, **args)
         return self.state()
 
-    def _manual_run(self):
+    def _manual(self, here: dict, kind: str, args: dict) -> list:
+        """The commands of a jog (within the soft limits), a home or an MDI line, from ``here`` (mm)."""
+        from ..commands import FMov
+        from ..gcode.program import compile_program
+        if kind == "jog":
+            axis = self.machine.axis(args["axis"])
+            target = here[axis.name] + args["step"]
+            if not axis.min_mm <= target <= axis.max_mm:
+                raise RetrofitError(f"jog {axis.name} {args['step']:+g} mm from {here[axis.name]:g} mm to "
+                                    f"{target:g} mm: beyond the soft limits {axis.min_mm:g}..{axis.max_mm:g} mm")
+            return [FMov(axes=((axis.name, round(target, 6)),))]
+        if kind == "home":
+            return [FMov(axes=tuple((a.name, 0.0) for a in self.machine.axes))]
+        return compile_program(args["text"], self.machine, "MDI", start_mm=here).commands
+
+    def _fresh_run_needed(self) -> bool:
+        """True when a jog, home or MDI starts a fresh controller (none yet, or after STOP or an
+        error); RetrofitError while a program runs."""
+        if self.run is not None and self.run.state == "running":
+            raise RetrofitError("jog, home and MDI wait until the program has ended")
+        return self.run is None or self.run.state in ("stopped", "error")
+
+    def _manual_run(self, fresh: bool):
         from .engine import SteeredRun
-        if self.run is not None and not self.run.finished and self.run.state != "done":
-            if self.run.state == "running":
-                raise RetrofitError("jog, home and MDI wait until the program has ended")
-        if self.run is None or self.run.state in ("stopped", "error"):
+        if fresh:
             self.close()
             self.run_id += 1
             self.run = SteeredRun(self.machine, [], [], backlash_comp=self.backlash_comp,
                                   outputs=self._open_outputs())
         self._report = self._steps = self._frames = self._pulses = None
         return self.run
-
-    def _mdi(self, run, text: str):
-        from ..gcode.program import compile_program
-        here = run.snapshot()["commanded_mm"]
-        prog = compile_program(text, self.machine, "MDI", start_mm=here)
-        return prog.commands, [0] * len(prog.commands)
 
     def show_run(self, log, sim=None, report: dict | None = None) -> None:
         """Show a run made elsewhere (``retrofit run``'s fast path, a recording) in the after-run
@@ -183,9 +225,9 @@ class Console:
 
     def timeline(self, t0: int, t1: int) -> dict:
         from .views import timeline
+        steps = self.steps()                   # first: refused until a run has ended
         sim = self._recorded[1] if self._recorded is not None else self.run.sim
         machine = self.machine
-        steps = self.steps()
 
         def carriage(i, ticks):
             import numpy as np
@@ -219,56 +261,18 @@ def command_list(text: str, file: str):
     return Program(commands, lines, file)
 
 
-def create_app(console: Console):
-    """The Starlette application of ``console``."""
-    from contextlib import asynccontextmanager
+class Busy(RetrofitError):
+    """The console is starting or running another run (status 409)."""
 
-    from starlette.applications import Starlette
-    from starlette.responses import FileResponse, JSONResponse
-    from starlette.routing import Mount, Route
-    from starlette.staticfiles import StaticFiles
-
-    def guarded(fn):
-        async def endpoint(request):
-            try:
-                body = await request.json() if request.method == "POST" else {}
-                return JSONResponse(await _call(fn, request, body))
-            except (RetrofitError, KeyError, ValueError) as exc:
-                return JSONResponse({"error": str(exc)}, status_code=400)
-        return endpoint
-
-    q = lambda r, k, d=0: int(float(r.query_params.get(k, d)))                 # noqa: E731
-    routes = [
-        Route("/", lambda r: FileResponse(str(STATIC / "index.html"))),
-        Route("/plotly.min.js", lambda r: FileResponse(str(plotly_js()))),
-        Route("/api/machine", guarded(lambda r, b: machine_info(console.machine))),
-        Route("/api/open", guarded(lambda r, b: console.open(b.get("path"), b.get("name"), b.get("text"))),
-              methods=["POST"]),
-        Route("/api/run", guarded(lambda r, b: console.start(float(b.get("speed", 0)))), methods=["POST"]),
-        Route("/api/action", guarded(lambda r, b: console.act(**b)), methods=["POST"]),
-        Route("/api/state", guarded(lambda r, b: console.state(q(r, "since")))),
-        Route("/api/report", guarded(lambda r, b: console.report())),
-        Route("/api/timeline", guarded(lambda r, b: console.timeline(q(r, "t0"), q(r, "t1")))),
-        Route("/api/pulses", guarded(lambda r, b: console.pulses(q(r, "t0"), q(r, "t1")))),
-        Mount("/static", StaticFiles(directory=str(STATIC))),
-    ]
-    @asynccontextmanager
-    async def lifespan(app):
-        yield
-        console.close()                  # the server ends: finish the run's outputs
-    return Starlette(routes=routes, lifespan=lifespan)
+    status = 409
 
 
-async def _call(fn, request, body):
-    """Run ``fn`` in a worker thread, so a long computation never blocks the server's loop."""
-    from starlette.concurrency import run_in_threadpool
-    return await run_in_threadpool(fn, request, body)
+def check_output(url: str) -> None:
+    """An output the console can drive (it hands outputs port frames); OutputError if not."""
+    from ..errors import OutputError
+    from ..outputs import OutputURL, output_class
+    cls = output_class(OutputURL.parse(url).scheme)
+    if getattr(cls, "takes_commands", False):
+        raise OutputError(f"{url}: the console drives outputs that take port frames (sim, parport, "
+                          "parport+record, vcd); a command-level output is driven by 'retrofit run'")
 
-
-def machine_info(machine: Machine) -> dict:
-    from importlib import resources as res
-    from ..plot import is_lathe
-    examples = sorted(p.name for p in (res.files("retrofit") / "examples").iterdir() if p.name.endswith(".ngc"))
-    return {"name": machine.name, "description": machine.description, "tick_us": machine.tick_us,
-            "lathe": is_lathe(machine), "examples": examples,
-            "axes": [{"name": a.name, "label": a.label, "min": a.min_mm, "max": a.max_mm} for a in machine.axes]}

@@ -9,7 +9,9 @@
     processing:              tick()       one step cycle: the port byte, the switches, the entry
                                           being *executed*, then the pulses of the next tick
 
-Time is the integer tick: nothing here reads a clock or sleeps. The controller may drive a
+Time is the integer tick: nothing here reads a clock or sleeps. With ``heartbeat_ticks`` set, a
+controller with work that has not *heard* from its host (:meth:`heard`, called by the link for
+every frame of the host's session) for that many ticks brakes to a stop by itself. The controller may drive a
 :class:`~retrofit.sim.SimMachine` (``sim=``): it then reads that machine's switches and spindle,
 as the MCU reads its input pins, and the machine sees every port byte as it is written.
 """
@@ -74,6 +76,12 @@ class Controller:
         self._tick = 0
         self._idle_frame = False
         self.spans = SpanRunner(self) if kernels else None
+        #: ticks of silence from the host after which a controller with work brakes (None: never)
+        self.heartbeat_ticks: int | None = None
+        self._heard = 0                       # the tick of the host's last frame
+        self._braking = False
+        #: (tick of the host's last frame, tick the heartbeat braked) of the last heartbeat stop
+        self.host_lost_at: tuple[int, int] | None = None
 
     # -- the interpreter: commands in ----------------------------------------------------------
     def submit(self, cmd: Command) -> object | None:
@@ -91,11 +99,13 @@ class Controller:
         if isinstance(cmd, Rdst):
             return self.status
         if isinstance(cmd, Stop):
+            self._braking = False
             proc.halt(self._tick, "STOP", error=False)
             self.queue.clear()
             self._source = None
             return None
         if isinstance(cmd, Init):
+            self._braking = False
             proc.init(self._tick)
             self.queue.clear()
             self._source = None
@@ -139,6 +149,39 @@ class Controller:
                 self.queue.clear()
                 self._source = None
 
+    # -- the heartbeat -------------------------------------------------------------------------
+    def heard(self) -> None:
+        """The host is there (a frame of its session arrived): the heartbeat counts from now."""
+        self._heard = self._tick
+
+    def heartbeat_due(self) -> int | None:
+        """The tick at which the heartbeat brakes if nothing is heard before (None: not armed)."""
+        if self.heartbeat_ticks is None or self._braking or self.processor.host_lost:
+            return None
+        return self._heard + self.heartbeat_ticks
+
+    def _heartbeat(self, n: int) -> None:
+        """The host fell silent while the machine had work: brake (docs/protocol.md §5), drop the
+        queue, refuse motion until INIT; at rest, halt and switch spindle and coolant off."""
+        proc = self.processor
+        if self._braking:
+            if proc.braked():
+                self._braking = False
+                proc.halt(n, "the host fell silent", error=False)
+                proc.outputs_off(n)
+            return
+        due = self.heartbeat_due()
+        if due is None or n < due or (not self.queue and self._source is None and proc.idle_at(n)):
+            return
+        self.queue.clear()
+        self._source = None
+        self.host_lost_at = (self._heard, n)
+        proc.host_lost = proc.stopped = True
+        self._braking = proc.brake(n)
+        if not self._braking:
+            proc.halt(n, "the host fell silent", error=False)
+            proc.outputs_off(n)
+
     # -- the processor: one tick ---------------------------------------------------------------
     def tick(self) -> int:
         """Advance one tick; return the port byte written this tick."""
@@ -147,6 +190,8 @@ class Controller:
         byte = proc.pulses.frame(n)
         proc.read_inputs(n)
         proc.execute(n)
+        if self.heartbeat_ticks is not None:
+            self._heartbeat(n)
         self._interpret()
         self._idle_frame = not self.queue and self._source is None and proc.idle_at(n)
         if not self._idle_frame:
@@ -175,8 +220,9 @@ class Controller:
     def _run(self, max_ticks: int, done) -> bool:
         end = self._tick + max_ticks
         pulses = self.processor.pulses
+        heartbeat = self.heartbeat_ticks is not None
         while self._tick < end:
-            if self.spans is not None and self.spans.run(end):
+            if self.spans is not None and not heartbeat and self.spans.run(end):
                 if done():
                     return True
                 continue
@@ -186,7 +232,8 @@ class Controller:
             quiet = self.processor.quiet_until(self._tick)
             if quiet is None:
                 continue
-            quiet = min(quiet, end)
+            due = self.heartbeat_due()
+            quiet = min(quiet, end, end if due is None else max(due, self._tick))
             while self._tick < quiet:
                 if pulses.still():
                     pulses.skip(quiet - self._tick)

@@ -8,6 +8,10 @@ feed within the acceleration limits, and the moves already prepared get the new 
 Which moves a new machining feed reaches: the PMOV running and the prepared PMOVs that share its
 programmed feed. A PFDR already prepared behind them still takes over at its own move (it is the
 program's next feed), and moves under ISTP keep their pitch.
+
+The heartbeat's stop (a host gone silent, docs/protocol.md §5) is the same re-planning with every
+move's feed at BRAKE_FEED_MM_MIN: the tool slows at the moves' acceleration, and once it is below
+twice that speed the controller halts, as from rest.
 """
 
 from __future__ import annotations
@@ -18,6 +22,10 @@ from ..commands import FFdr
 from ..motion.planner import kinematics
 from .prepare import LineEntry
 from .runs import ClockRun
+
+
+#: the feed every move gets when the heartbeat brakes the machine
+BRAKE_FEED_MM_MIN = 1.0
 
 
 class FeedOverrides:
@@ -86,3 +94,24 @@ class FeedOverrides:
         self.t_plan = run.end_time
         self.exit_speed = run.profile.exit_speed
         self.prev_kin = kin
+
+    def brake(self, tick: int) -> bool:
+        """Slow every prepared move and the one running to BRAKE_FEED_MM_MIN; False when there
+        is no straight move running to slow down (a dwell, a homing or a thread pass: the
+        controller halts at once)."""
+        for entry in self.window:
+            if isinstance(entry, LineEntry):
+                entry.kin = self._with_feed(entry, BRAKE_FEED_MM_MIN)
+        run = self.run
+        if not isinstance(run, ClockRun) or run.done or run.profile is None:
+            return False
+        run.entry.kin = self._with_feed(run.entry, BRAKE_FEED_MM_MIN)
+        self._replan(run, run.position_at_tick(tick))
+        return True
+
+    def braked(self) -> bool:
+        """True once the move running is slow enough to halt (or no straight move runs)."""
+        run = self.run
+        if not isinstance(run, ClockRun) or run.done or run.profile is None:
+            return True
+        return run.profile.speed_at(run.position_mm()) <= 2.0 * BRAKE_FEED_MM_MIN / 60.0

@@ -58,6 +58,7 @@ class Processor(FeedOverrides):
         self.offsets = [0] * n                # PSTN offsets in force (program -> machine steps)
         self.serial = 0
         self.homed = self.error = self.stopped = False
+        self.host_lost = False                # the heartbeat stopped it (Controller.heard)
         self.fault: str | None = None
         self.fault_serial: int | None = None  # the command (1 = first submitted) at fault
         self._serial_now = 0                  # the command of the entry executing
@@ -291,6 +292,12 @@ class Processor(FeedOverrides):
         else:
             self.stopped = True
 
+    def outputs_off(self, tick: int) -> None:
+        """Spindle and coolant off (the heartbeat's stop, once the axes are at rest)."""
+        self.spindle_cmd, self.coolant = (0.0, 0), 0
+        if self.sim_spindle is not None:
+            self.sim_spindle.command(tick + 1, 0.0, 0)
+
     def init(self, tick: int) -> None:
         """INIT: stop, default feeds and step source, position 0, flags cleared."""
         self.halt(tick, "INIT", error=False)
@@ -299,7 +306,7 @@ class Processor(FeedOverrides):
         self.shift = [m - w for m, w in zip(self.pulses.motor, self.walker.motor)]
         self.comp = list(self.walker.comp_offsets())
         self.offsets = [0] * len(self.shift)
-        self.homed = self.error = self.stopped = False
+        self.homed = self.error = self.stopped = self.host_lost = False
         self.fault = self.fault_serial = None
 
     # -- state -----------------------------------------------------------------------------------
@@ -346,6 +353,7 @@ class Processor(FeedOverrides):
                 "INDEXER": isinstance(run, IndexRun) or (run is None and self.walker.source == "index"),
                 "DWELLING": isinstance(run, DwellRun), "SPINDLE_ON": self.spindle_cmd[1] != 0,
                 "COOLANT_ON": self.coolant in (7, 8), "INDEX_SEEN": index_seen,
+                "HOST_LOST": self.host_lost,
                 "switches": set(self.closed)}
 
     def run_log(self, frames):

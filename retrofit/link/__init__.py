@@ -14,20 +14,20 @@ The wire format is specified in docs/protocol.md. Layers, bottom up:
 from .codec import (AXIS_LETTERS, FEED_UNIT_MM, OPCODES, POS_MAX, PayloadError, decode_command,
                     encode_command)
 from .crc import crc32
-from .device import DeviceEndpoint, DeviceStats
+from .device import DeviceEndpoint, DeviceStats, SessionNumbers
 from .framing import (IMMEDIATE, MAX_PAYLOAD, QUEUED, BadFrame, Frame, FrameDecoder, encode_frame,
                       seq_byte)
 from .host import HostEndpoint, HostStats, Transaction
-from .replies import (Ack, Busy, Err, Nak, Position, Reply, Status, StatusFlags, decode_reply,
-                      encode_reply)
+from .replies import (Ack, Busy, Err, Nak, Position, Reply, Session, Status, StatusFlags,
+                      decode_reply, encode_reply)
 from .transport import DeviceLink, HostLink, open_port
 from .probing import ProbeResult, probe_over_link
 
 __all__ = [
     "AXIS_LETTERS", "FEED_UNIT_MM", "OPCODES", "POS_MAX", "PayloadError", "decode_command",
-    "encode_command", "crc32", "DeviceEndpoint", "DeviceStats", "IMMEDIATE",
+    "encode_command", "crc32", "DeviceEndpoint", "DeviceStats", "SessionNumbers", "IMMEDIATE",
     "MAX_PAYLOAD", "QUEUED", "BadFrame", "Frame", "FrameDecoder", "encode_frame", "seq_byte",
     "HostEndpoint", "HostStats", "Transaction", "Ack", "Busy", "Err", "Nak", "Position", "Reply",
-    "Status", "StatusFlags", "decode_reply", "encode_reply", "DeviceLink", "HostLink", "open_port",
+    "Session", "Status", "StatusFlags", "decode_reply", "encode_reply", "DeviceLink", "HostLink", "open_port",
     "ProbeResult", "probe_over_link",
 ]

@@ -43,12 +43,15 @@ OPCODES: dict[type[Command], int] = {
 PROB_AWAY = 0x01
 COMMAND_OF: dict[int, type[Command]] = {op: cls for cls, op in OPCODES.items()}
 SYNC = 0x7F
-SYNC_LEN = 5        # SYNC carries the host's 32-bit session number (docs/protocol.md §4)
+SYNC_LEN = 5        # SYNC carries the host's 32-bit nonce; the device answers SESS (docs/protocol.md §4)
+
+#: a device with work whose host has sent no frame of its session for this long brakes to a stop
+HEARTBEAT_MS = 500
 
 # error codes a device sends in ERR (and PayloadError.code carries)
 ERR_OPCODE, ERR_LENGTH, ERR_VALUE, ERR_NOT_SYNCED, ERR_SEQUENCE, ERR_REFUSED = 1, 2, 3, 4, 5, 6
 ERR_TEXT = {ERR_OPCODE: "unknown opcode", ERR_LENGTH: "wrong payload length for the opcode",
-            ERR_VALUE: "value out of range", ERR_NOT_SYNCED: "link not synchronised (device reset?)",
+            ERR_VALUE: "value out of range", ERR_NOT_SYNCED: "not in a session of this device (reset, or another host opened one?)",
             ERR_SEQUENCE: "sequence number out of step", ERR_REFUSED: "refused by the controller"}
 
 
@@ -278,7 +281,7 @@ def _decode_zmov(args: bytes, machine: Machine) -> ZMov:
     return ZMov(tuple(names))
 
 
-__all__ = ["AXIS_LETTERS", "MAX_AXES", "axis_bits", "letter_of", "OPCODES", "COMMAND_OF", "SYNC", "POS_MAX", "FEED_UNIT_MM",
+__all__ = ["HEARTBEAT_MS", "AXIS_LETTERS", "MAX_AXES", "axis_bits", "letter_of", "OPCODES", "COMMAND_OF", "SYNC", "POS_MAX", "FEED_UNIT_MM",
            "PROB_AWAY",
            "PayloadError", "encode_command", "decode_command", "pack_positions",
            "unpack_positions", "ERR_TEXT"]

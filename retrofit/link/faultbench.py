@@ -21,7 +21,7 @@ from ..config import Machine, load_machine
 from ..errors import LinkError
 from .codec import FEED_UNIT_MM, encode_command
 from .crc import crc16_ccitt_false
-from .device import DeviceEndpoint
+from .device import DeviceEndpoint, SessionNumbers
 from .framing import IMMEDIATE, QUEUED, SOF, Frame, FrameDecoder, encode_frame, stuff
 from .host import HostEndpoint
 from .replies import Busy, Position, Status, StatusFlags
@@ -119,8 +119,8 @@ def run_faults(n: int, *, seed: int, flip: float, drop: float, duplicate: float,
     rng = random.Random(seed)
     ctl = QueueDevice(machine)
     host = HostEndpoint(machine, timeout_s=0.02, max_tries=max_tries, busy_retry_s=0.005,
-                        session=rng.getrandbits(32))
-    device = DeviceEndpoint(machine, ctl.handle)
+                        nonce=rng.getrandbits(32))
+    device = DeviceEndpoint(machine, ctl.handle, sessions=SessionNumbers(rng.getrandbits(32)))
     wires = [FaultyWire(random.Random(seed * 7 + k), flip=flip, drop=drop, insert=insert,
                         duplicate=duplicate, late=late) for k in (1, 2)]
     bench = LinkBench(host, device, to_device=wires[0], to_host=wires[1], rng=rng,

@@ -1,7 +1,8 @@
 """Frames on the byte stream: start byte, length, sequence byte, payload, CRC, with byte stuffing.
 
 On the wire a frame is ``SOF`` followed by the stuffed body ``LEN SEQ PAYLOAD[LEN] CRC[4]``
-(CRC-32 over LEN, SEQ and PAYLOAD, most significant byte first). Inside the body every ``0x7E``
+(CRC-32 over LEN, SEQ and PAYLOAD, most significant byte first; in a session, over the session's
+32-bit number first, which binds the frame to it). Inside the body every ``0x7E``
 or ``0x7D`` is sent as ``0x7D`` followed by the byte XOR ``0x20``, so ``0x7E`` on the wire always
 starts a frame: a receiver that lost, gained or garbled bytes is back in step at the next frame.
 
@@ -12,6 +13,7 @@ starts a frame: a receiver that lost, gained or garbled bytes is back in step at
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable, Iterator
 
 from .crc import crc32
 
@@ -32,10 +34,12 @@ BAD_REASONS = ("length", "crc", "escape", "truncated")
 
 @dataclass(frozen=True)
 class Frame:
-    """A frame whose length and CRC checked out: its sequence byte and payload."""
+    """A frame whose length and CRC checked out: its sequence byte and payload; ``bound`` when
+    its CRC covers the session number of its channel (docs/protocol.md §4)."""
 
     seq: int
     payload: bytes
+    bound: bool = False
 
 
 @dataclass(frozen=True)
@@ -66,14 +70,21 @@ def stuff(body: bytes) -> bytes:
     return bytes(body).replace(b"\x7d", b"\x7d\x5d").replace(b"\x7e", b"\x7d\x5e")   # ESC first
 
 
-def encode_frame(seq: int, payload: bytes) -> bytes:
-    """The wire bytes of one frame (SOF, then the stuffed body with its CRC)."""
+def session_prefix(session: int | None) -> bytes:
+    """The bytes a bound frame's CRC covers before its body: the session number, big-endian."""
+    return b"" if session is None else (session & 0xFFFFFFFF).to_bytes(4, "big")
+
+
+def encode_frame(seq: int, payload: bytes, session: int | None = None) -> bytes:
+    """The wire bytes of one frame (SOF, then the stuffed body with its CRC); with ``session``
+    the CRC covers that 32-bit number first (a frame bound to the session)."""
     if not 0 <= seq <= 0xFF:
         raise ValueError(f"frame sequence byte {seq}: must be 0..255")
     if not 1 <= len(payload) <= MAX_PAYLOAD:
         raise ValueError(f"frame payload of {len(payload)} bytes: must be 1..{MAX_PAYLOAD}")
     body = bytes((len(payload), seq)) + bytes(payload)
-    return bytes((SOF,)) + stuff(body + crc32(body).to_bytes(CRC_BYTES, "big"))
+    crc = crc32(session_prefix(session) + body)
+    return bytes((SOF,)) + stuff(body + crc.to_bytes(CRC_BYTES, "big"))
 
 
 class FrameDecoder:
@@ -87,14 +98,19 @@ class FrameDecoder:
     crc_bytes = CRC_BYTES                       # the check ending a body, and its function
     check = staticmethod(crc32)
 
-    def __init__(self) -> None:
+    def __init__(self, binding: Callable[[int], int | None] | None = None) -> None:
+        self.binding = binding
         self._raw: bytearray | None = None      # stuffed bytes since the SOF; None: hunting
         self._overhead = 2 + self.crc_bytes
         self.noise_bytes = 0
 
     def feed(self, data: bytes) -> list[Frame | BadFrame]:
         """Consume ``data``; return the frames it completed or refused."""
-        events: list[Frame | BadFrame] = []
+        return list(self.events(data))
+
+    def events(self, data: bytes) -> Iterator[Frame | BadFrame]:
+        """Consume ``data`` frame by frame: each frame is checked when the caller asks for it,
+        so a SYNC handled before the next frame is checked binds that frame to its session."""
         pos, n = 0, len(data)
         while pos < n:
             nxt = data.find(SOF, pos)
@@ -105,13 +121,12 @@ class FrameDecoder:
                 self._raw += data[pos:end]
                 event = self._parse()
                 if event is not None:
-                    events.append(event)
+                    yield event
             if nxt < 0:
                 break
             if self._raw:                        # a SOF inside a frame: that frame was cut
-                events.append(BadFrame("truncated", self._walk(bytes(self._raw))[1]))
+                yield BadFrame("truncated", self._walk(bytes(self._raw))[1])
             self._raw, pos = bytearray(), nxt + 1
-        return events
 
     def _parse(self) -> Frame | BadFrame | None:
         """A complete or refused frame at the start of the buffer, or None (need more bytes)."""
@@ -154,6 +169,10 @@ class FrameDecoder:
 
     def _finish(self, body: bytes) -> Frame | BadFrame:
         n = self.crc_bytes
-        if self.check(body[:-n]) != int.from_bytes(body[-n:], "big"):
+        crc = int.from_bytes(body[-n:], "big")
+        session = self.binding(body[1]) if self.binding is not None else None
+        if session is not None and self.check(session_prefix(session) + body[:-n]) == crc:
+            return Frame(body[1], body[2:-n], bound=True)
+        if self.check(body[:-n]) != crc:
             return BadFrame("crc", body)
         return Frame(body[1], body[2:-n])

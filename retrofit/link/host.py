@@ -3,9 +3,10 @@
 A pure state machine; time is the ``now`` (seconds, any origin) each call passes in, so a test
 runs it on a fake clock and the transport on ``time.monotonic``. Two channels run side by side,
 each stop-and-wait: queued commands in order on one, and STOP / RDPS / RDST on the other so they
-are never held behind a full queue. A channel's first frame is a SYNC carrying the host's
-session number; every re-synchronisation takes the next session number, so the device can tell
-a stale copy of an earlier SYNC from a new start.
+are never held behind a full queue. A channel's first frame is a SYNC carrying a nonce of the
+host's (a new one for every SYNC); the device answers SESS with a session number of its own, and
+every later frame of the channel, both ways, is bound to it (its CRC covers the number first).
+A session's sequence numbers never wrap: after number 127 the channel opens a new session.
 
     host = HostEndpoint(machine)
     t = host.send(PMov((("X", 1.0),)), now)
@@ -22,12 +23,12 @@ from dataclasses import dataclass, field
 from ..commands import Command, Rdps, Rdst
 from ..config import Machine
 from ..errors import LinkError
-from .codec import ERR_NOT_SYNCED, ERR_SEQUENCE, SYNC, PayloadError, encode_command
+from .codec import ERR_LENGTH, ERR_NOT_SYNCED, ERR_SEQUENCE, SYNC, PayloadError, encode_command
 
 #: what the host says of a command it gave up on: the device may have executed it
 MAY_HAVE_RUN = "not acknowledged — may have run"
 from .framing import IMMEDIATE, QUEUED, SEQ_MOD, BadFrame, FrameDecoder, encode_frame, seq_byte
-from .replies import Ack, Busy, Err, Nak, Position, Reply, Status, decode_reply
+from .replies import Ack, Busy, Err, Nak, Position, Reply, Session, Status, decode_reply
 
 
 @dataclass(eq=False)
@@ -54,7 +55,10 @@ class Transaction:
 
     @property
     def expected(self) -> type[Reply]:
-        """The kind of answer that completes it: Position for RDPS, Status for RDST, else Ack."""
+        """The kind of answer that completes it: Session for SYNC, Position for RDPS, Status for
+        RDST, else Ack."""
+        if self.cmd is None:
+            return Session
         return {Rdps: Position, Rdst: Status}.get(type(self.cmd), Ack)
 
 
@@ -69,6 +73,8 @@ class HostStats:
     busy: int = 0
     bad_frames: int = 0       # damaged replies (each triggers a resend)
     stale: int = 0            # intact replies to a frame no longer outstanding (ignored)
+    unbound: int = 0          # intact replies bound to no session of this host (ignored)
+    sessions: int = 0         # sessions the device opened for this host (SESS answers taken)
 
 
 @dataclass(eq=False)
@@ -76,6 +82,7 @@ class _Channel:
     number: int
     seq: int = 0                      # sequence number of the current / next frame
     synced: bool = False
+    session: int | None = None        # the device's number for the channel (SESS), once synced
     queue: deque = field(default_factory=deque)
     current: Transaction | None = None
     frame: bytes = b""
@@ -90,7 +97,7 @@ class HostEndpoint:
 
     def __init__(self, machine: Machine, *, timeout_s: float = 0.1, max_tries: int = 10,
                  busy_retry_s: float = 0.05, busy_limit_s: float | None = None,
-                 session: int | None = None):
+                 nonce: int | None = None):
         if timeout_s <= 0 or busy_retry_s <= 0 or max_tries < 1:
             raise ValueError("HostEndpoint: timeout_s and busy_retry_s must be > 0, max_tries >= 1")
         self.machine = machine
@@ -98,14 +105,14 @@ class HostEndpoint:
         self.busy_retry_s, self.busy_limit_s = busy_retry_s, busy_limit_s
         self.stats = HostStats()
         self._channels = (_Channel(QUEUED), _Channel(IMMEDIATE))
-        self._decoder = FrameDecoder()
+        self._decoder = FrameDecoder(lambda seq: self._channels[seq >> 7].session)
         self._out = bytearray()
         self._failures: list[LinkError] = []
-        #: 32-bit session number of the next SYNC (random by default, so that two host runs differ)
-        self.session = (int.from_bytes(os.urandom(4), "big") if session is None
-                        else session) & 0xFFFFFFFF
-        #: True while the session is the random default (a seeded LinkBench replaces it)
-        self.session_is_random = session is None
+        #: 32-bit nonce of the last SYNC (random by default, so that two host runs differ); each
+        #: SYNC takes the next, so the device tells a resend of a SYNC from a new one
+        self.nonce = (int.from_bytes(os.urandom(4), "big") if nonce is None else nonce) & 0xFFFFFFFF
+        #: True while the nonce is the random default (a seeded LinkBench replaces it)
+        self.nonce_is_random = nonce is None
 
     # -- public API --------------------------------------------------------------------------
 
@@ -123,7 +130,7 @@ class HostEndpoint:
 
     def receive(self, data: bytes, now: float) -> None:
         """Consume bytes from the device; raises LinkError when a command failed."""
-        for event in self._decoder.feed(data):
+        for event in self._decoder.events(data):
             if isinstance(event, BadFrame):
                 if event.complete:
                     self.stats.bad_frames += 1
@@ -138,8 +145,11 @@ class HostEndpoint:
             if isinstance(reply, Nak):
                 self.stats.naks += 1
                 self._resend_all(now)
-            else:
+            elif event.bound or isinstance(reply, Session) or (
+                    isinstance(reply, Err) and reply.code in (ERR_LENGTH, ERR_NOT_SYNCED)):
                 self._answer(event.seq, reply, now)
+            else:                       # an answer of no session of ours: replayed or foreign
+                self.stats.unbound += 1
         self._raise_failures()
 
     def poll(self, now: float) -> None:
@@ -180,11 +190,13 @@ class HostEndpoint:
         if ch.current is not None or not ch.queue:
             return
         if not ch.synced:
-            self.session = (self.session + 1) & 0xFFFFFFFF
+            self.nonce = (self.nonce + 1) & 0xFFFFFFFF
+            ch.session = None
             ch.queue.appendleft(Transaction(None, ch.number,
-                                            bytes((SYNC,)) + self.session.to_bytes(4, "big")))
+                                            bytes((SYNC,)) + self.nonce.to_bytes(4, "big")))
         ch.current = ch.queue.popleft()
-        ch.frame = encode_frame(seq_byte(ch.number, ch.seq), ch.current.payload)
+        ch.frame = encode_frame(seq_byte(ch.number, ch.seq), ch.current.payload,
+                                None if ch.current.cmd is None else ch.session)
         ch.tries, ch.busy_wait, ch.busy_since = 0, False, None
         self._transmit(ch, now)
 
@@ -229,7 +241,8 @@ class HostEndpoint:
                        now)
         else:
             if ch.current.cmd is None:
-                ch.synced = True
+                ch.synced, ch.session = True, reply.number
+                self.stats.sessions += 1
             ch.current.reply = reply
             self._next(ch, now)
 
@@ -247,6 +260,8 @@ class HostEndpoint:
 
     def _next(self, ch: _Channel, now: float) -> None:
         ch.seq = (ch.seq + 1) % SEQ_MOD
+        if ch.seq == 0:
+            ch.synced = False           # a session's numbers never wrap: the next opens another
         ch.current = None
         self._start(ch, now)
 

@@ -1,10 +1,11 @@
-"""What a device answers: ACK, NAK, BUSY, ERR, the position (RDPS) and the status word (RDST).
+"""What a device answers: ACK, NAK, BUSY, ERR, the position (RDPS), the status word (RDST) and
+the session number a SYNC opens (SESS).
 
 Every reply echoes the sequence byte of the frame it answers (NAK excepted: it answers a frame
 whose sequence byte cannot be trusted). ``encode_reply`` and ``decode_reply`` give the payloads.
 
     >>> encode_reply(Status(StatusFlags.MOVING | StatusFlags.HOMED, queued=2)).hex(" ")
-    '85 00 81 02'
+    '85 00 00 81 02'
 """
 
 from __future__ import annotations
@@ -16,11 +17,11 @@ from typing import ClassVar
 from ..config import Machine
 from .codec import ERR_LENGTH, ERR_TEXT, axis_bits, PayloadError, pack_positions, unpack_positions
 
-ACK, NAK, BUSY, ERR, POS, STAT = 0x80, 0x81, 0x82, 0x83, 0x84, 0x85
+ACK, NAK, BUSY, ERR, POS, STAT, SESS = 0x80, 0x81, 0x82, 0x83, 0x84, 0x85, 0x86
 
 
 class StatusFlags(IntFlag):
-    """Bits of the 16-bit status word of a STAT reply (bit 0 is the least significant)."""
+    """Bits of the 24-bit status word of a STAT reply (bit 0 is the least significant)."""
 
     MOVING = 1 << 0         # a motion command (or dwell) is executing
     QUEUE_FULL = 1 << 1     # three commands wait ahead: a queued command now gets BUSY
@@ -38,7 +39,8 @@ class StatusFlags(IntFlag):
     COOLANT_ON = 1 << 13    # COOL M7 or M8
     INDEX_SEEN = 1 << 14    # an indexer start pulse (SIND) arrived since the spindle started
     PROBED = 1 << 15        # the last PROB stopped on the probe; cleared when a PROB starts, by INIT
-    STEP_ERROR = 1 << 16    # a line ended with other steps than its own: stopped (with ERROR)
+    HOST_LOST = 1 << 16     # the host fell silent while the machine had work: braked, then STOPPED
+    STEP_ERROR = 1 << 17    # a line ended with steps other than its own: stopped, ERROR set
 
 
 def flag_names(flags: int) -> list[str]:
@@ -102,8 +104,17 @@ class Status(Reply):
     queued: int = 0
 
 
-REPLY_OF: dict[int, type[Reply]] = {c.opcode: c for c in (Ack, Nak, Busy, Err, Position, Status)}
-_ARGS = {ACK: 0, NAK: 0, BUSY: 0, ERR: 2, STAT: 3}
+@dataclass(frozen=True)
+class Session(Reply):
+    """Answer to SYNC: the session number the device issued for the channel (docs/protocol.md §4);
+    every later frame of the channel, both ways, is bound to it."""
+    opcode: ClassVar[int] = SESS
+    number: int = 0
+
+
+REPLY_OF: dict[int, type[Reply]] = {c.opcode: c for c in (Ack, Nak, Busy, Err, Position, Status,
+                                                          Session)}
+_ARGS = {ACK: 0, NAK: 0, BUSY: 0, ERR: 2, STAT: 4, SESS: 4}
 
 
 def encode_reply(reply: Reply, machine: Machine | None = None) -> bytes:
@@ -116,10 +127,11 @@ def encode_reply(reply: Reply, machine: Machine | None = None) -> bytes:
         steps = {bits[name]: value for name, value in reply.steps}
         return op + pack_positions("POS", steps, machine)
     if isinstance(reply, Status):
-        if not 0 <= reply.queued <= 0x0F:
-            raise ValueError(f"STAT queued = {reply.queued}: must be 0..15")
-        flags = int(reply.flags)               # bits 16-19 in the high nibble of the third byte
-        return op + (flags & 0xFFFF).to_bytes(2, "big") + bytes((reply.queued | (flags >> 16 & 0xF) << 4,))
+        if not 0 <= reply.queued <= 0xFF:
+            raise ValueError(f"STAT queued = {reply.queued}: must be 0..255")
+        return op + int(reply.flags).to_bytes(3, "big") + bytes((reply.queued,))
+    if isinstance(reply, Session):
+        return op + (reply.number & 0xFFFFFFFF).to_bytes(4, "big")
     return op
 
 
@@ -139,5 +151,7 @@ def decode_reply(payload: bytes, machine: Machine | None = None) -> Reply:
     if cls is Err:
         return Err(args[0], args[1])
     if cls is Status:
-        return Status(StatusFlags(int.from_bytes(args[:2], "big") | (args[2] >> 4) << 16), args[2] & 0x0F)
+        return Status(StatusFlags(int.from_bytes(args[:3], "big")), args[3])
+    if cls is Session:
+        return Session(int.from_bytes(args, "big"))
     return cls()

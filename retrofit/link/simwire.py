@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from ..errors import LinkError
-from .device import DeviceEndpoint
+from .device import DeviceEndpoint, SessionNumbers
 from .host import HostEndpoint
 
 
@@ -117,10 +117,12 @@ class LinkBench:
         self.host, self.device = host, device
         self.to_device, self.to_host = to_device, to_host
         self.rng = rng or random.Random(0)
-        if host.session_is_random:
+        if host.nonce_is_random:
             # a seeded bench runs the same way every time: the host's SYNC bytes (and so
             # where the wires' faults land) come from the bench's generator, not the OS
-            host.session, host.session_is_random = self.rng.getrandbits(32), False
+            host.nonce, host.nonce_is_random = self.rng.getrandbits(32), False
+        if getattr(device.sessions, "random_start", False):     # and so do the device's
+            device.sessions = SessionNumbers(self.rng.getrandbits(32))
         self.byte_time_s = byte_time_s
         self.on_time = on_time or (lambda now: None)
         self.now = 0.0

@@ -11,6 +11,7 @@ This is the one place of the link that reads the wall clock and waits on I/O.
 
 from __future__ import annotations
 
+import errno
 import threading
 import time
 from typing import Callable, Protocol
@@ -34,17 +35,40 @@ class Port(Protocol):
 
 
 def open_port(url: str, baudrate: int = 115200, timeout_s: float = 0.01) -> Port:
-    """Open a serial device path or a pyserial URL (``socket://``, ``loop://``, ``rfc2217://``)."""
+    """Open a serial device path or a pyserial URL (``socket://``, ``loop://``, ``rfc2217://``).
+
+    A device path is opened for this process alone: pyserial's ``exclusive`` (an advisory lock,
+    which every host of this toolkit takes) and, on POSIX, TIOCEXCL (the kernel refuses any later
+    open but root's). A port another host holds is a LinkError saying so.
+    """
     try:
         import serial
     except ImportError as exc:
         raise LinkError(f"serial link {url!r}: pyserial is not installed "
                         "(python3 -m pip install pyserial)") from exc
     try:
-        return serial.serial_for_url(url, baudrate=baudrate, timeout=timeout_s)
+        port = serial.serial_for_url(url, baudrate=baudrate, timeout=timeout_s, exclusive=True)
     except (OSError, ValueError) as exc:
+        if "exclusively lock" in str(exc) or getattr(exc, "errno", None) == errno.EBUSY:
+            raise LinkError(f"serial link {url!r}: another host holds the port (a run in progress?); "
+                            "one host at a time drives a machine: wait until it has finished") from exc
         raise LinkError(f"serial link {url!r}: cannot open it ({exc}); expected a device such as "
                         "/dev/ttyUSB0 or COM3, or a URL such as socket://127.0.0.1:5555") from exc
+    _exclusive_tty(port)
+    return port
+
+
+def _exclusive_tty(port) -> None:
+    """TIOCEXCL on a POSIX tty: no one else may open it while this host has it open."""
+    fd = getattr(port, "fd", None)
+    if fd is None:
+        return
+    try:
+        import fcntl
+        import termios
+        fcntl.ioctl(fd, termios.TIOCEXCL)
+    except (ImportError, OSError, AttributeError):
+        pass
 
 
 def read_some(port: Port, name: str) -> bytes:
@@ -157,10 +181,11 @@ class HostLink:
 class DeviceLink:
     """The device endpoint driven over a port: what ``retrofit mcu`` runs (or a test's server)."""
 
-    def __init__(self, port: Port, machine: Machine, handler: Handler, *, name: str | None = None):
+    def __init__(self, port: Port, machine: Machine, handler: Handler, *, name: str | None = None,
+                 **endpoint_options):
         self.port = port
         self.name = name or str(getattr(port, "port", None) or type(port).__name__)
-        self.endpoint = DeviceEndpoint(machine, handler)
+        self.endpoint = DeviceEndpoint(machine, handler, **endpoint_options)
 
     def serve_once(self) -> bool:
         """Read what arrived within ``port.timeout`` and answer it; True if bytes came."""

@@ -40,7 +40,10 @@ class Output(ABC):
 
     Contract: ``open()`` before the first ``write()``; ``write(frames)`` takes port frames in
     tick order (it may be called several times, each chunk continuing the last); ``close()``
-    finishes and releases everything, and is safe to call twice. Use as a context manager.
+    finishes and releases everything, and is safe to call twice; ``safe_stop()`` puts the machine
+    side in its safe state at once (drivers off, every pin at rest) and leaves the output to be
+    closed; ``abort()`` does that and closes, without finishing what was scheduled. Use as a
+    context manager (an exception in the block calls ``safe_stop()`` before ``close()``).
     """
 
     scheme: ClassVar[str] = ""
@@ -80,6 +83,22 @@ class Output(ABC):
     def close(self) -> None:
         self.is_open = False
 
+    def safe_stop(self) -> None:
+        """The machine side safe at once: drivers' enable off, every pin at rest, flushed.
+
+        Called when a run fails or is told to end, before ``close()`` and before anything else
+        (reports, files). The base has nothing that moves a machine; outputs that do override it.
+        """
+
+    def abort(self) -> None:
+        """The machine side safe at once (drivers off, every pin at rest), then closed, without
+        finishing what was scheduled: what a fault or a signal calls. Safe on a closed output."""
+        try:
+            if self.is_open:
+                self.safe_stop()
+        finally:
+            self.close()
+
     def observe(self) -> dict | None:
         """What this output knows of the machine after the run (the simulator answers; others None)."""
         return None
@@ -89,7 +108,11 @@ class Output(ABC):
         return self
 
     def __exit__(self, *exc):
-        self.close()
+        try:
+            if exc[0] is not None and self.is_open:
+                self.safe_stop()          # an exception in the block: the machine stops first
+        finally:
+            self.close()
         return False
 
 

@@ -13,6 +13,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..failsafe import stop_all
 from ..frames import PortFrames
 from ..runlog import RunLog, WaypointTable
 from . import open_output
@@ -66,6 +67,9 @@ def deliver_plan(plan, urls: list[str], progress: Callable[[float], None] | None
             errors.settle(sim, chunk.end_tick)
         errors.settle(sim, None)
         table.worst_mm = errors.worst
+    except BaseException:
+        stop_all(outputs)                  # the machine stops before anything else
+        raise
     finally:
         for out in outputs:
             out.close()

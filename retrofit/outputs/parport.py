@@ -21,7 +21,7 @@ import sys
 from dataclasses import dataclass, field
 
 from ..errors import OutputError
-from ..frames import PortFrames
+from ..frames import PinMap, PortFrames
 from ..tomlreader import Section
 from .base import Output
 from .pacer import ENGINES, Calibration, Lateness, Pacer, RealtimeMode, calibrate
@@ -165,6 +165,7 @@ class ParportOutput(Output):
         self.timing: Lateness | None = None
         self.realtime = RealtimeMode()
         self.quiet = False                     # True: do not print the timing lines on close
+        self.stopped = False                   # safe_stop() ran: the run ended early
 
     @property
     def device(self) -> str:
@@ -214,12 +215,24 @@ class ParportOutput(Output):
     def write(self, frames: PortFrames) -> None:
         self.pacer.play(frames, self.port.write, getattr(self.port, "fd", None))
 
+    def safe_stop(self) -> None:
+        """Stop now: the drivers' enable off, then every data pin at rest (step lines inactive,
+        directions and spare outputs low) at once; ``close()`` then finishes nothing scheduled."""
+        if not self.is_open or self.stopped:
+            return
+        self.stopped = True
+        try:
+            self._set_enable(False)
+        finally:
+            self.port.write(getattr(self.port, "next_tick", 0), PinMap(self.machine).invert)
+
     def close(self) -> None:
         if not self.is_open:
             return
         try:
-            self.timing = self.pacer.finish()
-            self.port.hold_until(self.pacer.end_tick)
+            self.timing = self.pacer.lateness() if self.stopped else self.pacer.finish()
+            if not self.stopped:
+                self.port.hold_until(self.pacer.end_tick)
             self._set_enable(False)
         finally:
             self.realtime.leave()
@@ -228,6 +241,17 @@ class ParportOutput(Output):
         if not self.quiet and self.timing.writes:
             for line in self.report_lines():
                 print(f"{self.url.text}: {line}", file=sys.stderr)
+
+    def abort(self) -> None:
+        """:meth:`safe_stop`, then close at once: the port's latch holds the byte at rest."""
+        if not self.is_open:
+            return
+        try:
+            self.safe_stop()
+        finally:
+            self.realtime.leave()
+            self.port.close()
+            Output.close(self)
 
     def report_lines(self) -> list[str]:
         """Calibration, real-time mode and lateness, one line each (what was measured)."""

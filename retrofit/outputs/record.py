@@ -13,6 +13,7 @@ Read it back with :func:`load_recording`.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -74,8 +75,10 @@ class RecordPort:
         self.buffer.clear()
 
     def close(self) -> None:
-        try:
-            self.path.write_bytes(bytes(self.buffer))
+        try:                           # never through a link planted at the name (O_NOFOLLOW)
+            fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_NOFOLLOW, 0o666)
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(bytes(self.buffer))
         except OSError as exc:
             raise OutputError(f"cannot write the recording {self.path}: {exc.strerror or exc}") from None
 

@@ -19,8 +19,13 @@ frames through ``write``; here the controller at the far end makes its own port 
    answer comes (at most ``boot_ms``); then SYNC both channels;
 2. INIT, unless ``init=0``: position 0, default feeds, empty queue, as the local plan starts;
 3. every command in order on the queued channel (BUSY waited out, NAK and timeouts resent);
-4. RDST every ``poll_ms`` until nothing moves, dwells or waits; ERROR or STOPPED fail the run;
-5. RDPS: the final position.
+4. RDST every ``poll_ms`` until nothing moves, dwells or waits; ERROR or STOPPED fail the run
+   (the polls are also the device's heartbeat: a device that hears nothing for 500 ms brakes);
+5. RDPS: the final position, compared with where the commands end (in steps): a device that
+   reports anything else fails the run, naming both positions.
+
+The port is opened for this host alone (docs/protocol.md §1): a second host on the same tty is
+refused before it sends a byte.
 
 ``observe()`` then returns ``{"remote": {...}}``: what the far end reported (``remote`` in
 docs/report.md). ``retrofit run`` hands command-level outputs the program's commands.
@@ -34,9 +39,10 @@ import time
 from dataclasses import dataclass
 from typing import Iterable
 
-from ..commands import Command, Init, Rdps, Rdst
+from ..commands import Command, FMov, Init, PMov, Prob, Pstn, Rdps, Rdst, Stop, ZMov
 from ..errors import LinkError, OutputError
 from ..frames import PortFrames
+from ..link.codec import HEARTBEAT_MS
 from ..link.replies import flag_names
 from .base import Output
 
@@ -62,6 +68,10 @@ class SerialOutput(Output):
             raise OutputError(f"{url.text}: no device or address; expected {self.grammar}")
         if self.opts["timeout_ms"] <= 0 or self.opts["poll_ms"] <= 0 or self.opts["tries"] < 1:
             raise OutputError(f"{url.text}: timeout_ms and poll_ms must be > 0 and tries >= 1")
+        if self.opts["poll_ms"] > HEARTBEAT_MS / 2:
+            raise OutputError(f"{url.text}: poll_ms = {self.opts['poll_ms']:g} is too long: the "
+                              f"device stops a machine whose host is silent for {HEARTBEAT_MS} ms; "
+                              f"expected at most {HEARTBEAT_MS // 2}")
         self.link = None
         self.remote: dict | None = None
         self.banner: Banner | None = None
@@ -101,6 +111,7 @@ class SerialOutput(Output):
         started = time.monotonic()
         program = ([Init()] if self.opts["init"] else []) + list(commands)
         try:
+            start = None if self.opts["init"] else dict(self.link.request(Rdps()).steps)
             sent = [self.link.submit(cmd, urgent=False) for cmd in program]
             for t in sent:
                 self.link.wait(t)
@@ -108,8 +119,21 @@ class SerialOutput(Output):
             position = self.link.request(Rdps())
         except LinkError as exc:
             raise OutputError(f"{self.url.text}: {exc}") from None
+        self._check_end(end_steps(self.machine, program, start), dict(position.steps))
         self.remote = self._summary(len(program), status, position, time.monotonic() - started)
         return self.remote
+
+    def _check_end(self, expected: dict[str, int | None], reported: dict[str, int]) -> None:
+        """OutputError when the device's RDPS is not where the commands end (axes a probing
+        or homing move left unknown are not compared)."""
+        wrong = [n for n, steps in expected.items() if steps is not None and reported.get(n) != steps]
+        if not wrong:
+            return
+        def text(pos):
+            return " ".join(f"{n}{'?' if pos.get(n) is None else pos[n]}" for n in expected)
+        raise OutputError(f"{self.url.text}: the controller reports the end position {text(reported)} "
+                          f"steps (RDPS), but the program ends at {text(expected)} steps; "
+                          f"{', '.join(wrong)} differ: the machine's position cannot be trusted")
 
     def _wait_for_rest(self, started: float):
         """RDST until the far end has no move, dwell or queued command left; its last status."""
@@ -145,11 +169,38 @@ class SerialOutput(Output):
     def observe(self) -> dict | None:
         return {"remote": self.remote} if self.remote is not None else None
 
+    def safe_stop(self) -> None:
+        """STOP on the immediate channel, at once (a run that fails or is told to end). Best
+        effort: a link that does not answer leaves it to the device's heartbeat (500 ms)."""
+        if self.link is None:
+            return
+        try:
+            self.link.request(Stop(), urgent=True)
+        except (LinkError, OSError):
+            pass
+
     def close(self) -> None:
         if self.link is not None:
             self.link.close()
             self.link = None
         super().close()
+
+
+def end_steps(machine, program, start: dict[str, int] | None = None) -> dict[str, int | None]:
+    """Where ``program`` leaves each axis in steps (program coordinates, as RDPS reports them),
+    from ``start`` (None: 0, as after INIT); None for an axis a homing or probing move ends
+    where its switch is."""
+    pos: dict[str, int | None] = {a.name: 0 for a in machine.axes} if start is None else dict(start)
+    for cmd in program:
+        if isinstance(cmd, Init):
+            pos = {name: 0 for name in pos}
+        elif isinstance(cmd, (FMov, PMov, Pstn)):
+            pos.update((name, machine.axis(name).to_steps(mm)) for name, mm in cmd.axes)
+        elif isinstance(cmd, Prob):
+            pos.update((name, None) for name, _ in cmd.axes)
+        elif isinstance(cmd, ZMov):
+            pos.update((name, None) for name in (cmd.names or tuple(pos)))
+    return pos
 
 
 class SerialSocketOutput(SerialOutput):
@@ -164,7 +215,7 @@ class SerialSocketOutput(SerialOutput):
 #: the line the firmware sends at start, before any frame (firmware/main.c, docs/protocol.md §4)
 BANNER = re.compile(rb"retrofit firmware machine=(\S+) link=(\d+) reset=(\S+)\r?\n")
 #: the link version this host speaks (docs/protocol.md)
-LINK_VERSION = 2
+LINK_VERSION = 3
 
 
 @dataclass(frozen=True)

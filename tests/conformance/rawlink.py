@@ -13,23 +13,25 @@ import serial
 
 from retrofit.commands import Command, Rdps, Rdst, parse_command
 from retrofit.config import Machine
-from retrofit.link import (IMMEDIATE, QUEUED, BadFrame, FrameDecoder, Position, Reply, Status,
-                           StatusFlags, decode_reply, encode_command, encode_frame, seq_byte)
+from retrofit.link import (IMMEDIATE, QUEUED, BadFrame, FrameDecoder, Position, Reply, Session,
+                           Status, StatusFlags, decode_reply, encode_command, encode_frame, seq_byte)
 
-SYNC = bytes((0x7F,))        # then the 32-bit session number
+SYNC = bytes((0x7F,))        # then the host's 32-bit nonce; answered SESS with the device's number
 
 
 class RawLink:
     """A connection to a device with per-channel sequence numbers kept by hand."""
 
-    def __init__(self, url: str, machine: Machine, answer_timeout_s: float = 2.0):
+    def __init__(self, url: str, machine: Machine, answer_timeout_s: float = 15.0):
         self.machine = machine
         self.port = _connect(url)
         self.timeout_s = answer_timeout_s
-        self.decoder = FrameDecoder()
+        #: the session number the device gave each channel (its frames are bound to it)
+        self.sessions: dict[int, int | None] = {QUEUED: None, IMMEDIATE: None}
+        self.decoder = FrameDecoder(lambda seq: self.sessions[seq >> 7])
         self.pending: list = []
         self.next = {QUEUED: 0, IMMEDIATE: 0}
-        self.session = random.getrandbits(32)    # each connection a session of its own
+        self.nonce = random.getrandbits(32)      # each connection its own
 
     def close(self) -> None:
         self.port.close()
@@ -40,7 +42,9 @@ class RawLink:
         self.port.write(data)
 
     def frame(self, channel: int, number: int, payload: bytes) -> bytes:
-        return encode_frame(seq_byte(channel, number), payload)
+        """A frame bound to the channel's session (plain before its SYNC, and for a SYNC)."""
+        session = None if payload[:1] == SYNC else self.sessions[channel]
+        return encode_frame(seq_byte(channel, number), payload, session)
 
     def answers(self, count: int = 1, timeout_s: float | None = None) -> list:
         """The next ``count`` answer frames (Frame or BadFrame); fewer if the time runs out."""
@@ -62,7 +66,7 @@ class RawLink:
     def answer_bytes(self) -> bytes:
         """The next answer frame as its wire bytes (the decoder checked its CRC)."""
         got = self.answer()
-        return encode_frame(got.seq, got.payload)
+        return encode_frame(got.seq, got.payload, self.sessions[got.seq >> 7] if got.bound else None)
 
     def silence(self, wait_s: float = 0.3) -> list:
         """Whatever arrives within ``wait_s`` (a test that expects no answer wants [])."""
@@ -77,9 +81,11 @@ class RawLink:
         return got.seq, decode_reply(got.payload, self.machine)
 
     def sync(self, channel: int, number: int = 0) -> Reply:
-        self.session = (self.session + 1) & 0xFFFFFFFF     # a new session each SYNC, as a host does
-        seq, reply = self.exchange(channel, number, SYNC + self.session.to_bytes(4, "big"))
+        self.nonce = (self.nonce + 1) & 0xFFFFFFFF         # a new nonce each SYNC, as a host does
+        seq, reply = self.exchange(channel, number, SYNC + self.nonce.to_bytes(4, "big"))
         assert seq == seq_byte(channel, number)
+        assert isinstance(reply, Session), f"SYNC answered {reply}"
+        self.sessions[channel] = reply.number
         self.next[channel] = (number + 1) % 128
         return reply
 
@@ -91,6 +97,8 @@ class RawLink:
         """Send a command with the channel's next number; its reply (BUSY does not advance)."""
         cmd = parse_command(cmd) if isinstance(cmd, str) else cmd
         channel = (IMMEDIATE if cmd.immediate else QUEUED) if channel is None else channel
+        if self.next[channel] == 0 and self.sessions[channel] is not None:
+            self.sync(channel)                   # a session's numbers never wrap: a new one
         number = self.next[channel]
         seq, reply = self.exchange(channel, number, encode_command(cmd, self.machine))
         assert seq == seq_byte(channel, number), f"answer to {cmd} carries sequence byte {seq:#x}"

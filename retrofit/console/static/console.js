@@ -1,12 +1,35 @@
 // The console page: open a program, run it, watch it (polled ten times a second), steer it.
+// The token comes in the address the console printed (?token=...): the page keeps it in this tab's
+// sessionStorage, takes it out of the address bar, and sends it with every call; the control id
+// (this tab holds control) likewise.
 "use strict";
 
 const $ = (id) => document.getElementById(id);
-const C = {machine: null, preview: null, trail: 0, polling: null, lastLine: null, runId: undefined, shownId: null};
+const C = {machine: null, preview: null, trail: 0, polling: null, lastLine: null, runId: undefined, shownId: null,
+           token: keepToken(), control: sessionStorage.getItem("retrofit-control"), you: false};
+
+function keepToken() {
+  const url = new URL(location.href);
+  const given = url.searchParams.get("token");
+  if (given) {
+    sessionStorage.setItem("retrofit-token", given);
+    url.searchParams.delete("token");
+    history.replaceState(null, "", url.pathname + url.search + url.hash);
+  }
+  return sessionStorage.getItem("retrofit-token") || "";
+}
+
+function headers(json) {
+  const h = {"X-Retrofit-Token": C.token};
+  if (C.control) h["X-Retrofit-Control"] = C.control;
+  if (json) h["Content-Type"] = "application/json";
+  return h;
+}
+RV.headers = () => headers(false);
 
 async function api(path, body) {
-  const r = await fetch(path, body === undefined ? {} : {method: "POST", headers: {"Content-Type": "application/json"},
-    body: JSON.stringify(body)});
+  const r = await fetch(path, body === undefined ? {headers: headers(false)} :
+    {method: "POST", headers: headers(true), body: JSON.stringify(body)});
   const data = await r.json();
   $("message").textContent = data.error || "";
   if (data.error) throw new Error(data.error);
@@ -14,17 +37,26 @@ async function api(path, body) {
 }
 
 async function init() {
+  if (!C.token) $("message").textContent = "open the address the console printed: it carries the console's token";
   C.machine = await api("/api/machine");
   $("machine-name").textContent = C.machine.name;
   $("machine-desc").textContent = C.machine.description;
-  for (const name of C.machine.examples) $("example").add(new Option(name, name));
+  for (const name of [...C.machine.examples, ...C.machine.programs]) $("example").add(new Option(name, name));
   for (const a of C.machine.axes) $("jog-axis").add(new Option(a.name, a.name));
   $("dro").tBodies[0].innerHTML = C.machine.axes.map(a =>
     `<tr><td>${a.name}</td><td id="cmd-${a.name}">0.000</td><td id="car-${a.name}">0.000</td></tr>`).join("");
   const lathe = C.machine.examples.find(n => n.includes(C.machine.lathe ? "lathe" : "engrav"));
   if (lathe) $("example").value = lathe;
   bind();
+  await claim(false).catch(() => {});
   poll();
+}
+
+async function claim(take) {
+  const res = await api("/api/control", {take: take});
+  C.control = res.control;
+  sessionStorage.setItem("retrofit-control", res.control);
+  return res;
 }
 
 function bind() {
@@ -45,7 +77,11 @@ function bind() {
   $("speed").onchange = () => act("speed", {factor: parseFloat($("speed").value)}).catch(() => {});
   $("hold").onclick = () => act("hold");
   $("resume").onclick = () => act("resume");
-  $("stop").onclick = () => act("stop");
+  $("stop").onclick = async () => {            // a watching page takes control to STOP: it says so
+    if (!C.you) await claim(true);
+    await act("stop");
+  };
+  $("take").onclick = () => claim(true).catch(() => {});
   for (const k of ["feed", "rapid"]) {
     $(k).oninput = () => { $(k + "-val").textContent = $(k).value; };
     $(k).onchange = () => act(k, {pct: parseFloat($(k).value)});
@@ -96,7 +132,19 @@ async function poll() {
   C.polling = setTimeout(poll, 100);
 }
 
+function showControl(c) {
+  C.you = c.you;
+  document.body.dataset.control = c.you ? "yours" : "watching";
+  const h = c.holder;
+  $("control").textContent = c.you ? "you hold control" :
+    (h ? `watching: ${h.name} (${h.address}) holds control since ${h.since}` : "watching: no one holds control");
+  $("take").hidden = c.you;
+  $("stop").textContent = c.you ? "STOP" : "Take control + STOP";
+}
+
 function show(s) {
+  if (s.control) showControl(s.control);
+  if (s.fault) $("message").textContent = s.fault;
   $("state").textContent = s.state;
   document.body.dataset.state = s.state;
   if (s.commanded_mm) for (const a of C.machine.axes) {
@@ -119,13 +167,14 @@ function show(s) {
   C.trail = s.trail_len || 0;
   const dlg = $("dialog");
   const key = s.dialog ? s.dialog.kind + ":" + s.dialog.line + ":" + s.events : null;
-  if (s.dialog && key !== C.answered && dlg.dataset.key !== key) {
+  if (s.dialog && !C.you) $("message").textContent = "waiting for the operator: " + s.dialog.text;
+  if (s.dialog && C.you && key !== C.answered && dlg.dataset.key !== key) {
     $("dialog-text").textContent = s.dialog.text;
     dlg.dataset.kind = s.dialog.kind;
     dlg.dataset.key = key;
     if (!dlg.open) dlg.showModal();
   }
-  if (!s.dialog && dlg.open) dlg.close();
+  if ((!s.dialog || !C.you) && dlg.open) { dlg.close(); dlg.dataset.key = ""; }
   if (["done", "stopped", "error"].includes(s.state) && C.shownId !== s.run_id) {
     C.shownId = s.run_id;
     showRun().catch(() => { C.shownId = null; });
