@@ -197,7 +197,9 @@ static uint32_t cover(const move_t *m, float ve, float *t_seg, float *travelled,
     /* Near the stop rate (below EVENT_BY_EVENT times it) a segment is cut every event, so that
      * starting and braking come out event by event, not as a staircase of whole segments. */
     float rate = v * per_mm, dt = SEGMENT_MS / 1000.0f;
-    if (rate < EVENT_BY_EVENT * move_rest(m) * per_mm && rate * dt < 2.0f * SEGMENT_EVENTS)
+    if (rate < EVENT_BY_EVENT * move_rest(m) * per_mm && rate * dt < 2.0f * SEGMENT_EVENTS &&
+        v < 0.999f * m->v_nominal)             /* (not a cruise at a feed below the stop rate:
+                                                  a segment an event there outran the main loop) */
         dt = 1.0f / rate;
     else if (rate > LONG_SEGMENT_HZ)
         dt *= 2.0f;             /* fast: half as many segments to compute, the same time ahead */

@@ -26,9 +26,10 @@ import numpy as np
 from .commands import parse_command
 from .config import Machine
 from .firmware_sim import Harness, HarnessLog, step_times
-from .link import FrameDecoder, decode_reply
+from .link import BadFrame, FrameDecoder, decode_reply
+from .link.codec import PayloadError
 from .link.host import HostEndpoint
-from .link.replies import Position, Status, StatusFlags
+from .link.replies import Position, Session, Status, StatusFlags
 
 
 def keep_rates(firmware: Path | None = None) -> dict[str, list[float]]:
@@ -163,7 +164,7 @@ def stress_run(elf: Path, machine: Machine, *, seed: int, moves: int, top_rate: 
         host_addr, port = harness.address.rsplit(":", 1)
         sock = socket.create_connection((host_addr, int(port)), timeout=5)
         sock.settimeout(0.002)
-        host = HostEndpoint(machine, timeout_s=0.2, max_tries=50, nonce=seed)
+        host = HostEndpoint(machine, timeout_s=0.05, max_tries=50, nonce=seed)
         line = _Line(sock, rng, garbage, drop, run)
         last = [0.0, None]                         # when the next poll is due, the last one
 
@@ -208,16 +209,21 @@ def stress_run(elf: Path, machine: Machine, *, seed: int, moves: int, top_rate: 
 
 
 def answer_cycles(log: HarnessLog, machine: Machine) -> list[tuple[int, object]]:
-    """(cycle its last byte left the board, reply) of every answer the firmware sent."""
-    decoder, out = FrameDecoder(), []
+    """(cycle its last byte left the board, reply) of every intact answer the firmware sent, each
+    checked against the session it is bound to (learnt from the SESS answers as they come)."""
+    sessions: dict[int, int | None] = {0: None, 1: None}
+    decoder, out = FrameDecoder(lambda seq: sessions[seq >> 7]), []
     for cycle, byte in log.uart:
         for frame in decoder.feed(bytes((byte,))):
-            payload = getattr(frame, "payload", None)
-            if payload is not None:
-                try:
-                    out.append((cycle, decode_reply(payload, machine)))
-                except Exception:               # a damaged answer: the host resent
-                    pass
+            if isinstance(frame, BadFrame):
+                continue
+            try:
+                reply = decode_reply(frame.payload, machine)
+            except PayloadError:                   # a damaged answer: the host resent
+                continue
+            if isinstance(reply, Session):
+                sessions[frame.seq >> 7] = reply.number
+            out.append((cycle, reply))
     return out
 
 
