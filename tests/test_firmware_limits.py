@@ -259,6 +259,6 @@ def test_random_moves_streamed_at_up_to_40_khz_with_garbage_end_where_the_plan_d
 @pytest.mark.parametrize("seed", range(100, 106))
 def test_longer_random_stress_at_every_rate_up_to_the_limit(bench, seed):
     machine, elf = bench
-    run = st.stress_run(elf, machine, seed=seed, moves=150, top_rate=60_000, batch=(1, 30))
+    run = st.stress_run(elf, machine, seed=seed, moves=300, top_rate=60_000, batch=(1, 30))
     problems = st.check(run, machine)
     assert not problems, "\n".join(problems[:10])
