@@ -17,8 +17,15 @@ of an earlier commit (default: the one before the segment buffer) built the same
 5. A thread pass on mitic-lathe (ISTP, 0.5 mm a turn, 80 Z steps) at 300 and 1 200 rpm: the
    delay from each encoder count to its step's rise and the longest interrupts-off stretch.
 6. Flash and RAM of each shipped machine.
+7. The rates the firmware keeps while the host polls RDST every 2 ms and every 20 ms: for 1-4
+   axes stepping together and for Bresenham ratios, the highest base rate at which a 0.25 s move
+   ends on its steps with every cruise interval within +-2 us and no stall (its own clamp, the
+   KEEP_RATE tables of firmware/planner.c, lifted in a copy); beside them the tables themselves.
+8. Thread pulses on mitic-lathe at its top spindle speed (2 000 rpm): their shortest width.
 
-    python bench/firmware_steprate.py [--base COMMIT[,COMMIT...]] [--quick]
+    python bench/firmware_steprate.py [--base COMMIT[,COMMIT...]] [--quick] [--only PARTS]
+
+PARTS: a comma-separated choice of rates, thread, circle, garbage, sizes, keep, pulses (all).
 """
 
 from __future__ import annotations
@@ -208,6 +215,76 @@ def sizes() -> None:
               f"RAM {data + bss} B ({100 * (data + bss) / 8192:.1f} % of 8 KiB) before the stack")
 
 
+KEEP_CASES = [(1.0,), (1.0, 1.0), (1.0, 1.0, 1.0), (1.0, 1.0, 1.0, 1.0), (1.0, 0.5),
+              (1.0, 0.5, 0.25), (1.0, 0.67, 0.67), (1.0, 0.5, 0.25, 0.125)]
+
+
+def polled(elf: Path, machine, ratios, rate: float, poll_ms: float, secs: float = 0.25) -> bool:
+    """A ``secs`` move at ``rate`` on the base axis, RDST every ``poll_ms``: exact on the pins,
+    every cruise interval within +-2 us, no interval 100 us longer than the period."""
+    axes = "XYZA"[:len(ratios)]
+    steps = int(rate * secs)
+    dist = [round(steps * r) for r in ratios]
+    feed = rate * math.sqrt(sum(r * r for r in ratios)) * 60 / 1000.0
+    texts = [(2_000_000, f"FFDR F{feed:.4f}"),
+             (2_200_000, "FMOV " + " ".join(f"{a}{d / 1000:g}" for a, d in zip(axes, dist)))]
+    end = 2_200_000 + int(secs * S * 1.2) + 2_000_000
+    texts += [(t, "RDST") for t in range(2_200_000, end - 1_000_000, int(poll_ms * S / 1000))]
+    log = fs.Harness(elf, machine, script=frames(machine, texts), cycles=end).run()
+    rises, _, _ = fs.step_times(log, machine, "X")
+    if [len(fs.step_times(log, machine, a)[0]) for a in axes] != dist:
+        return False
+    gaps = np.diff(rises)
+    cruise = gaps[len(gaps) // 8: -len(gaps) // 8]
+    return gaps.max() - S / rate < 1600 and np.abs(cruise - S / rate).max() <= 32
+
+
+def keep(tmp: Path, quick: bool) -> None:
+    """The highest rate kept under polling, with the firmware's own clamp lifted (item 7)."""
+    import re
+    import shutil
+    machine = load_machine(MACHINE)
+    copy = tmp / "keep" / "firmware"
+    shutil.copytree(fs.FIRMWARE, copy, ignore=shutil.ignore_patterns("build", "*.elf", "*.hex"))
+    planner = (copy / "planner.c").read_text()
+    tables = re.findall(r"#define (KEEP_RATE_\w+)\s+(\{[^}]*\})", planner)
+    lifted = "\n".join(f"#define {n} {{ 1e6f, 1e6f, 1e6f, 1e6f, 1e6f }}" for n, _ in tables)
+    (copy / "planner.c").write_text(planner.replace("#ifndef KEEP_RATE_PLAIN", lifted + "\n#ifndef KEEP_RATE_PLAIN"))
+    elf = fs.build_copy(machine, tmp / "keep")
+    step = 5000 if quick else 2500
+    print("rates kept under RDST polling (steps/s of the base axis; 0.25 s moves, exact steps, "
+          "+-2 us intervals, no stall), the clamp lifted:")
+    print(f"  {'ratios':<22}{'2 ms':>10}{'20 ms':>10}")
+    for ratios in KEEP_CASES:
+        row = []
+        for poll_ms in (2.0, 20.0):
+            best = 0
+            for rate in range(30_000, 70_001, step):
+                if not polled(elf, machine, ratios, rate, poll_ms):
+                    break
+                best = rate
+            row.append(best)
+        print(f"  {':'.join(f'{r:g}' for r in ratios):<22}{row[0]:>10}{row[1]:>10}")
+    for name, table in tables:
+        print(f"  firmware/planner.c {name} (1-5 moving axes): {table}")
+
+
+def pulses() -> None:
+    """Thread pulses at mitic-lathe's top spindle speed (item 8)."""
+    lathe = load_machine("mitic-lathe")
+    elf = fs.build("mitic-lathe")
+    rpm = lathe.parts["spindle"].max_rpm
+    script = frames(lathe, [(3_100_000, f"SPIN S{rpm:g} D1"), (3_200_000, "ISTP"),
+                            (3_300_000, "PFDR F0.5"), (3_400_000, "PMOV Z-4")])
+    log = fs.Harness(elf, lathe, script=script, cycles=int((0.3 + 12 * 60 / rpm) * S),
+                     spindle_rpm=rpm).run()
+    rises, falls, _ = fs.step_times(log, lathe, "Z")
+    width = (falls - rises) / 16
+    print(f"thread pulses on mitic-lathe at {rpm:g} rpm ({lathe.parts['spindle'].encoder_counts_per_rev} "
+          f"counts a turn): {len(rises)} steps, each {width.min():.1f}-{width.max():.1f} us high "
+          f"({lathe.axis('Z').pulse_high_ticks * lathe.tick_us:g} us configured)")
+
+
 def long_pulse(machine_path: Path, tmp: Path):
     """The bench machine with a 5 us pulse (ended by compare B's interrupt, not in the tick)."""
     text = machine_path.read_text().replace("pulse_high_ticks = 2", "pulse_high_ticks = 5")
@@ -223,7 +300,21 @@ def main() -> int:
                          "buffer, before the common tick ran whole, before the encoder's "
                          "interrupt let interrupts in)")
     ap.add_argument("--quick", action="store_true", help="a coarser sweep")
+    ap.add_argument("--only", default="rates,thread,circle,garbage,sizes,keep,pulses",
+                    help="the parts to run, comma-separated")
     args = ap.parse_args()
+    parts = set(args.only.split(","))
+    if "keep" in parts or "pulses" in parts:
+        with tempfile.TemporaryDirectory() as tmp:
+            if "keep" in parts:
+                keep(Path(tmp), args.quick)
+            if "pulses" in parts:
+                pulses()
+    if not parts & {"rates", "thread"}:
+        for name, run in (("circle", circle), ("garbage", garbage), ("sizes", sizes)):
+            if name in parts:
+                run()
+        return 0
     machine = load_machine(MACHINE)
     step = 5000 if args.quick else 2500
     rates = [float(r) for r in range(5000, 90001, step)]
@@ -265,10 +356,11 @@ def main() -> int:
                       f"{interrupts(elves['this tree'], machine, axes, rate, idle['this tree'])}")
         print(f"  {'this tree':<16} 1 axis at 60 kHz: "
               f"{interrupts(elves['this tree'], machine, 'X', 60000.0, idle['this tree'])}")
-        thread(sources, tmp)
-    circle()
-    garbage()
-    sizes()
+        if "thread" in parts:
+            thread(sources, tmp)
+    for name, run in (("circle", circle), ("garbage", garbage), ("sizes", sizes)):
+        if name in parts:
+            run()
     return 0
 
 

@@ -31,6 +31,7 @@
 #define ST_INDEX_SEEN  0x4000
 #define ST_PROBED      0x8000
 #define ST_HOST_LOST   0x10000UL       /* the heartbeat stopped the machine (docs/protocol.md §5) */
+#define ST_STEP_ERROR  0x20000UL       /* a line ended with steps other than its own */
 
 #define FEED_UNITS_PER_MM 10000.0f     /* feeds travel in 0.1 um per minute (or per rev) */
 
@@ -45,7 +46,8 @@ static uint8_t indexer;                /* ISTP: the spindle encoder is the step 
 static float spindle_rpm;              /* SPIN's speed: the thread speed is checked against it */
 static uint8_t thread_chain;           /* the last move prepared was an ISTP PMOV */
 static uint32_t flags;                 /* HOMED, ERROR, STOPPED, SPINDLE_ON, COOLANT_ON, PROBED,
-                                          HOST_LOST */
+                                          HOST_LOST,
+                                          STEP_ERROR (the position is not the plan's) */
 static uint8_t dwelling;
 static uint32_t dwell_left_ms;
 static uint8_t home_order[N_AXES], home_count, home_index, home_phase;
@@ -377,7 +379,9 @@ void interp_run(void)
     uint8_t events = stepper_take_events();
     if (probe_running() && idle())                     /* a stop on the probe that came since: */
         events |= stepper_take_events();               /* at rest, no other can come */
-    if (events & EV_LIMIT) {
+    if (events & (EV_LIMIT | EV_STEPS)) {
+        if (events & EV_STEPS)
+            flags |= ST_STEP_ERROR;                    /* a line's steps were not its own */
         fault();
         return;
     }

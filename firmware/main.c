@@ -21,11 +21,13 @@
 #include "io.h"
 #include "link.h"
 #include "planner.h"
+#include "segment.h"
 #include "stepper.h"
 #include "switches.h"
 #include "uart.h"
 
 #define LINK_VERSION "3"
+#define LINK_BYTES_A_TURN 8
 
 static void put_text(const char *flash_text)
 {
@@ -69,8 +71,12 @@ int main(void)
         wdt_reset();
         io_main_loop_alive();
         int16_t byte;
-        while (link_can_receive() && (byte = uart_getc()) >= 0)   /* async_comm, never */
-            link_receive((uint8_t)byte);              /* waiting for the wire to answer */
+        /* async_comm: a few bytes a turn, and only while the step interrupt has segments
+         * enough, so that a host polling fast never holds the loop away from the segments,
+         * the clock's work and the watchdog (bytes wait in the receive buffer) */
+        for (uint8_t n = 0; n < LINK_BYTES_A_TURN && segment_fed() && link_can_receive() &&
+                            (byte = uart_getc()) >= 0; n++)
+            link_receive((uint8_t)byte);
         interp_run();                                  /* interpret */
         uint16_t now = io_millis();
         while (last_ms != now) {                       /* processing: time-driven parts */

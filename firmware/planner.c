@@ -25,6 +25,17 @@ static const float max_rate[N_AXES] = MAX_RATE_STEPS_S;       /* steps/s */
 static const float max_accel[N_AXES] = ACCEL_STEPS_S2;        /* steps/s^2 */
 static const uint16_t backlash[N_AXES] = BACKLASH_STEPS;      /* 'JocL' / 'JocT' */
 
+/* The fastest timer event rate (base-axis steps/s) the step interrupt keeps while the main loop
+ * still prepares the segments and answers the link (RDST every 2 ms), by the number of moving
+ * axes, for lines whose axes all step at every event (PLAIN) and for lines with Bresenham axes
+ * (BRES): measured in simavr by bench/firmware_steprate.py. No line is planned faster, whatever
+ * its feed: a rate the interrupt cannot keep would starve the segment supply mid-move. */
+#ifndef KEEP_RATE_PLAIN
+#define KEEP_RATE_PLAIN { 47500.0f, 47500.0f, 50000.0f, 47500.0f, 40000.0f }
+#define KEEP_RATE_BRES  { 47500.0f, 42500.0f, 40000.0f, 35000.0f, 30000.0f }
+#endif
+static const float keep_plain[5] = KEEP_RATE_PLAIN, keep_bres[5] = KEEP_RATE_BRES;
+
 #define JUNCTION_SHARE 0.5f            /* of an axis's acceleration, for a turn's velocity jump */
 #define FEED_NONE 255                  /* a take-up move: no override changes it */
 
@@ -63,9 +74,12 @@ static float nominal(float feed_mm_min, float cap, float per_mm)
 static void limits(move_t *m)
 {
     float v = 1e9f, a = 1e12f;
+    uint8_t moving = 0, bres = 0;
     for (uint8_t i = 0; i < N_AXES; i++) {
         if (!m->delta[i])
             continue;
+        moving++;
+        bres |= m->delta[i] != m->events;
         float share = (float)m->delta[i] / steps_per_mm[i] / m->mm;   /* |unit| of the axis */
         if (max_rate[i] / steps_per_mm[i] / share < v)
             v = max_rate[i] / steps_per_mm[i] / share;
@@ -73,8 +87,11 @@ static void limits(move_t *m)
             a = max_accel[i] / steps_per_mm[i] / share;
     }
     float per_mm = (float)m->events / m->mm;
-    if (v * per_mm > MAX_RATE)
-        v = MAX_RATE / per_mm;
+    float keep = moving ? (bres ? keep_bres : keep_plain)[moving - 1] : MAX_RATE;
+    if (keep > MAX_RATE)
+        keep = MAX_RATE;
+    if (v * per_mm > keep)
+        v = keep / per_mm;                     /* the rate the firmware keeps */
     m->v_cap = v;
     m->accel = a;
     m->v_rest = sqrtf(2.0f * a / per_mm);      /* the speed after one event from rest */

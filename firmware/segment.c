@@ -21,6 +21,13 @@
 #define START_SEGMENTS 4
 #define EVENT_BY_EVENT 2.5f
 #define SEGMENT_EVENTS 8.0f
+/* Above this rate a segment lasts twice SEGMENT_MS: the main loop's float work per second is
+ * halved where the step interrupt leaves it the least CPU. */
+#define LONG_SEGMENT_HZ 20000.0f
+/* The link waits while fewer segments than this are ready and there is motion to cut. */
+#define FED_SEGMENTS (SEGMENTS / 2)
+/* A segment's ticks are 16-bit: the most events a segment can hold at the fastest rate. */
+_Static_assert(MAX_RATE * 2.0f * SEGMENT_MS / 1000.0f * 1.5f < 32767.0f, "segment ticks overflow");
 
 static uint8_t active, held, stopped = 1, first, line_slot;
 static float v;                  /* mm/s at the end of the last segment */
@@ -40,14 +47,21 @@ void segment_hold(uint8_t on) { held = on; }
 
 uint8_t segment_active(void) { return active; }
 
+uint8_t segment_fed(void)
+{
+    return held || !planner_first() || stepper_queued() >= FED_SEGMENTS;
+}
+
 /* A new line slot for move `m`: steps shifted for AMASS unless the encoder clocks it. */
 static uint8_t new_line(const move_t *m)
 {
     line_slot = (uint8_t)(line_slot + 1 == LINES ? 0 : line_slot + 1);
     line_t *l = &stepper_lines[line_slot];
     uint8_t shift = m->indexer ? 0 : AMASS_MAX;
-    for (uint8_t i = 0; i < N_AXES; i++)
+    for (uint8_t i = 0; i < N_AXES; i++) {
         l->steps[i] = m->delta[i] << shift;
+        l->want[i] = (m->dir_bits >> i) & 1 ? -(int32_t)m->delta[i] : (int32_t)m->delta[i];
+    }
     l->base = m->events << shift;
     l->dir_bits = m->dir_bits;
     l->kind = m->kind;
@@ -183,8 +197,12 @@ static uint32_t cover(const move_t *m, float ve, float *t_seg, float *travelled,
     /* Near the stop rate (below EVENT_BY_EVENT times it) a segment is cut every event, so that
      * starting and braking come out event by event, not as a staircase of whole segments. */
     float rate = v * per_mm, dt = SEGMENT_MS / 1000.0f;
-    if (rate < EVENT_BY_EVENT * move_rest(m) * per_mm && rate * dt < 2.0f * SEGMENT_EVENTS)
+    if (rate < EVENT_BY_EVENT * move_rest(m) * per_mm && rate * dt < 2.0f * SEGMENT_EVENTS &&
+        v < 0.999f * m->v_nominal)             /* (not a cruise at a feed below the stop rate:
+                                                  a segment an event there outran the main loop) */
         dt = 1.0f / rate;
+    else if (rate > LONG_SEGMENT_HZ)
+        dt *= 2.0f;             /* fast: half as many segments to compute, the same time ahead */
     *t_seg = *travelled = 0.0f;
     for (uint16_t tries = 0; !n && !*done && tries < 2000; tries++) {
         float t = dt;

@@ -14,5 +14,8 @@ void segment_reset(void);
 /* While held, nothing new is prepared (a dwell runs). */
 void segment_hold(uint8_t on);
 uint8_t segment_active(void);      /* a move is being cut */
+/* Enough segments are ready (or nothing is left to cut): the main loop may serve the link.
+ * While it is not, the segments come first, so serial traffic never starves the steps. */
+uint8_t segment_fed(void);
 
 #endif

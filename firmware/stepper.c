@@ -29,8 +29,12 @@ volatile uint8_t st_state, st_halted, st_events, st_index_seen, st_index_wait, s
 volatile uint8_t st_stepped_negative = 0xFF;  /* bit i: axis i last stepped towards - */
 static volatile uint8_t st_index_pulse;       /* SIND came since stepper_index_quiet looked */
 int32_t st_position[N_AXES];                 /* 002's actual position, steps, ... */
-volatile int16_t st_moved[N_AXES];           /* ... plus the steps counted since its update, */
+volatile int16_t st_moved[N_AXES];           /* ... plus the steps it counted (wrapping), */
 volatile uint16_t st_fired;                   /* and events of the axes that step every one */
+int16_t st_moved_seen[N_AXES];               /* st_moved at the running line's last look */
+static int16_t folded[N_AXES];               /* st_moved at the main loop's last fold */
+int32_t st_line_acc[N_AXES];
+volatile uint8_t st_fold_seq;
 
 /* The running segment and its line. */
 const line_t *st_ln;
@@ -133,16 +137,19 @@ ISR(INT0_vect)
     if (st_state != ENCODER || st_index_wait)
         return;
     for (;;) {
-        if (st_pulse_high) {                      /* counts this close: the last pulse ends now */
-            FOR_EACH_AXIS(STEP_LOW)
-            st_pulse_high = 0;
-            if (st_dir_pending) {
-                write_directions(st_dir_next);
-                st_dir_pending = 0;
-            }
-        }
+        /* A pulse still high is left to compare B (a count without a step must not cut it: at
+         * 2 000 rpm on 400 counts a count comes every 75 us, and 100 us pulses ended at 75);
+         * only a step that comes before its end (no line allows one) ends it here. */
         uint8_t bits = st_enc_bits;
         if (bits) {
+            if (st_pulse_high) {                  /* (never at a rate the line may have) */
+                FOR_EACH_AXIS(STEP_LOW)
+                st_pulse_high = 0;
+                if (st_dir_pending) {
+                    write_directions(st_dir_next);
+                    st_dir_pending = 0;
+                }
+            }
             FOR_EACH_AXIS(STEP_HIGH)
             OCR1B = TCNT1 + FALL_AFTER_RISE_COUNTS;   /* (the pins rose in this count) */
             TIFR1 = _BV(OCF1B);                   /* an earlier pulse's compare ends none now */
@@ -154,9 +161,13 @@ ISR(INT0_vect)
         uint8_t neg = st_ln->dir_bits;
         FOR_EACH_AXIS(COUNT)
         uint8_t more = (!st_enc_ev || --st_enc_left != 0) && enc_prepare();
+        if (!more && st_state == ENCODER)
+            line_check();                        /* (its steps; a mismatch halts it) */
+        else if (!(st_enc_left & 0x3FFF))
+            line_absorb();
         cli();
         EIMSK |= _BV(INT0);
-        if (st_state != ENCODER)                  /* a limit halted the line */
+        if (st_state != ENCODER)                  /* a limit or the check halted the line */
             return;
         if (!more) {
             st_events |= EV_DONE;
@@ -254,36 +265,39 @@ uint8_t stepper_take_events(void)
     return e;
 }
 
-/* The steps the interrupt counted in 16 bits go into the 32-bit position (a few at a time, so
- * the interrupts stay off only for one axis's sum). */
+/* The steps the interrupt counted (st_moved, 16-bit, counting freely) go into the 32-bit
+ * position: what each axis's count gained since the last fold (at least every 0.5 s: it wraps
+ * after 32 767). The interrupts stay off only to read a count; nothing the interrupt reads is
+ * written. The events of the axes that step at every one (st_fired) are the interrupt's to fold. */
 void stepper_fold(void)
 {
-    uint16_t n;
-    uint8_t mask, neg;
-    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-        n = st_fired;
-        st_fired = 0;
-        mask = st_always_axes;
-        neg = st_ev_neg;
-    }
-    for (uint8_t i = 0; i < N_AXES; i++)
-        if (mask & (1 << i))
-            st_position[i] += (neg >> i) & 1 ? -(int32_t)n : (int32_t)n;
     for (uint8_t i = 0; i < N_AXES; i++) {
         int16_t m;
-        ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-            m = st_moved[i];
-            st_moved[i] = 0;
-        }
-        st_position[i] += m;
+        ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { m = st_moved[i]; }
+        st_position[i] += (int16_t)(m - folded[i]);
+        folded[i] = m;
     }
 }
 
+/* The position now: the folded one plus the events of the axes that step at every one not yet
+ * folded by the interrupt; read again if the interrupt folded them meanwhile. */
 void stepper_position(int32_t *steps)
 {
-    stepper_fold();
-    for (uint8_t i = 0; i < N_AXES; i++)
-        steps[i] = st_position[i];
+    uint16_t n;
+    uint8_t mask, neg, seq;
+    do {
+        seq = st_fold_seq;
+        stepper_fold();
+        ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+            n = st_fired;
+            mask = st_always_axes;
+            neg = st_ev_neg;
+        }
+    } while (seq != st_fold_seq);
+    for (uint8_t i = 0; i < N_AXES; i++) {
+        int32_t fired = !(mask & (1 << i)) ? 0 : (neg >> i) & 1 ? -(int32_t)n : (int32_t)n;
+        steps[i] = st_position[i] + fired;
+    }
 }
 
 void stepper_set_position(uint8_t axis, int32_t steps)
@@ -291,7 +305,7 @@ void stepper_set_position(uint8_t axis, int32_t steps)
     stepper_fold();
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
         st_position[axis] = steps;
-        st_moved[axis] = 0;
+        folded[axis] = st_moved[axis];
     }
 }
 

@@ -18,6 +18,7 @@
 typedef struct {
     uint32_t steps[N_AXES];        /* steps of each axis (<< AMASS_MAX for a timed line) */
     uint32_t base;                 /* Bresenham's base count (<< AMASS_MAX for a timed line) */
+    int32_t want[N_AXES];          /* the steps it must make, signed: checked at its end */
     uint8_t dir_bits;              /* bit i: axis i moves towards negative */
     uint8_t kind;                  /* enum move_kind (planner.h) */
     uint8_t watch;                 /* the switch a homing line watches */
@@ -46,6 +47,7 @@ extern line_t stepper_lines[LINES];
 #define EV_LIMIT   0x01            /* a limit switch stopped a move: the queue must be dropped */
 #define EV_SWITCH  0x02            /* a homing move ended on its switch (closed / opened) */
 #define EV_DONE    0x04            /* a line ended */
+#define EV_STEPS   0x08            /* a line ended with steps other than its own: all stopped */
 
 void stepper_init(void);
 /* The free segment slot, or 0 when SEGMENTS wait; stepper_push publishes it. */

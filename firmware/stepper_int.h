@@ -52,8 +52,14 @@ enum { IDLE, TICKING, ENCODER };
 extern volatile uint8_t st_state, st_halted, st_events, st_index_seen, st_index_wait, st_pulse_high;
 extern volatile uint8_t st_stepped_negative;  /* bit i: axis i last stepped towards - */
 extern int32_t st_position[N_AXES];                 /* 002's actual position, steps, ... */
-extern volatile int16_t st_moved[N_AXES];           /* ... plus the steps counted since its update, */
+extern volatile int16_t st_moved[N_AXES];           /* ... plus the steps it counted, */
 extern volatile uint16_t st_fired;                   /* and events of the axes that step every one */
+/* st_moved counts freely (16-bit, wrapping): the main loop folds what it gained into the 32-bit
+ * position (stepper_fold), and the interrupt into the running line's count st_line_acc at least
+ * every 16 384 events (line_absorb); neither writes what the other reads. */
+extern int16_t st_moved_seen[N_AXES];
+extern int32_t st_line_acc[N_AXES];
+extern volatile uint8_t st_fold_seq;                /* fold_fired() calls (mod 256) */
 
 /* The running segment and its line. */
 extern const line_t *st_ln;
@@ -133,6 +139,8 @@ static inline __attribute__((always_inline)) void schedule(void)
 void set_directions(uint8_t dirs);
 void halt(uint8_t why);
 void fold_fired(void);
+void line_check(void);
+void line_absorb(void);
 void wake(void);
 uint8_t enc_prepare(void);
 uint8_t enc_begin(uint16_t wait, uint16_t lead);

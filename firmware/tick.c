@@ -47,10 +47,14 @@ void halt(uint8_t why)
 void fold_fired(void)
 {
     uint16_t n = st_fired;
+    uint8_t mask = st_always_axes, neg = st_ev_neg;
     st_fired = 0;
-    for (uint8_t i = 0; i < N_AXES; i++)
-        if (st_always_axes & (1 << i))
-            st_moved[i] += (st_ev_neg >> i) & 1 ? -(int16_t)n : (int16_t)n;
+    st_fold_seq++;
+#define FOLD(i, slot)                                                             \
+    if (mask & (1 << (i)))                                                        \
+        st_moved[i] += (neg >> (i)) & 1 ? -(int16_t)n : (int16_t)n;
+    FOR_EACH_AXIS(FOLD)
+#undef FOLD
 }
 
 /* The Bresenham increments at AMASS level `level`; at level 0 an axis that steps at every
@@ -72,10 +76,36 @@ static void set_level(uint8_t level)
     }
 }
 
-/* A new line: Bresenham's terms at the mid-point, its directions. */
+/* What each axis's count gained since the last look, into the running line's count (at least
+ * every 16 384 events: st_moved is 16-bit). */
+#define ABSORB(i, slot)                                                           \
+    {                                                                             \
+        int16_t d = (int16_t)(st_moved[i] - st_moved_seen[i]);                    \
+        st_moved_seen[i] += d;                                                    \
+        st_line_acc[i] += d;                                                      \
+    }
+void line_absorb(void)
+{
+    FOR_EACH_AXIS(ABSORB)
+}
+
+/* A line has made its last step: each axis's steps since the line began must be the line's
+ * own, else the position is not what the plan says and everything stops (EV_STEPS). */
+#define CHECK(i, slot) || st_line_acc[i] != st_ln->want[i]
+void line_check(void)
+{
+    fold_fired();
+    FOR_EACH_AXIS(ABSORB)
+    if (0 FOR_EACH_AXIS(CHECK))
+        halt(EV_STEPS);
+}
+
+/* A new line: Bresenham's terms at the mid-point, its directions, where its steps start. */
 static void begin_line(uint8_t index)
 {
     fold_fired();
+#define RESTART(i, slot) st_moved_seen[i] = st_moved[i]; st_line_acc[i] = 0;
+    FOR_EACH_AXIS(RESTART)
     st_ln = &stepper_lines[index];
     st_base = st_ln->base;
     uint8_t moving = 0;
@@ -100,7 +130,10 @@ static uint8_t next_segment(void)
         return 0;
     }
     const segment_t *s = &st_ring[t];
+    fold_fired();                                 /* (the common tick leaves them to here) */
     st_seg_flags = s->flags;
+    if (!(st_seg_flags & SEG_FIRST))
+        line_absorb();
     if (st_seg_flags & SEG_FIRST)
         begin_line(s->line);
     uint8_t level = s->level;
@@ -159,14 +192,20 @@ void tick_body(void)
     if (st_ev_last) {
         st_ev_last = 0;
         st_events |= EV_DONE;
+        line_check();
     }
-    prepare();
+    if (!st_halted)
+        prepare();
     uint8_t fast = st_plain && st_ticks_left && !st_ev_last;
+    uint16_t t = st_tick_at + st_period;       /* the next segment's period is known now */
     cli();
     if (st_state != TICKING)
         TIMSK1 = IDLE_TIMSK;
-    sei();
-    schedule();                                /* the next segment's period is known now */
+    /* The counter read and the match set with interrupts off: an interrupt between them let
+     * the counter pass the match, and the next tick waited for the 16-bit wrap (32.8 ms). */
+    if ((int16_t)(t - TCNT1) < 3)
+        t = TCNT1 + 3;
+    set_next(t);
     finish_tick(fast);
 }
 #pragma GCC diagnostic pop

@@ -205,8 +205,13 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "sts %[timsk3], r24\n\t"
         "sbis %[tifr1], %[ocf1a]\n\t"       /* the next match came meanwhile: served now */
         "rjmp 47f\n\t"                      /* from its match (its slot may not have */
-        "sbi %[tifr1], %[ocf1a]\n\t"        /* passed yet), as its interrupt would */
+        "sbi %[tifr1], %[ocf1a]\n\t"        /* passed yet), as its interrupt would, if */
+        "lds r24, %[fast]\n\t"              /* it is a common tick; any other (the segment */
+        "tst r24\n\t"                       /* ended: st_ticks_left is 0) goes to */
+        "breq 48f\n\t"                      /* slow_entry from a match at once (missed) */
         "rjmp 46b\n\t"
+        "48: ldi r24, 1\n\t"
+        "sts %[missed], r24\n\t"
         "47:\n\t"
 #else
         "cli\n\t"                           /* the clock again */
@@ -247,7 +252,7 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
           [tifr3] "I"(_SFR_IO_ADDR(TIFR3)), [ocf3a] "n"(OCF3A), [tifr1] "I"(_SFR_IO_ADDR(TIFR1)),
           [ocf1a] "n"(OCF1A), [t1] "M"(TICK_TIMSK), [timsk1] "n"(_SFR_MEM_ADDR(TIMSK1)),
           [ocrah] "n"(_SFR_MEM_ADDR(OCR1AH)), [ocral] "n"(_SFR_MEM_ADDR(OCR1AL)),
-          [t3] "M"(_BV(OCIE3A)), [timsk3] "n"(_SFR_MEM_ADDR(TIMSK3)));
+          [t3] "M"(_BV(OCIE3A)), [timsk3] "n"(_SFR_MEM_ADDR(TIMSK3)), [fast] "i"(&st_fast));
 }
 
 #pragma GCC diagnostic push
@@ -260,6 +265,9 @@ void seg_boundary_asm(void)
 {
     __asm__ __volatile__(
         "push r31\n\t"
+        "lds r20, %[firedh]\n\t"            /* 16 384 events wait to be folded: the next */
+        "sbrc r20, 6\n\t"                    /* tick is slow and folds them (st_moved is */
+        "rjmp 21f\n\t"                       /* 16-bit) */
         "lds r20, %[flags]\n\t"
         "sbrc r20, %[lastbit]\n\t"
         "rjmp 21f\n\t"
@@ -315,7 +323,8 @@ void seg_boundary_asm(void)
           [o_level] "n"(offsetof(segment_t, level)), [o_ticks] "n"(offsetof(segment_t, ticks)),
           [o_period] "n"(offsetof(segment_t, period)), [newline] "M"(SEG_FIRST | SEG_INDEXER),
           [level] "i"(&st_seg_level), [left] "i"(&st_ticks_left), [period] "i"(&st_period),
-          [nseg] "M"(SEGMENTS), [fast] "i"(&st_fast), [last] "i"(&st_ev_last));
+          [nseg] "M"(SEGMENTS), [fast] "i"(&st_fast), [last] "i"(&st_ev_last),
+          [firedh] "i"((uint8_t *)&st_fired + 1));
 }
 
 #pragma GCC diagnostic pop

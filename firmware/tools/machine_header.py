@@ -38,6 +38,10 @@ def _floats(values) -> str:
     return "{ " + ", ".join(_float(v) for v in values) + " }"
 
 
+#: the most steps one line may have: its counts, shifted for AMASS (<< 6), fit 31 bits
+LINE_MAX_STEPS = (1 << 24) - 1
+
+
 def _ints(values) -> str:
     return "{ " + ", ".join(str(int(v)) for v in values) + " }"
 
@@ -136,6 +140,11 @@ def header(m: Machine) -> str:
         sockets(m)
     except RetrofitError as exc:
         raise SystemExit(str(exc)) from None
+    for a in axes:                       # a line's steps are kept << 6 in 32-bit counters
+        longest = max(a.max_steps - a.min_steps, math.ceil((a.max_mm - a.min_mm + 5) * 1.1 * a.steps_per_mm))
+        if longest > LINE_MAX_STEPS:
+            raise SystemExit(f"{m.source} [axis.{a.name.lower()}]: a line may take {longest} steps "
+                             f"(soft limits or homing travel); the firmware takes at most {LINE_MAX_STEPS}")
     spindle = m.parts.get("spindle")
     switches, ids = switch_lines(m, axes)
     name = Path(m.source).name

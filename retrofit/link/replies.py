@@ -40,6 +40,7 @@ class StatusFlags(IntFlag):
     INDEX_SEEN = 1 << 14    # an indexer start pulse (SIND) arrived since the spindle started
     PROBED = 1 << 15        # the last PROB stopped on the probe; cleared when a PROB starts, by INIT
     HOST_LOST = 1 << 16     # the host fell silent while the machine had work: braked, then STOPPED
+    STEP_ERROR = 1 << 17    # a line ended with steps other than its own: stopped, ERROR set
 
 
 def flag_names(flags: int) -> list[str]:
