@@ -279,7 +279,7 @@ def deliver_outputs(run: Run, urls: list[str], wait, progress, opened=None):
 STREAM_SCHEMES = ("sim", "vcd")
 #: steps per streamed window: small enough that the progress bar moves often, large enough that
 #: the compiled kernels dominate the per-window cost
-STREAM_WINDOW_STEPS = 1 << 16
+STREAM_WINDOW_STEPS = 1 << 17
 
 
 def can_stream(run: Run, opts) -> bool:
