@@ -82,8 +82,18 @@ def _isolate(config: dict) -> str:
             _mount(libc, "tmpfs", hide, "tmpfs", 0, "size=64k,mode=0755")
     size = int(config.get("tmp_mb", 64))
     for tmp in ("/tmp", "/var/tmp", "/dev/shm"):
-        if os.path.isdir(tmp):
-            _mount(libc, "tmpfs", tmp, "tmpfs", 0, f"size={size}m,mode=1777")
+        if not os.path.isdir(tmp):
+            continue
+        # a fresh tmpfs, with the folders Python needs that live under it (a checkout in /tmp)
+        # bound back in, then moved over the old one
+        fresh = Path(tempfile.mkdtemp(prefix="retrofit-tmpfs-"))     # in whichever /tmp is seen now
+        _mount(libc, "tmpfs", fresh, "tmpfs", 0, f"size={size}m,mode=1777")
+        for need in map(Path, config.get("reach", [])):
+            if need != Path(tmp) and need.is_relative_to(tmp) and need.is_dir():
+                inside = fresh / need.relative_to(tmp)
+                inside.mkdir(parents=True, exist_ok=True)
+                _mount(libc, need, inside, None, MS_BIND | MS_REC)
+        _mount(libc, fresh, tmp, None, MS_MOVE)
     return "namespace"
 
 
