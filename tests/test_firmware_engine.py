@@ -237,6 +237,37 @@ def test_a_line_whose_steps_are_not_its_own_stops_with_step_error(bench, tmp_pat
     assert type(answers[-3]).__name__ == "Err"                        # FMOV X3 refused
 
 
+# Five moves of the stress run with seed 10023 (bench/firmware_stress.py, run 23 of seed 1), from
+# where the one before them ended: (steps of X, Y, Z, A; base-axis steps/s asked for).
+SEED_10023_MOVES = [((-2784, 0, 0, 0), 22143.692619787602), ((0, 0, -789, 0), 32442.51367207513),
+                    ((0, 0, 0, -116), 42545.130589573804), ((0, 0, 1, 0), 60000.0),
+                    ((-1, 1, 0, 0), 55285.14215758314)]
+
+
+def test_a_one_step_move_entered_below_its_exit_speed_ends_and_the_board_does_not_restart(bench):
+    """The moves before seed 10023's reset, sent 2.5 ms apart: a one-step move (Z+1) entered
+    slower than the speed it hands on. Before, the last ten-thousandth of its step was too
+    short for a float to accelerate over, the segment cutter looped on it, the main loop hung,
+    the board restarted (reset=watchdog) and NAKed the host's frames of the lost session 50 times.
+    Now: one start line, and RDPS and the step pins are where the moves end."""
+    machine, elf = bench
+    script, t, pos = Script(machine), 2_000_000, [0] * 4
+    for delta, rate in SEED_10023_MOVES:
+        pos = [p + d for p, d in zip(pos, delta)]
+        length = math.sqrt(sum((d / a.steps_per_mm) ** 2 for d, a in zip(delta, machine.axes)))
+        feed = rate * length / max(abs(d) for d in delta) * 60
+        script.at(t, f"PFDR F{feed:.4f}").at(t + 20_000, "PMOV " + " ".join(
+            f"{a.name}{p / a.steps_per_mm:.6f}" for a, p in zip(machine.axes, pos)))
+        t += 40_000
+    script.at(t + 8_000_000, "RDPS", QUEUED)
+    log = fs.Harness(elf, machine, script=script.items, cycles=t + 9_000_000).run()
+    assert log.answer_bytes().count(b"retrofit firmware") == 1          # no restart
+    want = dict(zip(machine.axis_names, pos))
+    assert [dict(r.steps) for r in replies(log, machine) if isinstance(r, Position)] == [want]
+    end = st.pin_positions(log, machine, [log.end_cycle])[0]
+    assert dict(zip(machine.axis_names, map(int, end))) == want
+
+
 def test_step_error_is_bit_17_of_stats_24_bit_word():
     payload = encode_reply(Status(StatusFlags.STEP_ERROR | StatusFlags.ERROR, queued=3))
     assert payload == bytes((0x85, 0x02, 0x01, 0x00, 0x03))
