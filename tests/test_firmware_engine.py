@@ -10,7 +10,9 @@ count of the step pins; never a figure the firmware computed.
 from __future__ import annotations
 
 import math
+import re
 import shutil
+import time
 
 import numpy as np
 import pytest
@@ -293,3 +295,27 @@ def test_longer_random_stress_at_every_rate_up_to_the_limit(bench, seed):
     run = st.stress_run(elf, machine, seed=seed, moves=300, top_rate=60_000, batch=(1, 30))
     problems = st.check(run, machine)
     assert not problems, "\n".join(problems[:10])
+
+
+def test_a_stress_run_refused_after_its_host_fell_silent_says_host_lost(bench, monkeypatch):
+    """The host stalls 2 s (as a loaded machine may hold it) while a 20 s move runs: the
+    heartbeat (500 ms of the AVR's time, which runs at most as fast as the wall clock) stops the
+    machine and the next command is refused (ERR 6, as seed 10036 once was). The run's error
+    names the status the refusal came of and the host's silence."""
+    machine, elf = bench
+    moves = [st.Move((20_000, 0, 0, 0), 1000.0), st.Move((20_100, 0, 0, 0), 1000.0)]
+    monkeypatch.setattr(st, "random_moves", lambda *args, **kw: moves)
+    text = st._text
+
+    def late(machine, move, before):
+        if move is moves[1]:
+            time.sleep(2.0)                        # the host held back: no frame goes out
+        return text(machine, move, before)
+
+    monkeypatch.setattr(st, "_text", late)
+    run = st.stress_run(elf, machine, seed=1, moves=2, top_rate=1000, batch=(2, 2), garbage=0,
+                        drop=0)
+    assert "refused by the controller" in run.error, run.error          # ERR 6
+    assert "RDST then: STOPPED|HOST_LOST" in run.error, run.error
+    silent = re.search(r"the host fell silent for (\d+\.\d+) s", run.error)
+    assert silent and float(silent[1]) >= 2.0, run.error
