@@ -289,16 +289,17 @@ def deliver_outputs(run: Run, urls: list[str], wait, progress, opened=None):
 STREAM_SCHEMES = ("sim", "vcd")
 #: steps per streamed window: small enough that the progress bar moves often, large enough that
 #: the compiled kernels dominate the per-window cost
-STREAM_WINDOW_STEPS = 1 << 16
+STREAM_WINDOW_STEPS = 1 << 17
 
 
 def can_stream(run: Run, opts) -> bool:
     """Whether the run's frames can be made and delivered a window at a time, never held whole:
-    the fast path, no pause, no tool changer (its magazine check replays the whole run), no
-    ``--html`` (which keeps every frame for its pulse view), only ``sim://`` and ``vcd://``."""
+    the fast path, no tool changer (its magazine check replays the whole run), no ``--html``
+    (which keeps every frame for its pulse view), only ``sim://`` and ``vcd://``. A pause is a
+    point in the stream: these outputs drive no machine, so nothing waits there."""
     from .outputs import OutputURL
     from .commands import Dout
-    return (not opts.reference and not run.expanded.pauses and "atc" not in run.machine.parts
+    return (not opts.reference and "atc" not in run.machine.parts
             and not any(isinstance(c, Dout) for c in run.expanded.commands)
             and not getattr(opts, "keep_frames", False)
             and all(OutputURL.parse(u).scheme in STREAM_SCHEMES for u in opts.urls))

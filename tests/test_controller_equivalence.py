@@ -2,9 +2,9 @@
 
 The controller prepares commands one at a time into a window of look-ahead moves and executes
 them tick by tick; ``plan_program`` + ``execute_fast`` plan the whole program at once. With the
-same look-ahead the two must agree: same steps, same end positions -- and, when the window sees
-the next move of every axis (these short programs with a look-ahead of 3 or more), the very same
-port frames.
+same look-ahead the two must agree: same steps, same end positions -- and, with a look-ahead of 3
+or more, the very same port frames (on both a direction turns once the move needing it is in the
+window, ``motion.stepshape``; tests/test_stream_reversal.py runs a program longer than it).
 """
 
 import json

@@ -190,14 +190,12 @@ def merge_pending(pending, limit: int, high, step_mask, dir_mask, invert: int, b
     axes' lists merged two at a time (changes at one tick joined), then the byte follows them;
     changes of two axes or fewer are walked into bytes at once.
     """
-    active = [a for a in range(len(pending.rises)) if len(pending.rises[a]) or len(pending.turns[a])]
+    active = [a for a in range(len(pending.rises)) if _changes_before(pending, a, limit)]
     if len(active) <= 2:
         return _merge_two_axes(pending, active, limit, high, step_mask, dir_mask, invert, bits_last, first)
     streams = []
-    for a in range(len(pending.rises)):
+    for a in active:
         rises, turns = pending.rises[a], pending.turns[a]
-        if not len(rises) and not len(turns):
-            continue
         ev_t = np.empty(2 * len(rises) + len(turns), np.int64)
         ev_m = np.empty(len(ev_t), np.uint8)
         c, fallen, risen, turned = axis_events(rises, int(pending.i_rise[a]), turns, high[a], step_mask[a],
@@ -221,6 +219,13 @@ def merge_pending(pending, limit: int, high, step_mask, dir_mask, invert: int, b
         bits_last[0], bits_last[1] = 0, invert
     n = start + follow_two(at, am, bt, bm, np.int64(invert), bits_last, out_ticks[start:], out_values[start:])
     return PortFrames(out_ticks[:n], out_values[:n], min(int(limit), int(_BIG)))
+
+
+def _changes_before(pending, a: int, limit: int) -> bool:
+    """Whether axis ``a`` has a bit change before ``limit`` (a turn made ahead for a move far
+    off, say, leaves the axis out of the merge until then)."""
+    rises, turns = pending.rises[a], pending.turns[a]
+    return bool((len(rises) and rises[0] < limit) or (len(turns) and turns[0] < limit))
 
 
 def _merge_two_axes(pending, active: list[int], limit: int, high, step_mask, dir_mask, invert: int,

@@ -8,7 +8,7 @@ Readable on purpose, next to the papers:
 2. the tick loop of 003 shapes the requests into pulses: each tick every axis's step generator
    gives its bits, the port byte is computed once and recorded once, then each axis's next
    request is tried (a step asked for during a pulse waits; the direction follows its set-up
-   and hold times).
+   and hold times, and turns no earlier than the move needing it enters the look-ahead window).
 
 The fast path (``motion.fast``) must produce the very same port frames.
 """
@@ -26,6 +26,7 @@ from .bresenham import BresenhamExecutor, prepare_line
 from .dda import DdaExecutor, pulse_position
 from .planner import Plan
 from .pulses import PulseShaper
+from .stepshape import plan_seen
 
 
 @dataclass
@@ -95,20 +96,34 @@ def _dda_steps(line):
 
 
 def shape_reference(plan: Plan, requests: StepRequests) -> tuple:
-    """The tick loop of 003 over the requests: (port frames, rise ticks per axis)."""
+    """The tick loop of 003 over the requests: (port frames, rise ticks per axis).
+
+    A move's requests join the queues when the move enters the look-ahead window (the start of
+    the move ``lookahead + 1`` before it), as in the controller: a direction turns no earlier.
+    """
     shaper = PulseShaper(plan.machine)
-    for axis, (ticks, dirs) in enumerate(zip(requests.ticks, requests.dirs)):
-        for due, direction in zip(ticks.tolist(), dirs.tolist()):
-            shaper.request(axis, due, direction)
-    no_hint = lambda axis: 0                                      # noqa: E731 - every request is queued
+    seen = plan_seen(plan).tolist()
+    queued, n_moves = 0, len(plan.moves)
+    no_hint = lambda axis: 0                                      # noqa: E731 - the window is queued
     tick = 0
     while True:
         shaper.frame(tick)                                        # 'PasAvans', 'CalculByte', 'WritePort'
-        if tick >= requests.end_tick and not shaper.pending and not shaper.busy:
+        while queued < n_moves and seen[queued] <= tick + 1:      # the window moves on
+            _queue_move(shaper, requests, queued)
+            queued += 1
+        if tick >= requests.end_tick and queued == n_moves and not shaper.pending and not shaper.busy:
             break
         shaper.shape(tick, no_hint)                               # try each axis's next request
         tick += 1
     return shaper.recorder.frames(tick + 1), [np.array(r, dtype=np.int64) for r in shaper.rises]
+
+
+def _queue_move(shaper: PulseShaper, requests: StepRequests, m: int) -> None:
+    """Queue the step requests of move ``m``."""
+    for axis, (ticks, dirs) in enumerate(zip(requests.ticks, requests.dirs)):
+        lo, hi = (int(requests.counts[m - 1, axis]) if m else 0), int(requests.counts[m, axis])
+        for due, direction in zip(ticks[lo:hi].tolist(), dirs[lo:hi].tolist()):
+            shaper.request(axis, due, direction)
 
 
 def run_log(plan: Plan, requests: StepRequests, frames, rises: list[np.ndarray],

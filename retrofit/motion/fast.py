@@ -5,8 +5,7 @@ Same answer as ``motion.execute`` (the reference path), bit for bit, by other me
 * step requests: one compiled loop over the moves and their cycles (the same Bresenham error
   terms, the same 004 pulse positions, the same profile kernel and tick rounding);
 * pulse shaping: instead of a loop over every tick, the step generator's rules solved per
-  step: a step rises at the latest of its wanted tick, one period after the last rise, and the
-  direction set-up after the last turn; the direction turns as soon as the hold allows;
+  step (``motion.stepshape``, the one kernel the streamed path uses too);
 * port frames: the axes' bit changes merged in tick order into the run-length byte stream.
 
 Without Numba the same kernels run as plain Python (correct, slow).
@@ -21,8 +20,7 @@ from ._jit import compiled, kernel
 from .execute import StepRequests, run_log, tick_of
 from .planner import Plan
 from .profile import P_LEN, ticks_at, time_at
-
-_NEVER = -(1 << 40)
+from .stepshape import fresh_state, lag_of, plan_seen, shape_steps
 
 
 @kernel
@@ -166,46 +164,6 @@ def _dda_requests(starts, ends, profiles, t0s, has_profile, rate, out_ticks, out
 
 
 @kernel
-def _shape_axis(wanted, dirs, period, high, setup, hold, rises, change_ticks, change_dirs):
-    """Rise tick of every step and the direction turns (the step generator's rules, solved).
-
-    Returns the number of direction turns written to ``change_ticks`` / ``change_dirs`` and the
-    following error: the most steps ever due but not yet risen.
-    """
-    direction = -1
-    last_rise = _NEVER
-    last_turn = _NEVER
-    turns = 0
-    due = 0
-    lag = 0
-    for j in range(wanted.shape[0]):
-        first = last_rise + 1 if j > 0 else 1            # the first tick this request is looked at
-        if dirs[j] != direction:
-            turn = last_rise + hold
-            if turn < first:
-                turn = first
-            direction = dirs[j]
-            last_turn = turn
-            change_ticks[turns] = turn
-            change_dirs[turns] = direction
-            turns += 1
-        rise = wanted[j]
-        if rise < first:
-            rise = first
-        if last_rise + period > rise:
-            rise = last_rise + period
-        if last_turn + setup > rise:
-            rise = last_turn + setup
-        rises[j] = rise
-        last_rise = rise
-        while due < wanted.shape[0] and wanted[due] <= rise:
-            due += 1
-        if due - (j + 1) > lag:
-            lag = due - (j + 1)
-    return turns, lag
-
-
-@kernel
 def _frames(rises, rise_start, turns, turn_dirs, turn_start, high, step_mask, dir_mask, invert,
             out_ticks, out_values):
     """Port byte stream of every axis's rises (high for ``high`` ticks) and direction turns.
@@ -308,14 +266,15 @@ def shape_fast(plan: Plan, requests: StepRequests):
     turn_start = np.zeros(n_axes + 1, dtype=np.int64)
     end = requests.end_tick
     lag = 0
+    state, seen = fresh_state(n_axes), plan_seen(plan)
     for a, axis in enumerate(machine.axes):
         lo, hi = rise_start[a], rise_start[a + 1]
         period = axis.pulse_high_ticks + axis.pulse_low_ticks
-        count, axis_lag = _shape_axis(requests.ticks[a], requests.dirs[a], period, axis.pulse_high_ticks,
+        count = shape_steps(state[a], requests.ticks[a], requests.dirs[a], requests.counts[:, a], seen, period,
                             axis.dir_setup_ticks, axis.dir_hold_ticks, rises[lo:hi],
                             turns[turn_start[a]:], turn_dirs[turn_start[a]:])
         turn_start[a + 1] = turn_start[a] + count
-        lag = max(lag, axis_lag)
+        lag = max(lag, int(lag_of(requests.ticks[a], rises[lo:hi], 0, 0)))
         if hi > lo:
             end = max(end, int(rises[hi - 1]) + period - 1)
     high = np.array([a.pulse_high_ticks for a in machine.axes], dtype=np.int64)

@@ -4,7 +4,8 @@ Each axis has a :class:`~retrofit.motion.stepgen.StepGenerator` and a queue of r
 step is wanted on and its direction). Each tick the generators give their bits, the port byte is
 computed once and recorded once ('CalculByte', 'WritePort'); then each axis's next request is
 tried: a step asked for during a pulse waits, and the direction turns as soon as its hold time
-allows. The reference path (``motion.execute.shape_reference``) and the controller both use it.
+allows once a request in the new direction is queued (requests join the queues when their move
+enters the look-ahead window, ``motion.stepshape``). The reference path (``motion.execute.shape_reference``) and the controller both use it.
 
 A simulated machine attached here sees every byte that changes, as it happens, so the switches
 the controller reads next are those of a carriage that really took the steps.

@@ -7,9 +7,11 @@ last rise and last turn, and the events not yet merged into the byte stream.
 
 A window's frames can be emitted only up to a tick no later event can precede. For each axis
 that bound comes from the plan itself: the next step of the axis rises no earlier than the start
-of its next move (and a period after its last rise), and if that move turns the direction, the
-turn comes no earlier than a tick after the last rise (the generator turns the pin as soon as the
-hold allows). So memory stays at one window of steps whatever the program's length.
+of its next move (and a period after its last rise). If that move turns the direction, the turn's
+tick is known already (a tick after the last rise, the hold, and that move's entry into the
+look-ahead window, ``motion.stepshape``), so the turn is made at once: a reversal far ahead holds
+back no frame. So memory stays at one
+window of steps whatever the program's length.
 """
 
 from __future__ import annotations
@@ -27,52 +29,9 @@ from .execute import tick_of
 from .fast import _bresenham_requests, _dda_requests, plan_steps
 from .planner import Plan
 from .profile import P_T1, P_T2, P_TC
+from .stepshape import fresh_state, lag_of, shape_steps, window_seen
 
-_NEVER = -(1 << 40)
 _BIG = np.int64(1) << 62
-
-
-@kernel
-def _shape_from(state, wanted, dirs, period, setup, hold, rises, turn_ticks, turn_dirs):
-    """``fast._shape_axis`` continued from ``state`` = [direction, last rise, last turn, steps so far]."""
-    direction, last_rise, last_turn, done = state[0], state[1], state[2], state[3]
-    turns = 0
-    for j in range(wanted.shape[0]):
-        first = last_rise + 1 if done + j > 0 else 1
-        if dirs[j] != direction:
-            turn = last_rise + hold
-            if turn < first:
-                turn = first
-            direction = dirs[j]
-            last_turn = turn
-            turn_ticks[turns] = turn
-            turn_dirs[turns] = direction
-            turns += 1
-        rise = wanted[j]
-        if rise < first:
-            rise = first
-        if last_rise + period > rise:
-            rise = last_rise + period
-        if last_turn + setup > rise:
-            rise = last_turn + setup
-        rises[j] = rise
-        last_rise = rise
-    state[0], state[1], state[2], state[3] = direction, last_rise, last_turn, done + wanted.shape[0]
-    return turns
-
-
-@kernel
-def _lag_of(wanted, rises, due_before, risen_before):
-    """Most steps due (wanted by a rise's tick) but not yet risen, over ``rises`` (a merge walk)."""
-    lag = 0
-    due = 0
-    for j in range(rises.shape[0]):
-        while due < wanted.shape[0] and wanted[due] <= rises[j]:
-            due += 1
-        behind = due_before + due - (risen_before + j + 1)
-        if behind > lag:
-            lag = behind
-    return lag
 
 
 @dataclass
@@ -128,7 +87,8 @@ def keep_freed_memory() -> None:
 
 class _Columns:
     """What the stream reads of every move, as arrays: the plan's columns, steps per move, the
-    tick each move is loaded and ends, and the next move stepping each axis."""
+    tick each move is loaded, enters the look-ahead window and ends, and the next move stepping
+    each axis."""
 
     def __init__(self, plan: Plan, rate: float):
         a = self.arrays = plan.arrays()
@@ -139,9 +99,10 @@ class _Columns:
         durations = np.where(a.has_profile, p[:, P_T1] + p[:, P_TC] + p[:, P_T2], a.dwells)
         self.ends = np.floor((a.t0s + durations) * rate + 0.5).astype(np.int64)
         n, n_axes = a.starts.shape
-        self.next_tick = np.empty((n + 1, n_axes), np.int64)
+        self.seen = window_seen(self.loaded, plan.machine.motion.lookahead)
+        self.next_move = np.empty((n + 1, n_axes), np.int64)
         self.next_dir = np.empty((n + 1, n_axes), np.int8)
-        _next_moves(a.starts, a.ends, a.has_profile, self.loaded, self.next_tick, self.next_dir)
+        _next_moves(a.starts, a.ends, a.has_profile, self.next_move, self.next_dir)
 
     def window_end(self, lo: int, window_steps: int) -> int:
         """End of the window of moves from ``lo``: as many as fit ``window_steps``, at least one."""
@@ -150,17 +111,17 @@ class _Columns:
 
 
 @kernel
-def _next_moves(starts, ends, has_profile, loaded, ticks, dirs):
-    """For each move boundary b (0..n) and axis: (start tick, direction) of the first move at or
-    after b that steps the axis (tick _BIG and direction 0 when there is none)."""
+def _next_moves(starts, ends, has_profile, moves, dirs):
+    """For each move boundary b (0..n) and axis: (index, direction) of the first move at or
+    after b that steps the axis (index n and direction 0 when there is none)."""
     n, n_axes = starts.shape
     for a in range(n_axes):
-        ticks[n, a], dirs[n, a] = _BIG, 0
+        moves[n, a], dirs[n, a] = n, 0
     for m in range(n - 1, -1, -1):
         for a in range(n_axes):
-            ticks[m, a], dirs[m, a] = ticks[m + 1, a], dirs[m + 1, a]
+            moves[m, a], dirs[m, a] = moves[m + 1, a], dirs[m + 1, a]
             if has_profile[m] and ends[m, a] != starts[m, a]:
-                ticks[m, a] = loaded[m]
+                moves[m, a] = m
                 dirs[m, a] = 1 if ends[m, a] > starts[m, a] else -1
 
 
@@ -190,25 +151,42 @@ class _StepGen:
         self.high = np.array([a.pulse_high_ticks for a in machine.axes], np.int64)
         self.step_mask = np.array(pins.step_masks, np.int64)
         self.dir_mask = np.array(pins.dir_masks, np.int64)
-        self.state = np.array([[-1, _NEVER, _NEVER, 0] for _ in machine.axes], np.int64)
+        self.state = fresh_state(len(machine.axes))
         self.pending = _Axes(len(machine.axes))
         self.bits_last = np.array([0, -1], np.int64)
 
-    def shape(self, wanted, dirs) -> tuple[list[np.ndarray], int]:
+    def shape(self, wanted, dirs, counts, seen) -> tuple[list[np.ndarray], int]:
         """Rise ticks per axis of a window's step requests (kept pending for the frames) and the
-        last tick any of their pulses holds (-1 for none)."""
+        last tick any of their pulses holds (-1 for none); ``counts`` / ``seen`` are the window's
+        moves' (``stepshape.shape_steps``)."""
         window_rises, last = [], -1
         for a, axis in enumerate(self.axes):
             size = len(wanted[a]) if wanted else 0
             rises, turn_ticks = np.empty(size, np.int64), np.empty(size, np.int64)
             turn_dirs = np.empty(size, np.int8)
             if size:
-                k = _shape_from(self.state[a], wanted[a], dirs[a], self.period[a], axis.dir_setup_ticks,
-                                axis.dir_hold_ticks, rises, turn_ticks, turn_dirs)
+                k = shape_steps(self.state[a], wanted[a], dirs[a], counts[:, a], seen, self.period[a],
+                                axis.dir_setup_ticks, axis.dir_hold_ticks, rises, turn_ticks, turn_dirs)
                 _append(self.pending, a, rises, turn_ticks[:k], turn_dirs[:k], wanted[a])
                 last = max(last, int(rises[-1]) + int(self.period[a]) - 1)
             window_rises.append(rises)
         return window_rises, last
+
+    def turn_ahead(self, cols: "_Columns", hi: int) -> None:
+        """Turn now each direction the next move from ``hi`` reverses: no step of the axis comes
+        before it, so its tick is known (``stepshape.shape_steps``'s rule) and the frames before
+        that move need not wait for its window."""
+        for a, axis in enumerate(self.axes):
+            heading = int(cols.next_dir[hi, a])
+            direction, last_rise, _, done = (int(v) for v in self.state[a])
+            if heading in (0, direction):
+                continue
+            first = last_rise + 1 if done > 0 else 1
+            turn = max(last_rise + axis.dir_hold_ticks, first, int(cols.seen[cols.next_move[hi, a]]))
+            self.state[a, 0], self.state[a, 2] = heading, turn
+            pending = self.pending
+            pending.turns[a] = _joined(pending.turns[a], np.array([turn], np.int64))
+            pending.turn_dirs[a] = _joined(pending.turn_dirs[a], np.array([heading], np.int8))
 
     def frames(self, limit: int, first: bool) -> PortFrames:
         """Port frames of the pending events before ``limit``."""
@@ -239,7 +217,7 @@ def stream_frames(plan: Plan, window_steps: int = 1 << 20,
     while True:
         hi = cols.window_end(lo, window_steps) if n_moves else 0
         wanted, dirs, counts = _window_requests(plan, cols, lo, hi, rate) if n_moves else ([], [], None)
-        window_rises, last = gen.shape(wanted, dirs)
+        window_rises, last = gen.shape(wanted, dirs, counts, cols.seen[lo:hi])
         end = max(end, last)
         stats.steps += [len(r) for r in window_rises]
         if on_waypoints is not None and hi > lo:
@@ -248,8 +226,8 @@ def stream_frames(plan: Plan, window_steps: int = 1 << 20,
         stats.lag = max(stats.lag, _settle_lag(gen.pending, final=hi >= n_moves))
         limit = _BIG
         if hi < n_moves:      # no later event, and no later waypoint, comes before the limit
-            limit = min(_limit(gen.state, cols.next_tick[hi], cols.next_dir[hi], gen.period, machine),
-                        int(cols.loaded[hi]))
+            gen.turn_ahead(cols, hi)
+            limit = min(_limit(gen.state, cols, hi, gen.period, machine), int(cols.loaded[hi]))
         chunk = gen.frames(limit, first=lo == 0)
         chunk_end = max(chunk_end, limit) if hi < n_moves else max(end, 0) + 1
         yield PortFrames(chunk.ticks, chunk.values, chunk_end)
@@ -311,7 +289,7 @@ def _settle_lag(pending: _Axes, final: bool) -> int:
             continue
         ready = len(rises) if final or not len(wanted) else int(np.searchsorted(rises, wanted[-1], side="left"))
         if ready:
-            lag = max(lag, int(_lag_of(wanted, rises[:ready], pending.due_before[a], pending.risen_before[a])))
+            lag = max(lag, int(lag_of(wanted, rises[:ready], pending.due_before[a], pending.risen_before[a])))
             keep_from = rises[ready] if ready < len(rises) else rises[ready - 1] + 1
             cut = int(np.searchsorted(wanted, keep_from, side="left"))
             pending.wanted[a] = wanted[cut:]
@@ -321,19 +299,16 @@ def _settle_lag(pending: _Axes, final: bool) -> int:
     return lag
 
 
-def _limit(shape_state, next_tick, next_dir, period, machine) -> int:
-    """The earliest tick any event of a later window can have (see the module doc)."""
+def _limit(shape_state, cols: _Columns, hi: int, period, machine) -> int:
+    """The earliest tick any event of the windows from move ``hi`` on can have (see the module doc;
+    the direction each axis needs next is already turned, ``_StepGen.turn_ahead``)."""
     limit = _BIG
-    for a, axis in enumerate(machine.axes):
-        if next_dir[a] == 0:
+    for a in range(len(machine.axes)):
+        if cols.next_dir[hi, a] == 0:
             continue
-        direction, last_rise, _, done = (int(v) for v in shape_state[a])
+        _, last_rise, _, done = (int(v) for v in shape_state[a])
         first = last_rise + 1 if done > 0 else 1
-        if next_dir[a] != direction:
-            bound = max(last_rise + axis.dir_hold_ticks, first)
-        else:
-            bound = max(int(next_tick[a]), first, last_rise + int(period[a]))
-        limit = min(limit, bound)
+        limit = min(limit, max(int(cols.loaded[cols.next_move[hi, a]]), first, last_rise + int(period[a])))
     return int(limit)
 
 

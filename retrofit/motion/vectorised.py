@@ -8,7 +8,8 @@ Same answer as the reference and the compiled path, bit for bit, by array arithm
   kernel per step, since NumPy's own ``exp`` / ``log`` may differ from the C library's by an ulp);
 * rises from a max-plus recurrence solved with a running maximum: a step rises at
   ``r_j = max(wanted_j, r_(j-1) + gap_j)``, where the gap is the pulse period, or the direction
-  hold plus set-up when the direction turns, so ``r_j = G_j + cummax(wanted_i - G_i)``;
+  hold plus set-up when the direction turns (and a turning step waits the set-up after its move
+  enters the look-ahead window), so ``r_j = G_j + cummax(wanted_i - G_i)``;
 * port frames by sorting every bit change and sampling each axis's state at those ticks.
 """
 
@@ -22,6 +23,7 @@ from .bresenham import bresenham_cycles, prepare_line
 from .dda import dda_positions
 from .execute import StepRequests, run_log, tick_of
 from .planner import Plan
+from .stepshape import plan_seen
 
 
 def _times(s: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -71,8 +73,10 @@ def request_steps_numpy(plan: Plan) -> StepRequests:
                         counts, move_end, tick_of(plan.end_s, rate))
 
 
-def rises_numpy(wanted: np.ndarray, dirs: np.ndarray, axis) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(rise ticks, turn ticks, turn directions) of one axis, by the running-maximum solution."""
+def rises_numpy(wanted: np.ndarray, dirs: np.ndarray, seen: np.ndarray,
+                axis) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(rise ticks, turn ticks, turn directions) of one axis, by the running-maximum solution;
+    ``seen``: the tick each request's move enters the look-ahead window (no turn before it)."""
     n = len(wanted)
     if n == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int8)
@@ -83,13 +87,13 @@ def rises_numpy(wanted: np.ndarray, dirs: np.ndarray, axis) -> tuple[np.ndarray,
     gaps = np.where(turns, max(period, turn_gap), period).astype(np.int64)
     gaps[0] = 0
     first = 1 + (axis.dir_setup_ticks if turns[0] else 0)
-    floor = wanted.copy()
+    floor = np.where(turns, np.maximum(wanted, seen + axis.dir_setup_ticks), wanted)
     floor[0] = max(int(floor[0]), first, 1)
     cumulative = np.cumsum(gaps)
     rises = cumulative + np.maximum.accumulate(floor - cumulative)
     turn_at = np.flatnonzero(turns)
     turn_ticks = np.where(turn_at == 0, 1, rises[np.maximum(turn_at - 1, 0)] + max(1, axis.dir_hold_ticks))
-    return rises, turn_ticks.astype(np.int64), dirs[turn_at]
+    return rises, np.maximum(turn_ticks, seen[turn_at]).astype(np.int64), dirs[turn_at]
 
 
 def frames_numpy(machine, rises: list[np.ndarray], turns: list[tuple[np.ndarray, np.ndarray]], end_tick: int):
@@ -124,8 +128,10 @@ def execute_numpy(plan: Plan):
     requests = request_steps_numpy(plan)
     rises, turns = [], []
     end = requests.end_tick
-    for axis, wanted, dirs in zip(machine.axes, requests.ticks, requests.dirs):
-        r, t_ticks, t_dirs = rises_numpy(wanted, dirs, axis)
+    seen = plan_seen(plan)
+    for a, (axis, wanted, dirs) in enumerate(zip(machine.axes, requests.ticks, requests.dirs)):
+        per_move = np.diff(requests.counts[:, a], prepend=0)
+        r, t_ticks, t_dirs = rises_numpy(wanted, dirs, np.repeat(seen, per_move), axis)
         rises.append(r)
         turns.append((t_ticks, t_dirs))
         if len(r):
