@@ -21,6 +21,8 @@
 #define START_SEGMENTS 4
 #define EVENT_BY_EVENT 2.5f
 #define SEGMENT_EVENTS 8.0f
+/* A move whose last event is this close (a fraction of an event) is at its end. */
+#define END_EVENTS 1e-3f
 /* Above this rate a segment lasts twice SEGMENT_MS: the main loop's float work per second is
  * halved where the step interrupt leaves it the least CPU. */
 #define LONG_SEGMENT_HZ 20000.0f
@@ -112,19 +114,22 @@ static uint8_t brake(pos_t *p, float r, float ve, float a)
 /* Travel up to *t seconds along the trapezoid from speed v with `rem` mm left, towards exit
  * speed ve, feed vn, acceleration a. Returns the distance; *t becomes the time used and *done
  * is set when the move's end is reached. */
-static float advance(float rem, float ve, float vn, float a, float *t, uint8_t *done)
+static float advance(float rem, float ve, float vn, float a, float end, float *t, uint8_t *done)
 {
     pos_t p = {v, 0.0f, *t};
+    float to;
     for (uint8_t k = 0; k < 5 && p.time > 0.0f && !*done; k++) {
         float r = rem - p.d;
         float braking = (p.s * p.s - ve * ve) / (2.0f * a);
         float top = sqrtf(0.5f * (2.0f * a * r + p.s * p.s + ve * ve));   /* accelerate until */
-        if (r <= 1e-7f * rem)
+        if (r <= fmaxf(1e-7f * rem, end))
             *done = 1;
         else if (braking > 0.0f && (r <= braking || p.s >= top))
             *done = brake(&p, r, ve, a);                        /* to ve at the end */
-        else if (p.s < vn && p.s < top)                         /* accelerate */
-            ramp(&p, a, fminf(vn, fminf(top, sqrtf(p.s * p.s + 2.0f * a * r))));
+        else if (p.s < vn && p.s < top &&                       /* accelerate, by more than */
+                 (to = fminf(vn, fminf(top, sqrtf(p.s * p.s + 2.0f * a * r)))) >
+                     p.s * 1.000001f)                           /* a float can tell apart */
+            ramp(&p, a, to);
         else if (p.s > vn * 1.0001f)                            /* down to a lowered feed */
             ramp(&p, -a, vn);
         else {                                                  /* cruise up to the braking */
@@ -206,7 +211,8 @@ static uint32_t cover(const move_t *m, float ve, float *t_seg, float *travelled,
     *t_seg = *travelled = 0.0f;
     for (uint16_t tries = 0; !n && !*done && tries < 2000; tries++) {
         float t = dt;
-        float d = advance(((float)left - frac) / per_mm, ve, m->v_nominal, m->accel, &t, done);
+        float d = advance(((float)left - frac) / per_mm, ve, m->v_nominal, m->accel,
+                          END_EVENTS / per_mm, &t, done);
         *t_seg += t;
         *travelled += d * per_mm;
         float x = frac + d * per_mm;

@@ -29,7 +29,7 @@ from .firmware_sim import Harness, HarnessLog, step_times
 from .link import BadFrame, FrameDecoder, decode_reply
 from .link.codec import PayloadError
 from .link.host import HostEndpoint
-from .link.replies import Position, Session, Status, StatusFlags
+from .link.replies import Position, Session, Status, StatusFlags, flag_names
 
 
 def keep_rates(firmware: Path | None = None) -> dict[str, list[float]]:
@@ -74,6 +74,7 @@ class StressRun:
     log: HarnessLog | None = None
     link: dict = field(default_factory=dict)
     error: str = ""
+    host_gap_s: float = 0.0        # the longest wall-clock time between two of the host's writes
 
 
 def random_moves(machine: Machine, rng: random.Random, n: int, top_rate: float,
@@ -117,10 +118,14 @@ class _Line:
     def __init__(self, sock: socket.socket, rng: random.Random, garbage: float, drop: float,
                  run: StressRun):
         self.sock, self.rng, self.garbage, self.drop, self.run = sock, rng, garbage, drop, run
+        self.last = time.monotonic()
 
     def write(self, data: bytes) -> None:
         if not data:
             return
+        now = time.monotonic()
+        self.run.host_gap_s = max(self.run.host_gap_s, now - self.last)
+        self.last = now
         out = bytearray(data)
         if self.rng.random() < self.drop:
             del out[self.rng.randrange(len(out))]
@@ -202,10 +207,28 @@ def stress_run(elf: Path, machine: Machine, *, seed: int, moves: int, top_rate: 
         run.link = vars(host.stats).copy()
         sock.close()
     except Exception as exc:                       # the check below reports it with the seed
-        run.error = f"{type(exc).__name__}: {exc}"
+        run.error = f"{type(exc).__name__}: {exc}" + _aftermath(run, locals(), deadline)
     finally:
         run.log = harness.stop(5)
     return run
+
+
+def _aftermath(run: StressRun, scope: dict, deadline: float) -> str:
+    """What the device's status says after a failure (a refusal, ERR 6, comes of STOPPED,
+    HOST_LOST or ERROR), and the host's longest silence when it passed half the heartbeat's
+    500 ms (a host held back by a loaded machine is taken for a dead one)."""
+    out = ""
+    if "host" in scope and "sock" in scope and "line" in scope:
+        try:
+            t = scope["host"].send(parse_command("RDST"), time.monotonic())
+            _wait(scope["host"], scope["sock"], scope["line"], t, lambda now: None,
+                  min(deadline, time.monotonic() + 2.0))
+            out += f"; RDST then: {'|'.join(flag_names(int(t.reply.flags))) or 'no flags'}"
+        except Exception as exc:                   # the link itself is gone: say so
+            out += f"; no RDST after it ({type(exc).__name__})"
+    if run.host_gap_s > 0.25:
+        out += f"; the host fell silent for {run.host_gap_s:.2f} s"
+    return out
 
 
 def answer_cycles(log: HarnessLog, machine: Machine) -> list[tuple[int, object]]:

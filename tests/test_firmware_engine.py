@@ -10,7 +10,9 @@ count of the step pins; never a figure the firmware computed.
 from __future__ import annotations
 
 import math
+import re
 import shutil
+import time
 
 import numpy as np
 import pytest
@@ -237,6 +239,37 @@ def test_a_line_whose_steps_are_not_its_own_stops_with_step_error(bench, tmp_pat
     assert type(answers[-3]).__name__ == "Err"                        # FMOV X3 refused
 
 
+# Five moves of the stress run with seed 10023 (bench/firmware_stress.py, run 23 of seed 1), from
+# where the one before them ended: (steps of X, Y, Z, A; base-axis steps/s asked for).
+SEED_10023_MOVES = [((-2784, 0, 0, 0), 22143.692619787602), ((0, 0, -789, 0), 32442.51367207513),
+                    ((0, 0, 0, -116), 42545.130589573804), ((0, 0, 1, 0), 60000.0),
+                    ((-1, 1, 0, 0), 55285.14215758314)]
+
+
+def test_a_one_step_move_entered_below_its_exit_speed_ends_and_the_board_does_not_restart(bench):
+    """The moves before seed 10023's reset, sent 2.5 ms apart: a one-step move (Z+1) entered
+    slower than the speed it hands on. Before, the last ten-thousandth of its step was too
+    short for a float to accelerate over, the segment cutter looped on it, the main loop hung,
+    the board restarted (reset=watchdog) and NAKed the host's frames of the lost session 50 times.
+    Now: one start line, and RDPS and the step pins are where the moves end."""
+    machine, elf = bench
+    script, t, pos = Script(machine), 2_000_000, [0] * 4
+    for delta, rate in SEED_10023_MOVES:
+        pos = [p + d for p, d in zip(pos, delta)]
+        length = math.sqrt(sum((d / a.steps_per_mm) ** 2 for d, a in zip(delta, machine.axes)))
+        feed = rate * length / max(abs(d) for d in delta) * 60
+        script.at(t, f"PFDR F{feed:.4f}").at(t + 20_000, "PMOV " + " ".join(
+            f"{a.name}{p / a.steps_per_mm:.6f}" for a, p in zip(machine.axes, pos)))
+        t += 40_000
+    script.at(t + 8_000_000, "RDPS", QUEUED)
+    log = fs.Harness(elf, machine, script=script.items, cycles=t + 9_000_000).run()
+    assert log.answer_bytes().count(b"retrofit firmware") == 1          # no restart
+    want = dict(zip(machine.axis_names, pos))
+    assert [dict(r.steps) for r in replies(log, machine) if isinstance(r, Position)] == [want]
+    end = st.pin_positions(log, machine, [log.end_cycle])[0]
+    assert dict(zip(machine.axis_names, map(int, end))) == want
+
+
 def test_step_error_is_bit_17_of_stats_24_bit_word():
     payload = encode_reply(Status(StatusFlags.STEP_ERROR | StatusFlags.ERROR, queued=3))
     assert payload == bytes((0x85, 0x02, 0x01, 0x00, 0x03))
@@ -262,3 +295,27 @@ def test_longer_random_stress_at_every_rate_up_to_the_limit(bench, seed):
     run = st.stress_run(elf, machine, seed=seed, moves=300, top_rate=60_000, batch=(1, 30))
     problems = st.check(run, machine)
     assert not problems, "\n".join(problems[:10])
+
+
+def test_a_stress_run_refused_after_its_host_fell_silent_says_host_lost(bench, monkeypatch):
+    """The host stalls 2 s (as a loaded machine may hold it) while a 20 s move runs: the
+    heartbeat (500 ms of the AVR's time, which runs at most as fast as the wall clock) stops the
+    machine and the next command is refused (ERR 6, as seed 10036 once was). The run's error
+    names the status the refusal came of and the host's silence."""
+    machine, elf = bench
+    moves = [st.Move((20_000, 0, 0, 0), 1000.0), st.Move((20_100, 0, 0, 0), 1000.0)]
+    monkeypatch.setattr(st, "random_moves", lambda *args, **kw: moves)
+    text = st._text
+
+    def late(machine, move, before):
+        if move is moves[1]:
+            time.sleep(2.0)                        # the host held back: no frame goes out
+        return text(machine, move, before)
+
+    monkeypatch.setattr(st, "_text", late)
+    run = st.stress_run(elf, machine, seed=1, moves=2, top_rate=1000, batch=(2, 2), garbage=0,
+                        drop=0)
+    assert "refused by the controller" in run.error, run.error          # ERR 6
+    assert "RDST then: STOPPED|HOST_LOST" in run.error, run.error
+    silent = re.search(r"the host fell silent for (\d+\.\d+) s", run.error)
+    assert silent and float(silent[1]) >= 2.0, run.error

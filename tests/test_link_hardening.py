@@ -198,3 +198,31 @@ def test_a_hundred_thousand_commands_at_the_bench_rates_arrive_once_in_order_unc
     assert (tally.lost, tally.duplicated, tally.corrupted, tally.wrong_answers) == (0, 0, 0, 0)
     assert tally.in_order and tally.given_up == 0 and tally.commands == 100_000
     assert tally.bad_frames_seen > 50_000                  # the line really was that noisy
+
+
+def test_a_device_that_restarts_mid_run_fails_the_command_at_once_not_after_its_tries():
+    """The device restarts (its watchdog) while a move is outstanding: its start line comes, and
+    the host's resends, bound to a session the device no longer runs, would only be NAKed (seed
+    10023 of the firmware's stress bench: 50 NAKs, then "not acknowledged"). The move fails at
+    the start line, saying the device restarted and why; the next command opens a new session."""
+    app = Recorder(lambda cmd: Status(StatusFlags(0), 0) if isinstance(cmd, Rdst) else None)
+    device = DeviceEndpoint(LATHE, app, sessions=SessionNumbers(5))
+    host = HostEndpoint(LATHE, timeout_s=0.05, max_tries=50, nonce=1)
+    t = host.send(Init(), 0.0)
+    while not t.done:
+        device.receive(host.take_output())
+        host.receive(device.take_output(), 0.0)
+    move = host.send(PMov((("X", 1.0),)), 0.1)
+    device.reset()                                        # the frame's way: the board restarts
+    device.receive(host.take_output())
+    assert answers(device) == [(0x00, Nak())]
+    with pytest.raises(LinkError) as err:
+        host.receive(b"\r\nretrofit firmware machine=chivu-lathe link=3 reset=watch", 0.11)
+        host.receive(b"dog\r\n" + encode_frame(0x00, bytes((Nak.opcode,))), 0.11)
+    assert "PMOV X1 (sequence 2, sent 1 times): the device restarted (reset=watchdog)" in str(err.value)
+    assert move.unacknowledged and host.stats.restarts == 1 and host.stats.frames_sent == 3
+    again = host.send(Rdst(), 0.2)
+    while not again.done:
+        device.receive(host.take_output())
+        host.receive(device.take_output(), 0.2)
+    assert isinstance(again.reply, Status) and host.stats.sessions == 2

@@ -17,6 +17,7 @@ A session's sequence numbers never wrap: after number 127 the channel opens a ne
 from __future__ import annotations
 
 import os
+import re
 from collections import deque
 from dataclasses import dataclass, field
 
@@ -27,6 +28,9 @@ from .codec import ERR_LENGTH, ERR_NOT_SYNCED, ERR_SEQUENCE, SYNC, PayloadError,
 
 #: what the host says of a command it gave up on: the device may have executed it
 MAY_HAVE_RUN = "not acknowledged — may have run"
+#: the line the firmware sends when it starts, before any frame (docs/protocol.md §1); after a
+#: session it means the device restarted: its sessions, queue and position are gone
+BANNER = re.compile(rb"retrofit firmware machine=(\S+) link=(\d+) reset=(\S+)\r?\n")
 from .framing import IMMEDIATE, QUEUED, SEQ_MOD, BadFrame, FrameDecoder, encode_frame, seq_byte
 from .replies import Ack, Busy, Err, Nak, Position, Reply, Session, Status, decode_reply
 
@@ -75,6 +79,7 @@ class HostStats:
     stale: int = 0            # intact replies to a frame no longer outstanding (ignored)
     unbound: int = 0          # intact replies bound to no session of this host (ignored)
     sessions: int = 0         # sessions the device opened for this host (SESS answers taken)
+    restarts: int = 0         # start lines of the device after a session: it restarted
 
 
 @dataclass(eq=False)
@@ -107,6 +112,7 @@ class HostEndpoint:
         self._channels = (_Channel(QUEUED), _Channel(IMMEDIATE))
         self._decoder = FrameDecoder(lambda seq: self._channels[seq >> 7].session)
         self._out = bytearray()
+        self._seen = b""                  # the last bytes received: a start line split in two
         self._failures: list[LinkError] = []
         #: 32-bit nonce of the last SYNC (random by default, so that two host runs differ); each
         #: SYNC takes the next, so the device tells a resend of a SYNC from a new one
@@ -130,6 +136,7 @@ class HostEndpoint:
 
     def receive(self, data: bytes, now: float) -> None:
         """Consume bytes from the device; raises LinkError when a command failed."""
+        self._restart_line(data, now)
         for event in self._decoder.events(data):
             if isinstance(event, BadFrame):
                 if event.complete:
@@ -151,6 +158,24 @@ class HostEndpoint:
             else:                       # an answer of no session of ours: replayed or foreign
                 self.stats.unbound += 1
         self._raise_failures()
+
+    def _restart_line(self, data: bytes, now: float) -> None:
+        """The device's start line after a session: it restarted (a watchdog, a power dip), so
+        whatever was outstanding fails at once - its frames, bound to a session the device no
+        longer knows, would only be NAKed until the tries ran out."""
+        seen = self._seen + data
+        found = BANNER.search(seen)
+        self._seen = (seen[found.end():] if found else seen)[-80:]
+        if not found or not self.stats.sessions:
+            return
+        self.stats.restarts += 1
+        why = (f"the device restarted (reset={found[3].decode('ascii', 'replace')}) — "
+               f"{MAY_HAVE_RUN}; its queue and position are lost")
+        for ch in self._channels:
+            ch.synced = False
+            if ch.current is not None:
+                ch.current.unacknowledged = True
+                self._fail(ch, why, now)
 
     def poll(self, now: float) -> None:
         """Resend what timed out or waited out its BUSY; raises LinkError when tries run out."""

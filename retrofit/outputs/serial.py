@@ -34,7 +34,6 @@ docs/report.md). ``retrofit run`` hands command-level outputs the program's comm
 from __future__ import annotations
 
 import dataclasses
-import re
 import time
 from dataclasses import dataclass
 from typing import Iterable
@@ -43,6 +42,7 @@ from ..commands import Command, FMov, Init, PMov, Prob, Pstn, Rdps, Rdst, Stop, 
 from ..errors import LinkError, OutputError
 from ..frames import PortFrames
 from ..link.codec import HEARTBEAT_MS
+from ..link.host import BANNER
 from ..link.replies import flag_names
 from .base import Output
 
@@ -212,8 +212,6 @@ class SerialSocketOutput(SerialOutput):
                "(retrofit firmware sim --listen)")
 
 
-#: the line the firmware sends at start, before any frame (firmware/main.c, docs/protocol.md §4)
-BANNER = re.compile(rb"retrofit firmware machine=(\S+) link=(\d+) reset=(\S+)\r?\n")
 #: the link version this host speaks (docs/protocol.md)
 LINK_VERSION = 3
 
