@@ -123,16 +123,17 @@ static uint32_t new_session(void)
 }
 
 /* Rule 1: a SYNC opens a session; the host's resend of it (same nonce and number, nothing taken
- * since) is answered the same SESS and changes nothing. */
+ * since) is answered the same SESS and changes nothing; a late copy of it (frames taken since)
+ * changes nothing and is not answered: only a new nonce opens a new session. */
 static void sync(uint8_t channel, uint8_t number, uint8_t seq, const uint8_t *payload, uint8_t len)
 {
     if (len != SYNC_LEN) {
         send_err(seq, ERR_LENGTH, OP_SYNC, 0);
         return;
     }
-    if (in_session[channel] && last[channel] == number &&
-        memcmp(nonce[channel], payload + 1, SYNC_LEN - 1) == 0) {
-        send_frame(seq, answer[channel], answer_len[channel], 0);
+    if (in_session[channel] && memcmp(nonce[channel], payload + 1, SYNC_LEN - 1) == 0) {
+        if (last[channel] == number)
+            send_frame(seq, answer[channel], answer_len[channel], 0);
         return;
     }
     uint32_t s = new_session();

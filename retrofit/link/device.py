@@ -131,12 +131,14 @@ class DeviceEndpoint:
     def _sync(self, channel: int, number: int, frame: Frame) -> None:
         """Rule 1: a SYNC opens a new session on the channel, with a number this device never
         issued before; the host's resend of it (its nonce, its sequence number, nothing taken
-        since) gets the same SESS again and changes nothing."""
+        since) gets the same SESS again and changes nothing; a late copy of it (frames taken since)
+        changes nothing and is not answered: only a new nonce opens a new session."""
         if len(frame.payload) != SYNC_LEN:
             self._error(frame.seq, ERR_LENGTH, SYNC, bound=False)
-        elif frame.payload[1:] == self._nonce[channel] and self._last[channel] == number:
+        elif frame.payload[1:] == self._nonce[channel] and self._session[channel] is not None:
             self.stats.stale_syncs += 1
-            self._out += encode_frame(frame.seq, self._answer[channel])
+            if self._last[channel] == number:
+                self._out += encode_frame(frame.seq, self._answer[channel])
         else:
             self._nonce[channel] = frame.payload[1:]
             self._session[channel] = None          # the SESS answer itself is not bound
