@@ -40,9 +40,10 @@ def bound(device, channel, number, payload):
     return encode_frame(seq_byte(channel, number), payload, device.session(channel))
 
 
-def test_a_stale_sync_after_the_next_command_opens_a_new_session_so_the_resend_runs_once():
+def test_a_late_copy_of_the_sync_changes_nothing_so_the_resend_runs_once():
     """SYNC N=0 answered SESS, PMOV N=1 delivered but its ACK lost, a late copy of the SYNC
-    arrives, then the host's resend of the PMOV: it must not run a second time."""
+    arrives, then the host's resend of the PMOV: the copy neither ends the session under the
+    host nor rewinds it, and the resend is answered from the record, not run a second time."""
     app = Recorder()
     device = DeviceEndpoint(LATHE, app, sessions=SessionNumbers(0x1000))
     sync = sync_frame(QUEUED, 0, 0xC0FFEE)
@@ -54,11 +55,12 @@ def test_a_stale_sync_after_the_next_command_opens_a_new_session_so_the_resend_r
     device.receive(move)
     device.take_output()                                      # ... the ACK of the move is lost
     device.receive(sync)                                      # a late copy of the SYNC
-    assert answers(device) == [(0x00, Session(0x1001))]       # a new session
-    device.receive(move)                                      # the host's resend: of the old one
-    assert answers(device) == [(0x00, Nak())]
+    assert answers(device) == []                              # changes nothing, says nothing
+    assert device.session(QUEUED) == 0x1000
+    device.receive(move)                                      # the host's resend
+    assert answers(device) == [(0x01, Ack())]                 # answered from the record
     assert app.delivered == [PMov((("X", -9.925), ("Z", -184.08)))]
-    assert device.stats.stale_syncs == 1
+    assert device.stats.stale_syncs == 2 and device.stats.duplicates == 1   # the resent SYNC, its late copy
 
 
 def test_a_sync_of_a_new_session_restarts_the_channel():
