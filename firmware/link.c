@@ -36,6 +36,7 @@ static uint8_t last[2];
 static uint8_t answer[2][ANSWER_MAX];
 static uint8_t answer_len[2];
 static uint8_t nonce[2][SYNC_LEN - 1];    /* the host's nonce in the SYNC that opened it */
+static uint8_t running[2][5];              /* its SESS answer, for a resend or a late copy */
 static uint8_t in_session[2];             /* the channel runs a session */
 static uint32_t seed[2];                  /* the CRC register after the session's 4 bytes */
 static uint16_t boot;                     /* sessions are boot << 16 | count */
@@ -123,8 +124,8 @@ static uint32_t new_session(void)
 }
 
 /* Rule 1: a SYNC opens a session; the host's resend of it (same nonce and number, nothing taken
- * since) is answered the same SESS and changes nothing; a late copy of it (frames taken since)
- * changes nothing and is not answered: only a new nonce opens a new session. */
+ * since) and a late copy of it (frames taken since) are answered the running session's SESS and
+ * change nothing: only a new nonce opens a new session. */
 static void sync(uint8_t channel, uint8_t number, uint8_t seq, const uint8_t *payload, uint8_t len)
 {
     if (len != SYNC_LEN) {
@@ -132,13 +133,13 @@ static void sync(uint8_t channel, uint8_t number, uint8_t seq, const uint8_t *pa
         return;
     }
     if (in_session[channel] && memcmp(nonce[channel], payload + 1, SYNC_LEN - 1) == 0) {
-        if (last[channel] == number)
-            send_frame(seq, answer[channel], answer_len[channel], 0);
+        send_frame(seq, running[channel], 5, 0);
         return;
     }
     uint32_t s = new_session();
     uint8_t reply[5] = { ANS_SESS, (uint8_t)(s >> 24), (uint8_t)(s >> 16), (uint8_t)(s >> 8),
                          (uint8_t)s };
+    memcpy(running[channel], reply, 5);
     memcpy(nonce[channel], payload + 1, SYNC_LEN - 1);
     uint32_t crc = CRC32_INIT;
     for (uint8_t i = 1; i < 5; i++)

@@ -55,7 +55,7 @@ def test_a_late_copy_of_the_sync_changes_nothing_so_the_resend_runs_once():
     device.receive(move)
     device.take_output()                                      # ... the ACK of the move is lost
     device.receive(sync)                                      # a late copy of the SYNC
-    assert answers(device) == []                              # changes nothing, says nothing
+    assert answers(device) == [(0x00, Session(0x1000))]       # the running session, unchanged
     assert device.session(QUEUED) == 0x1000
     device.receive(move)                                      # the host's resend
     assert answers(device) == [(0x01, Ack())]                 # answered from the record

@@ -131,14 +131,13 @@ class DeviceEndpoint:
     def _sync(self, channel: int, number: int, frame: Frame) -> None:
         """Rule 1: a SYNC opens a new session on the channel, with a number this device never
         issued before; the host's resend of it (its nonce, its sequence number, nothing taken
-        since) gets the same SESS again and changes nothing; a late copy of it (frames taken since)
-        changes nothing and is not answered: only a new nonce opens a new session."""
+        since) gets the same SESS again and changes nothing, and so does a late copy of it (frames
+        taken since): only a new nonce opens a new session."""
         if len(frame.payload) != SYNC_LEN:
             self._error(frame.seq, ERR_LENGTH, SYNC, bound=False)
         elif frame.payload[1:] == self._nonce[channel] and self._session[channel] is not None:
-            self.stats.stale_syncs += 1
-            if self._last[channel] == number:
-                self._out += encode_frame(frame.seq, self._answer[channel])
+            self.stats.stale_syncs += 1          # the running session's SESS again, unbound
+            self._out += encode_frame(frame.seq, encode_reply(Session(self._session[channel]), self.machine))
         else:
             self._nonce[channel] = frame.payload[1:]
             self._session[channel] = None          # the SESS answer itself is not bound
