@@ -110,6 +110,7 @@ class Machine:
     sim: SimModel
     motion: MotionSettings = MotionSettings()
     parts: dict[str, object] = field(default_factory=dict)   # optional sections, see SECTION_PARSERS
+    dialect: str = "rs274"          # how its programs are read: "rs274" (LinuxCNC) or "fanuc" (lathe)
 
     @property
     def tick_s(self) -> float:
@@ -144,6 +145,7 @@ SECTION_PARSERS: dict[str, str] = {
     "setter": "retrofit.atc.setter:read_setter_section",
     "ramps": "retrofit.atc.board:read_ramps_section",
     "io": "retrofit.iopins:read_io_section",
+    "fanuc": "retrofit.gcode.fanuc_settings:read_fanuc_section",
 }
 
 
@@ -180,6 +182,7 @@ def load_machine(name_or_path: str | Path) -> Machine:
     description = head.get_str("description", "")
     tick_us = head.get_float("tick_us", above=0.0, maxval=1e6)
     port = head.get_str("port", "db25", choices=PORT_KINDS)
+    dialect = head.get_str("dialect", "rs274", choices=("rs274", "fanuc"))
     head.finish()
     axes_section = root.section("axis")
     _check_axis_names(path.name, axes_section)
@@ -201,7 +204,7 @@ def load_machine(name_or_path: str | Path) -> Machine:
     from .iopins import check_io_pins
     check_io_pins(path.name, port, axes, parts)
     return Machine(name=name, description=description, source=str(path), tick_us=tick_us, port=port,
-                   axes=axes, sim=sim, motion=motion, parts=parts)
+                   axes=axes, sim=sim, motion=motion, parts=parts, dialect=dialect)
 
 
 def _check_axis_name(file: str, key: str) -> None:

@@ -277,7 +277,7 @@ LEX_SHARE = 0.45
 
 def compile_program(text: str, machine: Machine, file: str = "<string>",
                     start_mm: dict | None = None, *, tool_table=None, spindle_tool: int = 0,
-                    search_path=(), probe=None, on_progress=None) -> Program:
+                    search_path=(), probe=None, on_progress=None, dialect: str | None = None) -> Program:
     """Translate G-code ``text`` for ``machine`` into retrofit commands.
 
     The whole program is run through the interpreter before anything is returned: on the first
@@ -288,7 +288,8 @@ def compile_program(text: str, machine: Machine, file: str = "<string>",
     ``spindle_tool`` the tool in the spindle; ``search_path`` the folders where ``o<name> call``
     finds ``name.ngc``; ``probe`` makes G38 probing moves on the machine
     (:mod:`retrofit.gcode.probing`); ``on_progress(share)`` is called now and then with the
-    share (0..1) of the work done, for a progress bar.
+    share (0..1) of the work done, for a progress bar; ``dialect`` "fanuc" reads a Fanuc/Haas
+    lathe program (:mod:`retrofit.gcode.fanuc_lathe`; default: the machine file's ``dialect``).
 
     >>> from retrofit.config import load_machine
     >>> prog = compile_program("G0 X10 Z2\\nG1 Z-5 F100", load_machine("chivu-lathe"))
@@ -305,8 +306,16 @@ def compile_program(text: str, machine: Machine, file: str = "<string>",
     interpreter = Interpreter(machine, translator, search_path)
     if on_progress is not None:                    # reading the lines is about 45 % of the work
         interpreter.on_progress = lambda run: on_progress(LEX_SHARE + (1.0 - LEX_SHARE) * run)
+    dialect = dialect or machine.dialect
+    if dialect not in ("rs274", "fanuc"):
+        raise GcodeError(f"unknown dialect {dialect!r}; known: rs274, fanuc", file)
     try:
-        lines = lex_lines(text)
+        if dialect == "fanuc":
+            from .fanuc_lathe import run_fanuc
+            run_fanuc(text, translator, file, interpreter.messages)
+            lines = []
+        else:
+            lines = lex_lines(text)
         if on_progress is not None:
             on_progress(LEX_SHARE)
         interpreter.run(scan(Source(file, lines)))
@@ -320,7 +329,8 @@ def compile_program(text: str, machine: Machine, file: str = "<string>",
 
 
 def load_program(path: str | Path, machine: Machine | str, *, tool_table=None,
-                 spindle_tool: int = 0, search_path=(), probe=None) -> Program:
+                 spindle_tool: int = 0, search_path=(), probe=None,
+                 dialect: str | None = None) -> Program:
     """Read and compile a G-code file (``.ngc``); ``machine`` is a Machine or a machine name.
 
     Errors name the file by its name, e.g. ``prog.ngc:12: ...``. Subroutine files are looked
@@ -332,4 +342,4 @@ def load_program(path: str | Path, machine: Machine | str, *, tool_table=None,
     text = _read_text(path)
     return compile_program(text, machine, file=path.name, tool_table=tool_table,
                            spindle_tool=spindle_tool,
-                           search_path=[path.parent, *search_path], probe=probe)
+                           search_path=[path.parent, *search_path], probe=probe, dialect=dialect)

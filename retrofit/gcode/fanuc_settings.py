@@ -1,0 +1,51 @@
+"""The ``[fanuc]`` section of a machine file: where Fanuc/Haas lathe controls differ by parameter.
+
+Each key has the default most Fanuc 0i-T and Haas lathes ship with; a school sets the others to
+match its control. The dialect itself is chosen with ``dialect = "fanuc"`` in ``[machine]`` or
+``--dialect fanuc`` on the command line, never guessed from the program.
+
+* ``x_diameter`` (true): X and U are diameters (Fanuc parameter 1006 DIAx).
+* ``whole_numbers`` ("units"): a coordinate without a decimal point (``X20``) is 20 mm or inch,
+  as on Haas and on Fanuc with DPI = 1 (parameter 3401); "increments" reads it as 20 least input
+  increments (0.020 mm, 0.0020 inch), as a Fanuc with DPI = 0 does.
+* ``feed_at_start`` ("per_rev"): G99 (feed per revolution) at the top of a program; "per_min": G98.
+* ``inch_at_start`` (false): G21 (mm) at the top of a program; true: G20.
+* ``g71_type2`` (true): a G71/G72 profile whose first block moves both axes is a type II profile
+  (pockets allowed); false: controls without type II, where such a profile is refused.
+* ``g76_pq`` ("increments"): G76's second-block P (thread height) and Q (first depth) written
+  without a decimal point are least input increments (P1000 = 1 mm), as Fanuc 0i reads them;
+  "units": they are mm (inch).
+* ``retract_45`` ("rapid"): how G71/G72 leave each roughing cut by R at 45 degrees: "rapid" or "feed".
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class FanucSettings:
+    """The machine-dependent choices of the Fanuc dialect (see the module doc)."""
+
+    x_diameter: bool = True
+    whole_numbers: str = "units"
+    feed_at_start: str = "per_rev"
+    inch_at_start: bool = False
+    g71_type2: bool = True
+    g76_pq: str = "increments"
+    retract_45: str = "rapid"
+
+
+def read_fanuc_section(sec, axes) -> FanucSettings:
+    """``[fanuc]``: every key optional; an unknown key is refused as a typo."""
+    d = FanucSettings()
+    settings = FanucSettings(
+        x_diameter=sec.get_bool("x_diameter", d.x_diameter),
+        whole_numbers=sec.get_str("whole_numbers", d.whole_numbers, choices=("units", "increments")),
+        feed_at_start=sec.get_str("feed_at_start", d.feed_at_start, choices=("per_rev", "per_min")),
+        inch_at_start=sec.get_bool("inch_at_start", d.inch_at_start),
+        g71_type2=sec.get_bool("g71_type2", d.g71_type2),
+        g76_pq=sec.get_str("g76_pq", d.g76_pq, choices=("increments", "units")),
+        retract_45=sec.get_str("retract_45", d.retract_45, choices=("rapid", "feed")))
+    sec.finish()
+    return settings
