@@ -90,6 +90,7 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
     try:
         run.program = compile_program(text, machine, file=name, tool_table=tool_table,
                                       spindle_tool=spindle_tool, probe=prober,
+                                      dialect=getattr(opts, "dialect", None),
                                       on_progress=lambda done: progress.fraction("compile", done))
         opened = prober.handoff() if hasattr(prober, "handoff") and prober.moves else None
         if prober is not None and prober.moves and opened is None:

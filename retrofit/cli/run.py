@@ -43,6 +43,9 @@ def add_commands(sub) -> None:
                    help="run through the tick-by-tick 002 controller (automatic for threads and homing)")
     r.add_argument("--progress", choices=["auto", "on", "off"], default="auto",
                    help="progress bar on standard error (auto: only on a terminal)")
+    r.add_argument("--dialect", choices=["rs274", "fanuc"], default=None,
+                   help="how the program is written: rs274 (LinuxCNC) or fanuc (Fanuc/Haas lathe, "
+                        "docs/fanuc.md); default: the machine file's dialect, else rs274")
     r.set_defaults(func=cmd_run)
 
 
@@ -138,7 +141,7 @@ def _run(args) -> int:
                            controller=args.controller, urls=urls,
                            keep_frames=bool(getattr(args, "html", None)),
                            keep_commands=bool(getattr(args, "plot", None)),
-                           before_outputs=mark)
+                           before_outputs=mark, dialect=args.dialect)
     progress = Progress(STAGE_WEIGHTS, None if args.progress == "auto" else args.progress == "on")
     try:
         run = run_program(text, name, machine, opts, progress, operator_wait(), table, start_tool)

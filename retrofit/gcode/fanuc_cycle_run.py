@@ -117,7 +117,7 @@ def _pattern(run, block, first, code: int) -> None:
         raise RuleError(f"G73: the first block needs {FIRST[73]}")
     profile = [(1, entry, segments[0][1], None)] if entry != segments[0][1] else []
     path = fanuc_cycles.pattern_repeat(
-        profile + segments, start, _value(run, first, "U", 0.0) / run.xf, _value(run, first, "W", 0.0),
+        profile + segments, start, _value(run, first, "U", 0.0), _value(run, first, "W", 0.0),
         passes, _value(run, block, "U", 0.0) / run.xf, _value(run, block, "W", 0.0), approach, "G73")
     run.path(path, start)
     run.pc = max(run.pc, q)
@@ -152,7 +152,7 @@ def _pq(run, block, letter: str) -> float:
     w = block.word(letter)
     if w is None:
         return 0.0
-    if run.settings.g76_pq == "increments" and not w.point:
+    if run.settings.cycle_pq == "increments" and not w.point:
         return w.value * (0.0001 if run.tr.state.inch else 0.001)
     return w.value
 

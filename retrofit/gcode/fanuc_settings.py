@@ -12,9 +12,9 @@ match its control. The dialect itself is chosen with ``dialect = "fanuc"`` in ``
 * ``inch_at_start`` (false): G21 (mm) at the top of a program; true: G20.
 * ``g71_type2`` (true): a G71/G72 profile whose first block moves both axes is a type II profile
   (pockets allowed); false: controls without type II, where such a profile is refused.
-* ``g76_pq`` ("increments"): G76's second-block P (thread height) and Q (first depth) written
-  without a decimal point are least input increments (P1000 = 1 mm), as Fanuc 0i reads them;
-  "units": they are mm (inch).
+* ``cycle_pq`` ("increments"): P and Q of G74, G75 and G76 (peck, shift, thread height, first and
+  minimum depth) written without a decimal point are least input increments (P1000 = 1 mm), as a
+  Fanuc 0i reads them; "units": they are mm (inch). With a decimal point they are always mm (inch).
 * ``retract_45`` ("rapid"): how G71/G72 leave each roughing cut by R at 45 degrees: "rapid" or "feed".
 """
 
@@ -32,7 +32,7 @@ class FanucSettings:
     feed_at_start: str = "per_rev"
     inch_at_start: bool = False
     g71_type2: bool = True
-    g76_pq: str = "increments"
+    cycle_pq: str = "increments"
     retract_45: str = "rapid"
 
 
@@ -45,7 +45,7 @@ def read_fanuc_section(sec, axes) -> FanucSettings:
         feed_at_start=sec.get_str("feed_at_start", d.feed_at_start, choices=("per_rev", "per_min")),
         inch_at_start=sec.get_bool("inch_at_start", d.inch_at_start),
         g71_type2=sec.get_bool("g71_type2", d.g71_type2),
-        g76_pq=sec.get_str("g76_pq", d.g76_pq, choices=("increments", "units")),
+        cycle_pq=sec.get_str("cycle_pq", d.cycle_pq, choices=("increments", "units")),
         retract_45=sec.get_str("retract_45", d.retract_45, choices=("rapid", "feed")))
     sec.finish()
     return settings
