@@ -151,6 +151,12 @@ class FanucRunner:
             if m in NOTED_M:
                 self.messages.append((self.prog.file, block.line, "NOTE",
                                       f"M{m:g} ({NOTED_M[m]}) run as a no-op: the machine has none"))
+        if 92 in gs and not self.has_axes(block):          # G92 S: the spindle cap (systems B, C)
+            gs = [g for g in gs if g != 92]
+            if block.has("S"):
+                self.g50(block)
+                self.messages.append((self.prog.file, block.line, "NOTE", f"G92 S{block.get('S'):g} "
+                                      f"read as the spindle speed cap (G50 S in G-code system A)"))
         cycle = [g for g in gs if g in CYCLES]
         for g in gs:
             if g in MOTION or g in MODAL_CYCLES or g == 80:
@@ -182,7 +188,7 @@ class FanucRunner:
         thread = {32, 92, 76} & set(gs) or (self.motion in (32, 92) and self.has_axes(block))
         if block.has("F") and not thread:
             words.append(("F", block.get("F")))
-        if block.has("S") and 50 not in gs and not (92 in gs and not self.has_axes(block)):
+        if block.has("S") and 50 not in gs and not (92 in block.codes("G") and not self.has_axes(block)):
             words += self.spindle_words(block, gs)
         elif 97 in gs:
             words.append(("G", 97.0))

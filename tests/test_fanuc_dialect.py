@@ -1,0 +1,163 @@
+"""The Fanuc/Haas lathe dialect's rules: chosen, never guessed; what it reads and what it refuses.
+
+Refusals name the file, the line, what was wrong and what would be read; machine-dependent
+readings follow the machine file's ``[fanuc]`` section.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import pytest
+
+from retrofit.cli import main
+from retrofit.config import load_machine
+from retrofit.errors import GcodeError
+from retrofit.gcode import compile_program
+from retrofit.gcode.fanuc_settings import FanucSettings
+
+DATA = Path(__file__).parent / "data" / "fanuc"
+
+
+@pytest.fixture(scope="module")
+def lathe():
+    return load_machine(DATA / "fanuc-school-lathe.toml")
+
+
+def with_settings(machine, **changes):
+    parts = dict(machine.parts, fanuc=dataclasses.replace(machine.parts["fanuc"], **changes))
+    return dataclasses.replace(machine, parts=parts)
+
+
+def fmovs(program) -> list[str]:
+    return [str(c) for c in program.commands if str(c).startswith(("FMOV", "PMOV"))]
+
+
+def refused(text: str, machine, **kw) -> str:
+    with pytest.raises(GcodeError) as info:
+        compile_program(text, machine, "part.nc", **kw)
+    return str(info.value)
+
+
+def test_a_fanuc_program_is_refused_without_the_dialect_never_guessed():
+    """mitic-lathe's machine file names no dialect: its M31 and G50 are refused, as before."""
+    mitic = load_machine("mitic-lathe")
+    assert mitic.dialect == "rs274"
+    text = "O0001\nG50 S2000\nM31\nG00 X40. Z2.\nM30\n"
+    assert "G50" in refused(text, mitic)
+    program = compile_program(text, mitic, "part.nc", dialect="fanuc")
+    assert fmovs(program)[-1] == "FMOV X20 Z2"          # diameter 40: 20 mm from the axis
+
+
+def test_unknown_g_code_names_file_line_and_what_is_read(lathe):
+    message = refused("G98\nG00 X40. Z2.\nG140 X20.\nM30\n", lathe)
+    assert message.startswith("part.nc:3: G140: not read under the Fanuc dialect (read: G0 G1")
+    assert "G70-G76" in message
+
+
+def test_unknown_m_code_is_refused_and_harmless_ones_run_with_a_note(lathe):
+    assert refused("M51\n", lathe).startswith("part.nc:1: M51: not read under the Fanuc dialect")
+    program = compile_program("M41\nM31\nM08\nM09\nM33\nM30\n", lathe, "part.nc")
+    notes = [(line, text) for _, line, kind, text in program.messages if kind == "NOTE"]
+    assert [line for line, _ in notes] == [1, 2, 5]
+    assert "gear range 1" in notes[0][1] and "chip conveyor" in notes[1][1]
+    assert [str(c) for c in program.commands] == ["COOL M8", "COOL M0"]
+
+
+def test_u_and_w_are_incremental_diameter_and_z(lathe):
+    program = compile_program("G98\nG00 X40. Z2.\nU-10. W-5.\nG01 U4. F100.\nM30\n", lathe, "p.nc")
+    assert fmovs(program) == ["FMOV X20 Z2", "FMOV X15 Z-3", "PMOV X17 Z-3"]
+    assert "X and U in one block" in refused("G98\nG00 X40. U2.\n", lathe)
+
+
+def test_g50_x_z_sets_the_coordinates_and_g50_s_caps_constant_surface_speed(lathe):
+    text = "G98\nG00 X40. Z10.\nG50 X100. Z50.\nG00 X90. Z50.\nG50 S500\nG96 S200 M03\nM30\n"
+    program = compile_program(text, lathe, "p.nc")
+    assert fmovs(program)[-1] == "FMOV X15 Z10"          # 10 mm less on the diameter: 5 mm radius
+    spins = [str(c) for c in program.commands if str(c).startswith("SPIN")]
+    assert spins == ["SPIN S500 D1", "SPIN S0 D0"]       # 200 m/min at X90 is 707 rpm: capped at 500
+
+
+def test_g92_s_is_read_as_the_spindle_cap_with_a_note(lathe):
+    program = compile_program("G92 S800\nG96 S300 M03\nG98 G00 X10. Z2.\nM30\n", lathe, "p.nc")
+    assert any("G92 S800" in m[3] for m in program.messages)
+    assert [str(c) for c in program.commands if str(c).startswith("SPIN")][-2] == "SPIN S800 D1"
+
+
+def test_feed_per_revolution_is_the_default_and_g98_feeds_per_minute(lathe):
+    program = compile_program("M03 S500\nG00 X20. Z2.\nG01 Z-10. F0.2\nG98 G01 Z-20. F80.\nM30\n",
+                              lathe, "p.nc")
+    assert [str(c) for c in program.commands if str(c).startswith("PFDR")] == ["PFDR F100", "PFDR F80"]
+
+
+def test_feed_per_revolution_on_a_machine_without_encoder_says_how_to_choose(lathe):
+    chivu = load_machine("chivu-lathe")
+    message = refused("G00 X20. Z2.\nG01 Z-10. F0.2\n", chivu, dialect="fanuc")
+    assert message.startswith("part.nc:2: G99 (feed per revolution, the Fanuc default)")
+    assert 'feed_at_start = "per_min"' in message
+    ok = compile_program("G98\nG00 X20. Z2.\nG01 Z-10. F100.\nM30\n", chivu, "p.nc", dialect="fanuc")
+    assert fmovs(ok)[-1] == "PMOV X10 Z-10"
+
+
+def test_whole_numbers_follow_the_machine_setting(lathe):
+    text = "G98\nG00 X20 Z2\nM30\n"
+    assert fmovs(compile_program(text, lathe, "p.nc"))[-1] == "FMOV X10 Z2"
+    fanuc_dpi0 = with_settings(lathe, whole_numbers="increments")
+    assert fmovs(compile_program(text, fanuc_dpi0, "p.nc"))[-1] == "FMOV X0.01 Z0.002"
+
+
+def test_radius_programming_when_the_machine_says_so(lathe):
+    radius = with_settings(lathe, x_diameter=False)
+    assert fmovs(compile_program("G98\nG00 X20. Z2.\nM30\n", radius, "p.nc"))[-1] == "FMOV X20 Z2"
+
+
+def test_dwell_p_is_milliseconds_without_a_point_and_x_seconds(lathe):
+    program = compile_program("G04 P1500\nG04 X2.\nG04 P0.5\nM30\n", lathe, "p.nc")
+    assert [str(c) for c in program.commands] == ["DELY P1.5", "DELY P2", "DELY P0.5"]
+
+
+def test_program_numbers_percent_and_subprogram_calls(lathe):
+    text = ("%\n:0100 (MAIN)\nG98 G00 X20. Z0.\nM98 P1000 L2\nM98 P21000\nM97 P50\nM30\n"
+            "N50 G00 W1.\nM99\n%\nO1000\nG00 W-1.\nM99\n%\n")
+    program = compile_program(text, lathe, "p.nc")
+    assert fmovs(program) == ["FMOV X10 Z0", "FMOV X10 Z-1", "FMOV X10 Z-2", "FMOV X10 Z-3",
+                              "FMOV X10 Z-4", "FMOV X10 Z-3"]
+    assert "no program O2000" in refused("M98 P2000\n", lathe)
+
+
+def test_m99_in_the_main_program_ends_it_with_a_note(lathe):
+    program = compile_program("G98 G00 X20. Z0.\nM99\nG00 X40.\n", lathe, "p.nc")
+    assert fmovs(program) == ["FMOV X10 Z0"]
+    assert any("M99" in m[3] for m in program.messages)
+
+
+def test_type_ii_with_a_pocket_is_refused_and_type_ii_can_be_switched_off(lathe):
+    pocket = ("G98 M03 S500\nG00 X42. Z2.\nG71 U1. R0.5\nG71 P10 Q40 U0.2 W0.1 F100.\n"
+              "N10 G00 X20. Z2.\nG01 Z-10.\nX30. Z-20.\nX24. Z-30.\nN40 X42. Z-40.\nM30\n")
+    assert "type II profile with pockets is not cut here" in refused(pocket, lathe)
+    simple = pocket.replace("X24. Z-30.", "X34. Z-30.")
+    program = compile_program(simple, lathe, "p.nc")
+    assert any("type II" in m[3] for m in program.messages)
+    off = with_settings(lathe, g71_type2=False)
+    assert "g71_type2 = false" in refused(simple, off)
+
+
+def test_g76_thread_chamfer_is_refused_with_the_form_that_runs(lathe):
+    text = "M03 S400\nG00 X24. Z5.\nG76 P011060 Q50 R0.\nG76 X18.16 Z-20. P920 Q300 F1.5\n"
+    message = refused(text, lathe)
+    assert message.startswith("part.nc:4: G76 P011060: the thread chamfer rr = 10 is not made")
+    assert "P010060" in message
+
+
+def test_macro_variables_are_refused_with_the_line(lathe):
+    assert refused("G98\n#1=20.\nG00 X#1\n", lathe).startswith("part.nc:2: custom macro variables")
+
+
+def test_cli_reads_a_fanuc_program_with_dialect_option(tmp_path):
+    program = tmp_path / "part.nc"
+    program.write_text("%\nO0001\nG98\nG00 X20. Z2.\nG01 Z-5. F200.\nM31\nG00 X30.\nM30\n%\n")
+    report = tmp_path / "r.json"
+    assert main(["run", str(program), "--machine", "chivu-lathe", "--dialect", "fanuc",
+                 "--report", str(report)]) == 0
+    assert main(["run", str(program), "--machine", "chivu-lathe", "--report", str(report)]) == 2
