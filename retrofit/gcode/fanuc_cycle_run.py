@@ -30,7 +30,7 @@ def run_cycle(run, block, code: int) -> None:
         run.first[code] = block
         return
     first = run.first.get(code)
-    if code in (71, 72, 73) and first is None:
+    if code in (71, 72, 73) and first is None and not (code != 73 and block.has("D")):
         raise RuleError(f"G{code} P Q: the cycle's first block (G{code} {FIRST[code]}) must come "
                         f"before it")
     {71: _rough, 72: _rough, 73: _pattern, 74: _peck, 75: _peck, 76: _g76}[code](run, block, first, code)
@@ -87,8 +87,12 @@ def _rough(run, block, first, code: int) -> None:
     if type2 and not run.settings.g71_type2:
         raise RuleError(f"{what}: the profile's first block moves X and Z (type II), which this "
                         f"control does not have (g71_type2 = false in [fanuc])")
-    depth = _value(run, first, "U" if code == 71 else "W")
-    retract = _value(run, first, "R", 0.0)
+    if block.has("D"):                   # the one-block form (Haas, Fanuc 0-T): D the depth
+        depth, retract = _pq(run, block, "D"), run.settings.g71_retract_mm / run.unit()
+        type2 = type2 or block.get("R") == 1.0                       # Haas R1: type II
+    else:
+        depth = _value(run, first, "U" if code == 71 else "W")
+        retract = _value(run, first, "R", 0.0)
     if depth is None:
         raise RuleError(f"{what}: the first block needs {FIRST[code]}")
     profile = [(1, entry, segments[0][1], None)] if entry != segments[0][1] else []
@@ -148,7 +152,8 @@ def _peck(run, block, first, code: int) -> None:
 
 
 def _pq(run, block, letter: str) -> float:
-    """P or Q of G74/G75/G76: least input increments without a decimal point (``cycle_pq``)."""
+    """P, Q (G74-G76) or D (G71/G72 one-block form): least input increments without a decimal
+    point (``cycle_pq``)."""
     w = block.word(letter)
     if w is None:
         return 0.0

@@ -15,6 +15,8 @@ match its control. The dialect itself is chosen with ``dialect = "fanuc"`` in ``
 * ``cycle_pq`` ("increments"): P and Q of G74, G75 and G76 (peck, shift, thread height, first and
   minimum depth) written without a decimal point are least input increments (P1000 = 1 mm), as a
   Fanuc 0i reads them; "units": they are mm (inch). With a decimal point they are always mm (inch).
+* ``g71_retract_mm`` (0.5): the retract of the one-block G71/G72 form ``G71 P Q U W D F`` (Haas,
+  Fanuc 0-T), where it is a machine setting (Haas setting 73, Fanuc parameter 5133).
 * ``retract_45`` ("rapid"): how G71/G72 leave each roughing cut by R at 45 degrees: "rapid" or "feed".
 """
 
@@ -33,6 +35,7 @@ class FanucSettings:
     inch_at_start: bool = False
     g71_type2: bool = True
     cycle_pq: str = "increments"
+    g71_retract_mm: float = 0.5
     retract_45: str = "rapid"
 
 
@@ -46,6 +49,7 @@ def read_fanuc_section(sec, axes) -> FanucSettings:
         inch_at_start=sec.get_bool("inch_at_start", d.inch_at_start),
         g71_type2=sec.get_bool("g71_type2", d.g71_type2),
         cycle_pq=sec.get_str("cycle_pq", d.cycle_pq, choices=("increments", "units")),
+        g71_retract_mm=sec.get_float("g71_retract_mm", d.g71_retract_mm, minval=0.0, maxval=100.0),
         retract_45=sec.get_str("retract_45", d.retract_45, choices=("rapid", "feed")))
     sec.finish()
     return settings
