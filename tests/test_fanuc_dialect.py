@@ -112,6 +112,13 @@ def test_radius_programming_when_the_machine_says_so(lathe):
     assert fmovs(compile_program("G98\nG00 X20. Z2.\nM30\n", radius, "p.nc"))[-1] == "FMOV X20 Z2"
 
 
+def test_g53_is_measured_from_the_reference_position_as_on_fanuc_and_haas(lathe):
+    """``G53 X0 Z0`` sends a Fanuc or Haas lathe home; here home is [homing]'s X130 Z200."""
+    program = compile_program("G98\nG00 X20. Z2.\nG53 X0 Z0\nG53 X-100. Z-50.\nM30\n", lathe,
+                              "p.nc", start_mm={"X": 130.0, "Z": 200.0})
+    assert fmovs(program) == ["FMOV X10 Z2", "FMOV X130 Z200", "FMOV X80 Z150"]
+
+
 def test_dwell_p_is_milliseconds_without_a_point_and_x_seconds(lathe):
     program = compile_program("G04 P1500\nG04 X2.\nG04 P0.5\nM30\n", lathe, "p.nc")
     assert [str(c) for c in program.commands] == ["DELY P1.5", "DELY P2", "DELY P0.5"]

@@ -23,7 +23,7 @@ from .blocks import make_block
 from .errors import RuleError
 from .fanuc_read import FBlock, read_program
 from .fanuc_settings import FanucSettings
-from . import fanuc_cycle_run
+from . import fanuc_calls, fanuc_cycle_run
 
 #: G codes read in a Fanuc block (system A), and what is refused
 ACCEPTED_G = "G0 G1 G2 G3 G4 G18 G20 G21 G28 G32 G40 G41 G42 G50 G53 G54-G59 G70-G76 G80 G90 " \
@@ -35,7 +35,8 @@ NOTED_M = {10: "chuck clamp", 11: "chuck unclamp", 12: "air blast on", 13: "air 
            24: "thread chamfer off", 31: "chip conveyor forward", 32: "chip conveyor reverse",
            33: "chip conveyor stop", 36: "parts catcher on", 37: "parts catcher off",
            41: "gear range 1", 42: "gear range 2", 43: "gear range 3", 44: "gear range 4",
-           88: "through-spindle coolant on", 89: "through-spindle coolant off"}
+           88: "through-spindle coolant on", 89: "through-spindle coolant off",
+           6: "tool change: the T word changes the tool"}
 PASSED_M = {0, 1, 2, 30, 3, 4, 5, 7, 8, 9}
 MOTION = {0, 1, 2, 3, 32}
 CYCLES = {70, 71, 72, 73, 74, 75, 76}
@@ -85,48 +86,8 @@ class FanucRunner:
             self.pc += 1
 
     def call(self, block: FBlock, calls: list) -> bool:
-        """M98/M97/M99; True when the program ends (M99 in the main program)."""
-        letters = {w.letter for w in block.words}
-        if letters - {"M", "P", "L", "N"} or len(block.codes("M")) != 1:
-            raise RuleError("M97, M98 and M99 stand on a block of their own with P and L only")
-        code = block.get("M")
-        if code == 99.0:
-            if block.has("P"):
-                raise RuleError("M99 P (return to a sequence number) is not read; return with M99")
-            if not calls:
-                self.messages.append((self.prog.file, block.line, "NOTE", "M99 in the main "
-                                      "program ends it here (a Fanuc control would start it again)"))
-                self.emit([("M", 30.0)])
-                return True
-            back, start, left = calls[-1]
-            if left > 1:
-                calls[-1] = (back, start, left - 1)
-                self.pc = start
-            else:
-                calls.pop()
-                self.pc = back
-            return False
-        if not block.has("P"):
-            raise RuleError(f"M{code:g} needs P (the {'program' if code == 98 else 'N'} number to "
-                            f"call)")
-        number, times = int(block.get("P")), block.get("L", 1.0)
-        if code == 98.0 and number > 9999 and not block.has("L"):
-            number, times = number % 10000, float(number // 10000)   # M98 P0031000: 3 x O1000
-        if times != int(times) or not 0 <= times <= 9999:
-            raise RuleError(f"L{times:g}: the number of repeats is a whole number from 0 to 9999")
-        if code == 98.0:
-            if number not in self.prog.programs:
-                raise RuleError(f"M98 P{number}: no program O{number} in {self.prog.file} (a "
-                                f"subprogram is O{number} ... M99, after the main program's M30)")
-            start = self.prog.programs[number]
-        else:
-            start = self.index_of(number, "M97 P")
-        if times == 0:
-            self.pc += 1
-            return False
-        calls.append((self.pc + 1, start, int(times)))
-        self.pc = start
-        return False
+        """M98/M97/M99 (:mod:`retrofit.gcode.fanuc_calls`); True when the program ends."""
+        return fanuc_calls.call(self, block, calls)
 
     def index_of(self, n: int, what: str, after: int | None = None) -> int:
         """The block carrying N``n`` (the first after ``after`` when there are several)."""
@@ -150,7 +111,7 @@ class FanucRunner:
                                 f"M{' M'.join(str(k) for k in NOTED_M)})")
             if m in NOTED_M:
                 self.messages.append((self.prog.file, block.line, "NOTE",
-                                      f"M{m:g} ({NOTED_M[m]}) run as a no-op: the machine has none"))
+                                      f"M{m:g} ({NOTED_M[m]}) run as a no-op"))
         if 92 in gs and not self.has_axes(block):          # G92 S: the spindle cap (systems B, C)
             gs = [g for g in gs if g != 92]
             if block.has("S"):
@@ -180,6 +141,9 @@ class FanucRunner:
     def modes(self, block: FBlock, gs: list) -> None:
         """Everything but the motion: modes, feed, spindle, coolant, tool; before the motion."""
         words = [("G", g) for g in gs if g in PLAIN_G and g != 53]
+        if (41 in gs or 42 in gs) and self.tr.tool_table is None:
+            self.messages.append((self.prog.file, block.line, "NOTE", "G41/G42 without a tool "
+                                  "table: the nose radius is taken as 0 (--tool-table)"))
         if 98 in gs or 99 in gs:
             self.per_rev = 99 in gs
             if self.per_rev:
@@ -312,6 +276,9 @@ class FanucRunner:
         if self.motion is None:
             raise RuleError("axis words under G80 (no motion mode): give G0, G1, G2 or G3")
         kind = int(self.motion)
+        if 53 in gs:
+            self.machine_move(block, kind)
+            return
         start = self.here()
         end = self.target(block)
         if kind == 32:
@@ -325,6 +292,23 @@ class FanucRunner:
         if kind in (2, 3):
             centre = fanuc_cycle_run.arc_centre(self, block, start, end, kind)
         self.path([(kind, end, centre)], start)
+
+    def machine_move(self, block: FBlock, kind: int) -> None:
+        """G53: machine coordinates, which on a Fanuc or Haas control are 0 at the reference
+        position (home, ``[homing]``; the machine's 0 when it has none)."""
+        if kind not in (0, 1) or block.has("U") or block.has("W"):
+            raise RuleError("G53 takes G0 or G1 with X and Z (machine coordinates from home)")
+        homing = self.machine.parts.get("homing")
+        words = [("G", 53.0), ("G", float(kind))]
+        for axis in "XZ":
+            if block.has(axis):
+                home = homing.home_mm(axis) if homing else 0.0
+                value = self.number(block, axis) * self.unit()
+                scale = self.xf if axis == "X" else 1.0
+                words.append((axis, (home * scale + value) / self.unit()))
+        if kind == 1:
+            self.feed_mode(True)
+        self.emit(words)
 
     def path(self, moves, start) -> None:
         """Moves ``(kind, (x radius, z), extra)`` in program units through the translator."""
