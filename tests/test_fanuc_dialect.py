@@ -15,7 +15,6 @@ from retrofit.cli import main
 from retrofit.config import load_machine
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
-from retrofit.gcode.fanuc_settings import FanucSettings
 
 DATA = Path(__file__).parent / "data" / "fanuc"
 

@@ -97,7 +97,7 @@ def test_g32_taper_thread_passes_at_their_published_coordinates():
     """Coordinates from https://pastebin.com/m6fC0VK4 (a real Fanuc lathe program threading a
     taper of lead 6.35 mm with G32): each pass starts at Z9.621, 9.452, 9.29, 9.141 on X51.347,
     51.331, 51.241, 51.082 and ends at Z-53.97 on X59.296, 59.258, 59.148, 58.97."""
-    text, program = run("g32-taper-thread.nc")
+    _text, program = run("g32-taper-thread.nc")
     starts = [(51.347, 9.621), (51.331, 9.452), (51.241, 9.29), (51.082, 9.141)]
     ends = [(59.296, -53.97), (59.258, -53.97), (59.148, -53.97), (58.97, -53.97)]
     names = [str(c).split()[0] for c in program.commands]
@@ -124,7 +124,7 @@ def test_student_program_surface_speed_and_feed_per_revolution_by_default():
     """Coordinates from https://pastebin.com/0SE4gqSn (a school's Fanuc lathe exercise): G96 S150
     F0.15 M4 with no G98/G99 (feed per revolution, the control's default), faces at Z71 and Z70
     from X32 to X-2, turns X28, 26, 24, 22, 20.5 to Z30.1 and X20 to Z30, ends at X60 Z125."""
-    text, program = run("student-oevning2.nc")
+    _, program = run("student-oevning2.nc")
     turns = {(x, z) for kind, x, z in moves(program) if kind == "PMOV"}
     for x in (28, 26, 24, 22, 20.5):
         assert (x, 30.1) in turns

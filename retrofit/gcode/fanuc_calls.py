@@ -21,8 +21,8 @@ def call(run, block, calls: list) -> bool:
         if block.has("P"):
             raise RuleError("M99 P (return to a sequence number) is not read; return with M99")
         if not calls:
-            run.messages.append((run.prog.file, block.line, "NOTE", "M99 in the main program "
-                                 "ends it here (a Fanuc control would start it again)"))
+            run.messages.append((run.prog.file, block.line, "NOTE", ("M99 in the main program "
+                                 "ends it here (a Fanuc control would start it again)")))
             run.emit([("M", 30.0)])
             return True
         back, start, left = calls[-1]

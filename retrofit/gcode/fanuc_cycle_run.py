@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import math
 
-from .errors import RuleError
 from . import fanuc_cycles, fanuc_fixed
+from .errors import RuleError
 
 #: what the first block of each two-block cycle holds
 FIRST = {71: "U (depth of cut) R (retract)", 72: "W (depth of cut) R (retract)",
@@ -108,8 +108,8 @@ def _rough(run, block, first, code: int) -> None:
                             f"profiles that climb one way are roughed") from None
         raise
     if type2:
-        run.messages.append((run.prog.file, block.line, "NOTE", f"{what}: type II profile roughed "
-                             f"as a monotonic one (no pocket in it)"))
+        run.messages.append((run.prog.file, block.line, "NOTE", (f"{what}: type II profile roughed "
+                             f"as a monotonic one (no pocket in it)")))
     run.path(path, start)
     run.pc = max(run.pc, q)              # the profile's blocks are not run: on after N Q
 

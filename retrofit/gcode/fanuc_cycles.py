@@ -18,6 +18,7 @@ toward minus, so outside and inside (boring), toward and away from the chuck, ar
 
 from __future__ import annotations
 
+import itertools
 import math
 
 from .errors import RuleError
@@ -52,7 +53,7 @@ def _map_path(path, back, flips):
 
 
 def _shift(profile, dd: float, dc: float):
-    move = lambda p: None if p is None else (p[0] + dd, p[1] + dc)  # noqa: E731
+    move = lambda p: None if p is None else (p[0] + dd, p[1] + dc)
     return [(k, move(a), move(b), move(c)) for k, a, b, c in profile]
 
 
@@ -101,7 +102,7 @@ def _crossing(profile, level: float):
                 return a[1] + t * (b[1] - a[1])
             continue
         pts = _samples(kind, a, b, c, 256)
-        for p, q in zip(pts, pts[1:]):
+        for p, q in itertools.pairwise(pts):
             if min(p[0], q[0]) - EPS <= level <= max(p[0], q[0]) + EPS and q[0] != p[0]:
                 r = math.dist(a, c)
                 h = math.sqrt(max(r * r - (level - c[0]) ** 2, 0.0))

@@ -19,11 +19,11 @@ The machine-dependent choices (:mod:`retrofit.gcode.fanuc_settings`) come from `
 
 from __future__ import annotations
 
+from . import fanuc_calls, fanuc_cycle_run
 from .blocks import make_block
 from .errors import RuleError
 from .fanuc_read import FBlock, read_program
 from .fanuc_settings import FanucSettings
-from . import fanuc_calls, fanuc_cycle_run
 
 #: G codes read in a Fanuc block (system A), and what is refused
 ACCEPTED_G = "G0 G1 G2 G3 G4 G18 G20 G21 G28 G32 G40 G41 G42 G50 G53 G54-G59 G70-G76 G80 G90 " \
@@ -116,8 +116,8 @@ class FanucRunner:
             gs = [g for g in gs if g != 92]
             if block.has("S"):
                 self.g50(block)
-                self.messages.append((self.prog.file, block.line, "NOTE", f"G92 S{block.get('S'):g} "
-                                      f"read as the spindle speed cap (G50 S in G-code system A)"))
+                self.messages.append((self.prog.file, block.line, "NOTE", (f"G92 S{block.get('S'):g} "
+                                      f"read as the spindle speed cap (G50 S in G-code system A)")))
         cycle = [g for g in gs if g in CYCLES]
         for g in gs:
             if g in MOTION or g in MODAL_CYCLES or g == 80:
@@ -142,8 +142,8 @@ class FanucRunner:
         """Everything but the motion: modes, feed, spindle, coolant, tool; before the motion."""
         words = [("G", g) for g in gs if g in PLAIN_G and g != 53]
         if (41 in gs or 42 in gs) and self.tr.tool_table is None:
-            self.messages.append((self.prog.file, block.line, "NOTE", "G41/G42 without a tool "
-                                  "table: the nose radius is taken as 0 (--tool-table)"))
+            self.messages.append((self.prog.file, block.line, "NOTE", ("G41/G42 without a tool "
+                                  "table: the nose radius is taken as 0 (--tool-table)")))
         if 98 in gs or 99 in gs:
             self.per_rev = 99 in gs
             if self.per_rev:
@@ -191,8 +191,8 @@ class FanucRunner:
         elif self.tr.tool_table is not None:
             self.emit([("G", 43.0), ("H", float(offset))])
         else:
-            self.messages.append((self.prog.file, self.line, "NOTE", f"T{t:04d}: offset {offset:02d} "
-                                  f"not applied: no tool table given (--tool-table)"))
+            self.messages.append((self.prog.file, self.line, "NOTE", (f"T{t:04d}: offset {offset:02d} "
+                                  f"not applied: no tool table given (--tool-table)")))
 
     def g50(self, block: FBlock) -> None:
         if block.has("S"):

@@ -110,8 +110,7 @@ def _code(raw: str) -> str:
         elif not depth:
             out.append(ch)
     code = "".join("".join(out).split()).upper()
-    if code.startswith("/"):
-        code = code[1:]
+    code = code.removeprefix("/")
     return code
 
 
