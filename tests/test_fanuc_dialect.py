@@ -7,6 +7,7 @@ readings follow the machine file's ``[fanuc]`` section.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 from pathlib import Path
 
 import pytest
@@ -138,15 +139,46 @@ def test_m99_in_the_main_program_ends_it_with_a_note(lathe):
     assert any("M99" in m[3] for m in program.messages)
 
 
-def test_type_ii_with_a_pocket_is_refused_and_type_ii_can_be_switched_off(lathe):
-    pocket = ("G98 M03 S500\nG00 X42. Z2.\nG71 U1. R0.5\nG71 P10 Q40 U0.2 W0.1 F100.\n"
-              "N10 G00 X20. Z2.\nG01 Z-10.\nX30. Z-20.\nX24. Z-30.\nN40 X42. Z-40.\nM30\n")
-    assert "type II profile with pockets is not cut here" in refused(pocket, lathe)
-    simple = pocket.replace("X24. Z-30.", "X34. Z-30.")
-    program = compile_program(simple, lathe, "p.nc")
-    assert any("type II" in m[3] for m in program.messages)
+POCKET = ("G98 M03 S500\nG00 X42. Z2.\nG71 U1. R0.5\nG71 P10 Q40 U0.2 W0.1 F100.\n"
+          "N10 G00 X20. Z2.\nG01 Z-10.\nX30. Z-20.\nX24. Z-30.\nN40 X42. Z-40.\nM30\n")
+
+
+def test_type_ii_roughs_the_pocket_level_by_level_and_never_enters_the_part(lathe):
+    """The profile X20 -> Z-10 -> X30 Z-20 -> X24 Z-30 -> X42 Z-40 has a pocket between Z-20
+    and Z-40; shifted by the allowances (0.1 mm a side, 0.1 mm in Z) its corners are X20.2 Z2.1,
+    X20.2 Z-9.9, X30.2 Z-19.9, X24.2 Z-29.9, X42.2 Z-39.9. Worked by hand: at X30 (1 mm a side
+    from X42) the pocket is cut from Z-20.2333 (the far flank at X30) to Z-33.1222; at X26 from
+    Z-26.9 to Z-30.9; at X24 there is none (its floor is at X24.2)."""
+    program = compile_program(POCKET, lathe, "p.nc")
+    cuts, here = [], None
+    for command in program.commands:
+        name, *words = str(command).split()
+        if name in ("FMOV", "PMOV"):
+            v = {w[0]: float(w[1:]) for w in words}
+            point = (round(2 * v["X"], 4), round(v["Z"], 4))
+            if name == "PMOV" and here is not None and here[0] == point[0]:
+                cuts.append((point[0], here[1], point[1]))
+            here = point
+    assert (30.0, -20.2333, -33.1222) in cuts and (26.0, -26.9, -30.9) in cuts
+    assert not [c for c in cuts if c[0] == 24.0 and c[1] < -20]
+    corners = [(2.1, 20.2), (-9.9, 20.2), (-19.9, 30.2), (-29.9, 24.2), (-39.9, 42.2)]
+    for command in program.commands:                    # every point stays on or above the
+        name, *words = str(command).split()             # profile shifted by the allowances
+        if name not in ("FMOV", "PMOV"):
+            continue
+        v = {w[0]: float(w[1:]) for w in words}
+        for (z0, x0), (z1, x1) in itertools.pairwise(corners):
+            if z1 <= v["Z"] <= z0:
+                floor = x0 + (x1 - x0) * (v["Z"] - z0) / (z1 - z0)
+                assert 2 * v["X"] >= floor - 1e-6, (command, floor)
+    assert fmovs(program)[-1] == "FMOV X21 Z2"
+
+
+def test_type_ii_can_be_switched_off_and_must_run_one_way_along_z(lathe):
     off = with_settings(lathe, g71_type2=False)
-    assert "g71_type2 = false" in refused(simple, off)
+    assert "g71_type2 = false" in refused(POCKET, off)
+    back = POCKET.replace("X24. Z-30.", "X24. Z-15.")
+    assert "must run one way along the cut axis" in refused(back, lathe)
 
 
 def test_g76_thread_chamfer_is_refused_with_the_form_that_runs(lathe):

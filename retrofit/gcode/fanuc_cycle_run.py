@@ -98,18 +98,9 @@ def _rough(run, block, first, code: int) -> None:
     profile = [(1, entry, segments[0][1], None)] if entry != segments[0][1] else []
     profile += segments
     kind = 0 if run.settings.retract_45 == "rapid" else 1
-    try:
-        path = fanuc_cycles.rough_type1(profile, start, depth, retract,
-                                        _value(run, block, "U", 0.0) / run.xf,
-                                        _value(run, block, "W", 0.0), code == 71, approach, kind, what)
-    except RuleError as exc:
-        if type2 and "monotonic" in str(exc):
-            raise RuleError(f"{what}: a type II profile with pockets is not cut here; only "
-                            f"profiles that climb one way are roughed") from None
-        raise
-    if type2:
-        run.messages.append((run.prog.file, block.line, "NOTE", (f"{what}: type II profile roughed "
-                             f"as a monotonic one (no pocket in it)")))
+    path = fanuc_cycles.rough(profile, start, depth, retract, _value(run, block, "U", 0.0) / run.xf,
+                              _value(run, block, "W", 0.0), code == 71, approach, kind, what,
+                              type2)
     run.path(path, start)
     run.pc = max(run.pc, q)              # the profile's blocks are not run: on after N Q
 

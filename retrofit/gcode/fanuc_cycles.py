@@ -21,6 +21,7 @@ from __future__ import annotations
 import itertools
 import math
 
+from . import fanuc_pockets
 from .errors import RuleError
 
 EPS = 1e-9
@@ -111,11 +112,12 @@ def _crossing(profile, level: float):
     return None
 
 
-def rough_type1(profile, start, depth: float, retract: float, allow_x: float, allow_z: float,
-                along_z: bool, approach: int, retract_kind: int, what: str):
+def rough(profile, start, depth: float, retract: float, allow_x: float, allow_z: float,
+          along_z: bool, approach: int, retract_kind: int, what: str, type2: bool = False):
     """The path of G71 (``along_z``) or G72 from ``start`` for ``profile``; ``depth`` per level
     and ``retract`` (radius/Z units), ``allow_x`` (radius) and ``allow_z`` the allowances (signed
-    as written), ``approach`` 0 or 1 the mode of the profile's first block."""
+    as written), ``approach`` 0 or 1 the mode of the profile's first block; ``type2``: pockets
+    allowed (:mod:`retrofit.gcode.fanuc_pockets`)."""
     if not depth > 0.0:
         raise RuleError(f"{what}: the depth of cut (first block U or W) must be > 0")
     if retract < 0.0:
@@ -132,9 +134,26 @@ def rough_type1(profile, start, depth: float, retract: float, allow_x: float, al
     sc = 1.0 if last[cpos] <= first[cpos] else -1.0
     to, back, flips = _frame(swap, sd, sc)
     shifted = _shift(_map_profile(profile, to, flips), *to_allow(allow_x, allow_z, swap, sd, sc))
-    _check_monotonic(shifted, what)
     a = to(start)
     bottom = shifted[0][1][0]
+    if type2:
+        lowest = min(p[0] for k, p0, p1, c in shifted for p in _samples(k, p0, p1, c))
+        path = fanuc_pockets.rough_type2(shifted, a, lowest, depth, retract, approach,
+                                         retract_kind, what)
+    else:
+        _check_monotonic(shifted, what)
+        path = _levels(shifted, a, bottom, depth, retract, approach, retract_kind, what)
+    path.append((approach, shifted[0][1], None))          # A' of the shifted profile
+    path += [(kind, b, c) for kind, _, b, c in shifted]
+    end = shifted[-1][2]
+    path += [(0, (max(a[0], end[0]), end[1]), None), (0, a, None)]
+    path = _drop_null(path, a)
+    fanuc_pockets.check_clear(path, shifted, a, what)
+    return _map_path(path, back, flips)
+
+
+def _levels(shifted, a, bottom, depth, retract, approach, retract_kind, what):
+    """Type I: each level from A's line to the profile, out at 45 degrees, back to A's line."""
     path, level = [], a[0] - depth
     while level > bottom + 1e-7:
         cut = _crossing(shifted, level)
@@ -147,11 +166,7 @@ def rough_type1(profile, start, depth: float, retract: float, allow_x: float, al
         level -= depth
         if len(path) > 40000:
             raise RuleError(f"{what}: more than 10000 levels; the depth of cut is too small")
-    path.append((approach, (bottom, a[1]), None))
-    path += [(kind, b, c) for kind, _, b, c in shifted]
-    end = shifted[-1][2]
-    path += [(0, (max(a[0], end[0]), end[1]), None), (0, a, None)]
-    return _map_path(_drop_null(path, a), back, flips)
+    return path
 
 
 def to_allow(allow_x: float, allow_z: float, swap: bool, sd: float, sc: float):

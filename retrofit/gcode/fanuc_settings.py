@@ -11,7 +11,8 @@ match its control. The dialect itself is chosen with ``dialect = "fanuc"`` in ``
 * ``feed_at_start`` ("per_rev"): G99 (feed per revolution) at the top of a program; "per_min": G98.
 * ``inch_at_start`` (false): G21 (mm) at the top of a program; true: G20.
 * ``g71_type2`` (true): a G71/G72 profile whose first block moves both axes is a type II profile
-  (pockets allowed); false: controls without type II, where such a profile is refused.
+  (pockets allowed, :mod:`retrofit.gcode.fanuc_pockets`); false: controls without type II, where
+  such a profile is refused.
 * ``cycle_pq`` ("increments"): P and Q of G74, G75 and G76 (peck, shift, thread height, first and
   minimum depth) written without a decimal point are least input increments (P1000 = 1 mm), as a
   Fanuc 0i reads them; "units": they are mm (inch). With a decimal point they are always mm (inch).
