@@ -4,11 +4,12 @@ Points are ``(x, z)`` in program units with X a *radius*; a profile is a list of
 ``(kind, start, end, centre)``, kind ``1`` (line), ``2`` or ``3`` (arc; centre ``(x, z)``). A path
 is a list of moves ``(kind, end, centre)``, kind 0 (rapid), 1, 2 or 3.
 
-* :func:`rough_type1` -- G71 (cuts along Z, steps in X) and G72 (cuts along X, steps in Z) with a
-  monotonic profile: the profile is shifted by the finishing allowances (Fanuc shifts it, it does
-  not offset it normally); from the start point A each level is cut to the shifted profile, left by
-  ``e`` at 45 degrees and returned to A's line; then one pass follows the shifted profile, and the
-  tool returns to A.
+* :func:`rough` -- G71 (cuts along Z, steps in X) and G72 (cuts along X, steps in Z): the
+  profile is shifted by the finishing allowances (Fanuc shifts it, it does not offset it
+  normally); type I (a monotonic profile): from the start point A each level is cut to the shifted
+  profile, left by ``e`` at 45 degrees and returned to A's line; type II (pockets):
+  :mod:`retrofit.gcode.fanuc_pockets`; then the tool goes to the shifted profile's first point,
+  follows it, and returns to A. No move may enter the shifted profile (checked).
 * :func:`pattern_repeat` -- G73: the profile is cut ``n`` times, shifted from ``relief +
   allowance`` down to ``allowance``, returning to A after each pass.
 
