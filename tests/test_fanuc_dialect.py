@@ -188,6 +188,14 @@ def test_g76_thread_chamfer_is_refused_with_the_form_that_runs(lathe):
     assert "P010060" in message
 
 
+def test_a_word_the_block_does_not_use_is_refused_not_dropped(lathe):
+    """Haas and some Fanuc controls round a G1 corner with R or chamfer it with C or I/K; they
+    are refused here, not ignored."""
+    message = refused("G98\nG00 X20. Z2.\nG01 Z-10. R1. F100.\n", lathe)
+    assert message.startswith("part.nc:3: R1: not read in this block under the Fanuc dialect")
+    assert "C2" in refused("G98\nG01 X20. Z-2. C2. F100.\n", lathe)
+
+
 def test_macro_variables_are_refused_with_the_line(lathe):
     assert refused("G98\n#1=20.\nG00 X#1\n", lathe).startswith("part.nc:2: custom macro variables")
 

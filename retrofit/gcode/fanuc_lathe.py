@@ -112,6 +112,7 @@ class FanucRunner:
             if m in NOTED_M:
                 self.messages.append((self.prog.file, block.line, "NOTE",
                                       f"M{m:g} ({NOTED_M[m]}) run as a no-op"))
+        self.check_words(block, gs)
         if 92 in gs and not self.has_axes(block):          # G92 S: the spindle cap (systems B, C)
             gs = [g for g in gs if g != 92]
             if block.has("S"):
@@ -137,6 +138,26 @@ class FanucRunner:
             self.move(block, gs)
         stops = [m for m in block.codes("M") if m in (0, 1, 2, 30)]
         return bool(stops) and self.emit([("M", stops[0])])
+
+    def check_words(self, block: FBlock, gs: list) -> None:
+        """Every letter of the block means something for its codes (no word silently dropped:
+        a G1 with R or C is a Haas/Fanuc corner, not read here)."""
+        motion = next((g for g in reversed(gs) if g in MOTION | MODAL_CYCLES), self.motion)
+        allowed = set("GMNTSFXZUW")
+        if set(gs) & CYCLES:
+            allowed |= set("PQRD")
+        if 4 in gs:
+            allowed |= set("P")
+        if motion in (2, 3):
+            allowed |= set("RIK")
+        if motion in MODAL_CYCLES:
+            allowed |= set("R")
+        for w in block.words:
+            if w.letter not in allowed:
+                raise RuleError(f"{w.letter}{w.value:g}: not read in this block under the Fanuc "
+                                f"dialect (a corner or chamfer word on G1, an axis this lathe has "
+                                f"not, a word of a code not given); the block may hold "
+                                f"{' '.join(sorted(allowed))}")
 
     def modes(self, block: FBlock, gs: list) -> None:
         """Everything but the motion: modes, feed, spindle, coolant, tool; before the motion."""
