@@ -154,6 +154,9 @@ def _pq(run, block, letter: str) -> float:
 
 
 def _g76(run, block, first, code: int) -> None:
+    if block.has("K") or block.has("D"):
+        _g76_one_block(run, block)
+        return
     if first is None:
         raise RuleError(f"G76 X Z P Q F: the first block (G76 {FIRST[76]}) must come before it")
     mra = int(first.get("P", 10060.0))
@@ -173,6 +176,27 @@ def _g76(run, block, first, code: int) -> None:
     taper = _value(run, block, "R", 0.0)
     depths = fanuc_fixed.thread_depths(first_depth, height, minimum, allowance, finishing)
     run.path(fanuc_fixed.thread_cycle(start, x_root, z_end, taper, height, depths, angle, lead), start)
+
+
+def _g76_one_block(run, block) -> None:
+    """Haas: ``G76 X Z K(height) D(first depth) F [A(angle)] [I(taper)] [P1]``: depths D sqrt(n),
+    then one pass at the full height K, the infeed along the flank at A/2."""
+    if not (block.has("K") and block.has("D")):
+        raise RuleError("G76 in one block needs K (the thread height) and D (the first depth)")
+    if block.get("P", 1.0) != 1.0:
+        raise RuleError(f"G76 P{block.get('P'):g}: only P1 (one edge, constant amount) is made")
+    lead = block.get("F")
+    if lead is None or not lead > 0.0:
+        raise RuleError("G76: F, the lead, must be given and > 0")
+    angle = block.get("A", 0.0)
+    if not 0.0 <= angle <= 120.0:
+        raise RuleError(f"G76 A{angle:g}: the tool's angle is 0 to 120 degrees")
+    start = run.here()
+    x_root, z_end = run.target(block)
+    height = _pq(run, block, "K")
+    depths = fanuc_fixed.thread_depths(_pq(run, block, "D"), height, 0.0, 0.0, 1)
+    run.path(fanuc_fixed.thread_cycle(start, x_root, z_end, _value(run, block, "I", 0.0), height,
+                                      depths, angle, lead), start)
 
 
 def run_modal(run, block, code: int) -> None:

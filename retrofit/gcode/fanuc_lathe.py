@@ -145,7 +145,7 @@ class FanucRunner:
         motion = next((g for g in reversed(gs) if g in MOTION | MODAL_CYCLES), self.motion)
         allowed = set("GMNTSFXZUW")
         if set(gs) & CYCLES:
-            allowed |= set("PQRD")
+            allowed |= set("PQRD") | (set("KAI") if 76 in gs else set())
         if 4 in gs:
             allowed |= set("P")
         if motion in (2, 3):
@@ -279,7 +279,7 @@ class FanucRunner:
             z = self.number(block, "Z")
         elif block.has("W"):
             z += self.number(block, "W")
-        for letter in "YABCV":
+        for letter in "YBCV":
             if block.has(letter):
                 raise RuleError(f"{letter}: not an axis of a two-axis lathe under the Fanuc dialect")
         return x, z
