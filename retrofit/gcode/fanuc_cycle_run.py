@@ -30,7 +30,7 @@ def run_cycle(run, block, code: int) -> None:
         run.first[code] = block
         return
     first = run.first.get(code)
-    if code in (71, 72, 73) and first is None and not (code != 73 and block.has("D")):
+    if code in (71, 72, 73) and first is None and not block.has("D"):
         raise RuleError(f"G{code} P Q: the cycle's first block (G{code} {FIRST[code]}) must come "
                         f"before it")
     {71: _rough, 72: _rough, 73: _pattern, 74: _peck, 75: _peck, 76: _g76}[code](run, block, first, code)
@@ -107,13 +107,17 @@ def _rough(run, block, first, code: int) -> None:
 
 def _pattern(run, block, first, code: int) -> None:
     approach, _, segments, start, entry, (_, q) = _profile(run, block, "G73")
-    passes = first.get("R")
-    if passes is None:
+    if block.has("D"):                   # Haas: G73 P Q U W I(X relief) K(Z relief) D(passes) F
+        relief, passes = (_value(run, block, "I", 0.0), _value(run, block, "K", 0.0)), block.get("D")
+    elif first is None or first.get("R") is None:
         raise RuleError(f"G73: the first block needs {FIRST[73]}")
+    else:
+        relief = (_value(run, first, "U", 0.0), _value(run, first, "W", 0.0))
+        passes = first.get("R")
     profile = [(1, entry, segments[0][1], None)] if entry != segments[0][1] else []
     path = fanuc_cycles.pattern_repeat(
-        profile + segments, start, _value(run, first, "U", 0.0), _value(run, first, "W", 0.0),
-        passes, _value(run, block, "U", 0.0) / run.xf, _value(run, block, "W", 0.0), approach, "G73")
+        profile + segments, start, *relief, passes, _value(run, block, "U", 0.0) / run.xf,
+        _value(run, block, "W", 0.0), approach, "G73")
     run.path(path, start)
     run.pc = max(run.pc, q)
 

@@ -145,7 +145,7 @@ class FanucRunner:
         motion = next((g for g in reversed(gs) if g in MOTION | MODAL_CYCLES), self.motion)
         allowed = set("GMNTSFXZUW")
         if set(gs) & CYCLES:
-            allowed |= set("PQRD") | (set("KAI") if 76 in gs else set())
+            allowed |= set("PQRD") | (set("KAI") if 76 in gs else set("IK") if 73 in gs else set())
         if 4 in gs:
             allowed |= set("P")
         if motion in (2, 3):
