@@ -200,10 +200,12 @@ def test_macro_variables_are_refused_with_the_line(lathe):
     assert refused("G98\n#1=20.\nG00 X#1\n", lathe).startswith("part.nc:2: custom macro variables")
 
 
-def test_cli_reads_a_fanuc_program_with_dialect_option(tmp_path):
+def test_cli_reads_a_fanuc_program_with_dialect_option(tmp_path, capsys):
     program = tmp_path / "part.nc"
     program.write_text("%\nO0001\nG98\nG00 X20. Z2.\nG01 Z-5. F200.\nM31\nG00 X30.\nM30\n%\n")
     report = tmp_path / "r.json"
     assert main(["run", str(program), "--machine", "chivu-lathe", "--dialect", "fanuc",
                  "--report", str(report)]) == 0
+    shown = capsys.readouterr().out
+    assert "(target 15.000)" in shown and "line 6: note: M31 (chip conveyor forward)" in shown
     assert main(["run", str(program), "--machine", "chivu-lathe", "--report", str(report)]) == 2

@@ -155,6 +155,9 @@ def _run(args) -> int:
     lines += [f"  tool table: {table_path}; {store.describe()} (T{exp.end_tool} in the spindle)"
               ] if exp.events or "atc" in machine.parts else []
     lines += remote_lines(run.report.get("remote") or [])
+    notes = [(line, text) for _, line, kind, text in run.program.messages if kind == "NOTE"]
+    lines += [f"  line {line}: note: {text}" for line, text in notes[:10]]
+    lines += [f"  ... and {len(notes) - 10} more notes"] if len(notes) > 10 else []
     files_lines = write_files(files, args, run.log, run.sim, run.report,     # a path is not wrapped
                               run.program.commands, (name, text), run.program)
     print("\n".join(fit(lines) + files_lines))

@@ -207,13 +207,16 @@ class FanucRunner:
         number, offset = (t // 100, t % 100) if t >= 100 else (t, t)
         if number and number != self.tr.state.tool:
             self.emit([("T", float(number)), ("M", 6.0)])
-        if offset == 0:
-            self.emit([("G", 49.0)])
-        elif self.tr.tool_table is not None:
+        table = self.tr.tool_table
+        if offset and table is not None and table.get(offset) is not None:
             self.emit([("G", 43.0), ("H", float(offset))])
-        else:
-            self.messages.append((self.prog.file, self.line, "NOTE", (f"T{t:04d}: offset {offset:02d} "
-                                  f"not applied: no tool table given (--tool-table)")))
+            return
+        self.emit([("G", 49.0)])
+        if offset:
+            where = "no tool table given" if table is None else "not in the tool table"
+            self.messages.append((self.prog.file, self.line, "NOTE", (
+                f"T{t:04d}: offset {offset:02d} taken as 0: {where} (--tool-table; a Fanuc "
+                f"control's empty offset is 0 too)")))
 
     def g50(self, block: FBlock) -> None:
         if block.has("S"):
