@@ -196,6 +196,11 @@ def test_a_word_the_block_does_not_use_is_refused_not_dropped(lathe):
     assert "C2" in refused("G98\nG01 X20. Z-2. C2. F100.\n", lathe)
 
 
+def test_a_thread_under_constant_surface_speed_is_refused_with_the_fanuc_remedy(lathe):
+    text = "G50 S1000\nG96 S100 M03\nG00 X24. Z5.\nG92 X19. Z-20. F1.5\n"
+    assert refused(text, lathe).startswith("part.nc:4: a thread (G32, G92, G76) under G96")
+
+
 def test_macro_variables_are_refused_with_the_line(lathe):
     assert refused("G98\n#1=20.\nG00 X#1\n", lathe).startswith("part.nc:2: custom macro variables")
 

@@ -346,6 +346,9 @@ class FanucRunner:
             if kind in (2, 3):
                 words += [("I", extra[0] - here[0]), ("K", extra[1] - here[1])]
             if kind == 33:
+                if self.tr.state.css is not None:
+                    raise RuleError("a thread (G32, G92, G76) under G96: a thread needs a steady "
+                                    "spindle speed; give G97 S<rpm> before it")
                 self.feed_mode(False)
                 dz = abs(p[1] - here[1])
                 if dz == 0.0:
