@@ -65,6 +65,12 @@ def test_unknown_m_code_is_refused_and_harmless_ones_run_with_a_note(lathe):
     assert [str(c) for c in program.commands] == ["COOL M8", "COOL M0"]
 
 
+def test_g80_leaves_the_motion_mode_as_on_a_fanuc_lathe(lathe):
+    """G80 cancels the drilling cycles (group 10); G01 (group 01) stays in force."""
+    program = compile_program("G98\nG00 X20. Z2.\nG01 Z-5. F100.\nG80\nZ-10.\nM30\n", lathe, "p.nc")
+    assert fmovs(program) == ["FMOV X10 Z2", "PMOV X10 Z-5", "PMOV X10 Z-10"]
+
+
 def test_u_and_w_are_incremental_diameter_and_z(lathe):
     program = compile_program("G98\nG00 X40. Z2.\nU-10. W-5.\nG01 U4. F100.\nM30\n", lathe, "p.nc")
     assert fmovs(program) == ["FMOV X20 Z2", "FMOV X15 Z-3", "PMOV X17 Z-3"]
@@ -181,11 +187,21 @@ def test_type_ii_can_be_switched_off_and_must_run_one_way_along_z(lathe):
     assert "must run one way along the cut axis" in refused(back, lathe)
 
 
-def test_g76_thread_chamfer_is_refused_with_the_form_that_runs(lathe):
-    text = "M03 S400\nG00 X24. Z5.\nG76 P011060 Q50 R0.\nG76 X18.16 Z-20. P920 Q300 F1.5\n"
-    message = refused(text, lathe)
-    assert message.startswith("part.nc:4: G76 P011060: the thread chamfer rr = 10 is not made")
-    assert "P010060" in message
+def test_g76_thread_chamfer_pulls_each_pass_out_at_45_degrees(lathe):
+    """P011060: one finishing pass, chamfer 10 tenths of the lead (1.5 mm for F1.5), 60 degrees.
+    Worked by hand: the full-depth pass runs at X18.16 to Z-18.5, then out to X21.16 at Z-20
+    (1.5 mm a side over 1.5 mm), a synchronised move 1.5 sqrt(2) mm long per turn."""
+    text = "M03 S400\nG00 X24. Z5.\nG76 P011060 Q50 R0.\nG76 X18.16 Z-20. P920 Q300 F1.5\nM30\n"
+    program = compile_program(text, lathe, "part.nc")
+    words = [str(c) for c in program.commands]
+    last = len(words) - 1 - words[::-1].index("ISTP")
+    assert words[last:last + 3] == ["ISTP", "PFDR F1.5", "PMOV X9.08 Z-18.5"]
+    assert float(words[last + 3][6:]) == pytest.approx(1.5 * 2 ** 0.5, abs=1e-9)
+    assert words[last + 4] == "PMOV X10.58 Z-20"
+    assert words[last + 5:last + 7] == ["CSTP", "FMOV X12 Z-20"]
+    too_long = text.replace("P011060", "P019960")
+    assert "shorter than the thread" in refused(too_long, lathe) or \
+        "pass the start point" in refused(too_long, lathe)
 
 
 def test_a_word_the_block_does_not_use_is_refused_not_dropped(lathe):

@@ -165,9 +165,6 @@ def _g76(run, block, first, code: int) -> None:
         raise RuleError(f"G76 X Z P Q F: the first block (G76 {FIRST[76]}) must come before it")
     mra = int(first.get("P", 10060.0))
     finishing, chamfer, angle = mra // 10000, (mra // 100) % 100, mra % 100
-    if chamfer:
-        raise RuleError(f"G76 P{mra:06d}: the thread chamfer rr = {chamfer:02d} is not made here; "
-                        f"write rr = 00 (P{finishing:02d}00{angle:02d})")
     if angle not in (0, 29, 30, 55, 60, 80):
         raise RuleError(f"G76 P{mra:06d}: the angle aa is one of 00 29 30 55 60 80")
     minimum, allowance = _pq(run, first, "Q"), _value(run, first, "R", 0.0)
@@ -179,7 +176,8 @@ def _g76(run, block, first, code: int) -> None:
     x_root, z_end = run.target(block)
     taper = _value(run, block, "R", 0.0)
     depths = fanuc_fixed.thread_depths(first_depth, height, minimum, allowance, finishing)
-    run.path(fanuc_fixed.thread_cycle(start, x_root, z_end, taper, height, depths, angle, lead), start)
+    run.path(fanuc_fixed.thread_cycle(start, x_root, z_end, taper, height, depths, angle, lead,
+                                      chamfer * lead / 10.0), start)
 
 
 def _g76_one_block(run, block) -> None:

@@ -12,7 +12,8 @@ along Z per revolution). Every cycle starts and ends at its start point A.
   then the finishing depth ``k`` m times. Each pass starts from A's X, moves in at rapid, cuts
   the thread, rapids out at the end and back along A's X. The infeed follows the flank at half
   the thread angle ``a``: a shallower pass is set back from the thread's start by ``(k - depth)
-  tan(a/2)`` -- the deepest pass starts at A's Z, as LinuxCNC's G76 Q does.
+  tan(a/2)`` -- the deepest pass starts at A's Z, as retrofit's LinuxCNC G76 Q does. A chamfer
+  ``rr`` (tenths of the lead) pulls each pass out at 45 degrees over its last ``rr L / 10``.
 * G74 (face pecking, along Z) and G75 (grooving, along X): ``P`` shifts across, ``Q`` pecks,
   the first block's ``R`` the return after each peck; the second block's ``R`` a relief at the
   bottom.
@@ -70,19 +71,32 @@ def thread_depths(first: float, full: float, minimum: float, allowance: float,
 
 
 def thread_cycle(start, x_root: float, z_end: float, taper: float, height: float, depths,
-                 angle_deg: float, lead: float):
+                 angle_deg: float, lead: float, chamfer: float = 0.0):
     """G76's passes from A = ``start``; ``x_root`` the radius at full depth at the end, ``taper``
-    the radius at the start minus at the end, ``height`` the thread height (radius)."""
+    the radius at the start minus at the end, ``height`` the thread height (radius); ``chamfer``
+    the length along Z over which each pass pulls out at 45 degrees before the end."""
     x0, z0 = start
     outward = 1.0 if x0 > x_root else -1.0             # outside thread: the crest is above the root
     toward = 1.0 if z_end > z0 else -1.0
     slope = math.tan(math.radians(angle_deg / 2.0))
+    if chamfer and not 0.0 < chamfer < abs(z_end - z0):
+        raise RuleError(f"G76: the thread chamfer ({chamfer:g}) must be shorter than the thread")
     path = []
     for depth in depths:
         shift = (depth - height) * slope * toward
         x_end = x_root + outward * (height - depth)
-        path += [(0, (x0, z0 + shift), None), (0, (x_end + taper, z0 + shift), None),
-                 (33, (x_end, z_end + shift), lead), (0, (x0, z_end + shift), None)]
+        path += [(0, (x0, z0 + shift), None), (0, (x_end + taper, z0 + shift), None)]
+        if chamfer:
+            share = chamfer / abs(z_end - z0)
+            x_at = x_end + taper * share
+            if outward * (x0 - x_at) < chamfer:
+                raise RuleError(f"G76: the chamfer's pull-out ({chamfer:g}) would pass the start "
+                                f"point's X; start further out")
+            path += [(33, (x_at, z_end + shift - toward * chamfer), lead),
+                     (33, (x_at + outward * chamfer, z_end + shift), lead)]
+        else:
+            path.append((33, (x_end, z_end + shift), lead))
+        path.append((0, (x0, z_end + shift), None))
     path.append((0, start, None))
     return path
 

@@ -50,7 +50,7 @@ class FanucRunner:
     def __init__(self, program, tr, settings: FanucSettings, messages: list):
         self.prog, self.tr, self.machine = program, tr, tr.machine
         self.settings, self.messages = settings, messages
-        self.motion: float | None = 0.0
+        self.motion: float = 0.0              # group 01 (G00 at power-on)
         self.per_rev = settings.feed_at_start == "per_rev"
         self.cap_rpm: float | None = None       # G50 S
         self.first: dict[int, FBlock] = {}      # first blocks of G71-G76: cycle -> block
@@ -121,8 +121,8 @@ class FanucRunner:
                                       f"read as the spindle speed cap (G50 S in G-code system A)")))
         cycle = [g for g in gs if g in CYCLES]
         for g in gs:
-            if g in MOTION or g in MODAL_CYCLES or g == 80:
-                self.motion = None if g == 80 else g
+            if g in MOTION or g in MODAL_CYCLES:           # G80 cancels drilling cycles (group
+                self.motion = g                             # 10), none here: G0/G1 stay
         self.modes(block, gs)
         if cycle:
             fanuc_cycle_run.run_cycle(self, block, int(cycle[0]))
@@ -297,8 +297,6 @@ class FanucRunner:
         return words
 
     def move(self, block: FBlock, gs: list) -> None:
-        if self.motion is None:
-            raise RuleError("axis words under G80 (no motion mode): give G0, G1, G2 or G3")
         kind = int(self.motion)
         if 53 in gs:
             self.machine_move(block, kind)
