@@ -16,6 +16,7 @@ from retrofit.cli import main
 from retrofit.config import load_machine
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
+from retrofit.tooltable import ToolTable
 
 DATA = Path(__file__).parent / "data" / "fanuc"
 
@@ -104,6 +105,15 @@ def test_feed_per_revolution_on_a_machine_without_encoder_says_how_to_choose(lat
     assert 'feed_at_start = "per_min"' in message
     ok = compile_program("G98\nG00 X20. Z2.\nG01 Z-10. F100.\nM30\n", chivu, "p.nc", dialect="fanuc")
     assert fmovs(ok)[-1] == "PMOV X10 Z-10"
+
+
+def test_tool_words_by_the_machine_setting(lathe):
+    table = ToolTable.load(DATA / "tools.tbl")
+    program = compile_program("T0304\nT0300\nM30\n", lathe, "p.nc", tool_table=table)
+    assert [str(c) for c in program.commands] == ["TOOL T3"]
+    assert "T5: which tool and which offset?" in refused("T5\n", lathe)
+    two = with_settings(lathe, tool_digits=2)
+    assert [str(c) for c in compile_program("T34\nM30\n", two, "p.nc").commands] == ["TOOL T3"]
 
 
 def test_whole_numbers_follow_the_machine_setting(lathe):

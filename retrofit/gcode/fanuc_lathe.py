@@ -204,7 +204,12 @@ class FanucRunner:
         t = int(value)
         if t != value or t < 0:
             raise RuleError(f"T{value:g}: a Fanuc tool word is T<tool><offset>, e.g. T0101")
-        number, offset = (t // 100, t % 100) if t >= 100 else (t, t)
+        base = 10 if self.settings.tool_digits == 2 else 100
+        if 0 < t < base:
+            raise RuleError(f"T{t}: which tool and which offset? A T word is tool then offset, "
+                            f"{'T11 (tool 1, offset 1)' if base == 10 else 'T0101 or T101 (tool 1, offset 01)'}"
+                            f" (tool_digits = {self.settings.tool_digits} in [fanuc])")
+        number, offset = t // base, t % base
         if number and number != self.tr.state.tool:
             self.emit([("T", float(number)), ("M", 6.0)])
         table = self.tr.tool_table

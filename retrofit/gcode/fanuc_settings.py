@@ -18,6 +18,8 @@ match its control. The dialect itself is chosen with ``dialect = "fanuc"`` in ``
   Fanuc 0i reads them; "units": they are mm (inch). With a decimal point they are always mm (inch).
 * ``g71_retract_mm`` (0.5): the retract of the one-block G71/G72 form ``G71 P Q U W D F`` (Haas,
   Fanuc 0-T), where it is a machine setting (Haas setting 73, Fanuc parameter 5133).
+* ``tool_digits`` (4): a T word is ``T<tool><offset>`` with two digits each (T0101, Haas T101);
+  2: one digit each (T11), as on older controls.
 * ``retract_45`` ("rapid"): how G71/G72 leave each roughing cut by R at 45 degrees: "rapid" or "feed".
 """
 
@@ -37,6 +39,7 @@ class FanucSettings:
     g71_type2: bool = True
     cycle_pq: str = "increments"
     g71_retract_mm: float = 0.5
+    tool_digits: int = 4
     retract_45: str = "rapid"
 
 
@@ -51,6 +54,9 @@ def read_fanuc_section(sec, axes) -> FanucSettings:
         g71_type2=sec.get_bool("g71_type2", d.g71_type2),
         cycle_pq=sec.get_str("cycle_pq", d.cycle_pq, choices=("increments", "units")),
         g71_retract_mm=sec.get_float("g71_retract_mm", d.g71_retract_mm, minval=0.0, maxval=100.0),
+        tool_digits=sec.get_int("tool_digits", d.tool_digits, minval=2, maxval=4),
         retract_45=sec.get_str("retract_45", d.retract_45, choices=("rapid", "feed")))
+    if settings.tool_digits not in (2, 4):
+        raise sec.error("tool_digits", "must be 4 (T0101) or 2 (T11)")
     sec.finish()
     return settings
