@@ -127,11 +127,10 @@ def rough(profile, start, depth: float, retract: float, allow_x: float, allow_z:
     swap = not along_z
     dpos = 1 if swap else 0
     cpos = 1 - dpos
-    ends = [p for seg in profile for p in (seg[1], seg[2])]
-    sd = 1.0 if start[dpos] >= max(p[dpos] for p in ends) - EPS else -1.0
-    if sd < 0 and start[dpos] > min(p[dpos] for p in ends) + EPS:
-        raise RuleError(f"{what}: the start point must lie outside the profile ({'Z' if swap else 'X'} "
-                        f"beyond every point of it)")
+    if abs(start[dpos] - first[dpos]) < EPS:
+        raise RuleError(f"{what}: the start point and the profile's first point are at the same "
+                        f"{'Z' if swap else 'X'}: nothing to rough")
+    sd = 1.0 if start[dpos] > first[dpos] else -1.0          # outside (turning) or inside (boring)
     sc = 1.0 if last[cpos] <= first[cpos] else -1.0
     to, back, flips = _frame(swap, sd, sc)
     shifted = _shift(_map_profile(profile, to, flips), *to_allow(allow_x, allow_z, swap, sd, sc))
