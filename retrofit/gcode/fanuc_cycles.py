@@ -11,7 +11,7 @@ is a list of moves ``(kind, end, centre)``, kind 0 (rapid), 1, 2 or 3.
   :mod:`retrofit.gcode.fanuc_pockets`; then the tool goes to the shifted profile's first point,
   follows it, and returns to A. No move may enter the shifted profile (checked).
 * :func:`pattern_repeat` -- G73: the profile is cut ``n`` times, shifted from ``relief +
-  allowance`` down to ``allowance``, returning to A after each pass.
+  allowance`` down to ``allowance``, returning to A after each pass (out to A's X, then along Z).
 
 Both work in a *normalised* frame where the depth axis falls toward the part and the cut runs
 toward minus, so outside and inside (boring), toward and away from the chuck, are one case.
@@ -190,6 +190,7 @@ def pattern_repeat(profile, start, relief_x: float, relief_z: float, passes: int
     if passes < 1 or passes != int(passes) or passes > 1000:
         raise RuleError(f"{what}: R, the number of passes, is a whole number from 1 to 1000")
     path = []
+    out = 1.0 if start[0] >= profile[0][1][0] else -1.0       # outside (turning) or boring
     for j in range(int(passes)):
         share = (passes - 1 - j) / (passes - 1) if passes > 1 else 0.0
         dx, dz = allow_x + relief_x * share, allow_z + relief_z * share
@@ -197,5 +198,6 @@ def pattern_repeat(profile, start, relief_x: float, relief_z: float, passes: int
                   None if c is None else (c[0] + dx, c[1] + dz)) for k, a, b, c in profile]
         path.append((approach, moved[0][1], None))
         path += [(k, b, c) for k, _, b, c in moved]
-        path.append((0, start, None))
+        end = moved[-1][2]
+        path += [(0, (out * max(out * start[0], out * end[0]), end[1]), None), (0, start, None)]
     return _drop_null(path, start)
