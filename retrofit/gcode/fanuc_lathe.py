@@ -76,7 +76,7 @@ class FanucRunner:
                 raise RuleError(block.error)
             m = block.codes("M")
             if 98.0 in m or 97.0 in m or 99.0 in m:
-                if len(calls) >= MAX_CALL_DEPTH:
+                if 99.0 not in m and len(calls) >= MAX_CALL_DEPTH:
                     raise RuleError(f"subprogram calls nest deeper than {MAX_CALL_DEPTH}")
                 if self.call(block, calls):
                     return
