@@ -31,7 +31,7 @@ def depth_at(profile, c: float) -> float | None:
         if not lo - EPS <= c <= hi + EPS:
             continue
         if kind == 1:
-            d = a[0] if hi - lo < EPS else a[0] + (c - a[1]) / (b[1] - a[1]) * (b[0] - a[0])
+            d = min(a[0], b[0]) if hi - lo < EPS else a[0] + (c - a[1]) / (b[1] - a[1]) * (b[0] - a[0])
             found = d if found is None else min(found, d)
             continue
         for d in _arc_depths(a, b, centre, kind, c):
@@ -62,7 +62,7 @@ def _spans(profile, level: float, c_start: float):
     """(high c, low c) spans from ``c_start`` to the profile's end where the stock at ``level``
     lies above the profile."""
     c_end = profile[-1][2][1]
-    cuts = {c_start, c_end}
+    cuts = {c_start, c_end} | {p[1] for seg in profile for p in (seg[1], seg[2])}
     for kind, a, b, centre in profile:
         if kind == 1 and abs(b[0] - a[0]) > EPS:
             t = (level - a[0]) / (b[0] - a[0])
@@ -131,10 +131,13 @@ def rough_type2(shifted, a, bottom: float, depth: float, retract: float, approac
 def check_clear(path, shifted, start, what: str) -> None:
     """No straight move of a roughing path goes below the shifted profile (into the part)."""
     here = start
-    for kind, p, _ in path:
+    c_hi, c_lo = shifted[0][1][1], shifted[-1][2][1]       # the part's ends: touching them is not
+    for kind, p, _ in path:                                  # entering
         if kind in (0, 1):
             for i in range(1, 33):
                 q = (here[0] + (p[0] - here[0]) * i / 32, here[1] + (p[1] - here[1]) * i / 32)
+                if not c_lo + 1e-7 < q[1] < c_hi - 1e-7:
+                    continue
                 d = depth_at(shifted, q[1])
                 if d is not None and q[0] < d - 1e-6:
                     raise RuleError(f"{what}: a roughing move would cut into the part (depth "
