@@ -3,6 +3,8 @@ the part (the cycle's own check would stop it), and the tool ends at the start p
 
 from __future__ import annotations
 
+import itertools
+
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -24,7 +26,7 @@ def profiles(draw, pockets: bool):
             points.append((x, z))
     if len(points) < 2:
         points.append((x + 1.0, z - 1.0))
-    return [(1, a, b, None) for a, b in zip(points, points[1:])]
+    return [(1, a, b, None) for a, b in itertools.pairwise(points)]
 
 
 @pytest.mark.slow
