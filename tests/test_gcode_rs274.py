@@ -42,9 +42,6 @@ RETROFIT_ALLOWS = {
 RETROFIT_REFUSES = {
     **dict.fromkeys(("gridprobe", "smartprobe", "tool-length-probe", "x-trim"),
                     "G38 probing: the test machine has no probe input"),
-    **dict.fromkeys(("lathe_g70_71_demo", "lathe_g7x_face_boring", "lathe_g7x_quadrants"),
-                    "G71/G72 lathe roughing cycles"),
-    "lathe-g70-offset": "G70 passes offset from the profile (D, E not 0)",
     **dict.fromkeys(("3D_Chips", "b-index", "daisy"), "axes A/B/C: not on the test machine"),
     "threading": "G33 on a machine without a spindle encoder",
     "err-unclosed-sub": "an o-sub never closed (rs274 stops at the M2 inside it)",

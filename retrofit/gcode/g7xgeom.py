@@ -26,15 +26,12 @@ class Recorder:
         self.frame = frame
 
     def _back(self, p: complex) -> complex:
+        """From the working frame back to the program's: undo the mirrors, then the turn."""
         f = self.frame
-        p = p * 1j if f & 4 else p
-        if f & 3 == 1:
-            p = -p.conjugate()
-        elif f & 3 == 2:
-            p = p.conjugate()
-        elif f & 3 == 3:
-            p = -p
-        return p
+        if f & 4:
+            p = p * 1j
+            return {0: p, 1: p.conjugate(), 2: -p.conjugate(), 3: -p}[f & 3]
+        return {0: p, 1: -p.conjugate(), 2: p.conjugate(), 3: -p}[f & 3]
 
     def rapid(self, end: complex) -> None:
         self.moves.append(("rapid", self._back(end), None))

@@ -132,9 +132,12 @@ class Path:
             self._map(lambda p: -p.conjugate(), True, 1)
 
     def finish(self, out: Recorder, first: float, last: float, passes: int) -> None:
-        if not all(seg.monotonic() for seg in self.segs):
-            self.turn()
+        out.rapid(self.segs[0].a)
         self.fall()
+        if not all(seg.monotonic() for seg in self.segs[1:]):
+            self.turn()
+            self.fall()
+        self._approach()
         out.frame = self.frame
         for n in range(passes, 0, -1):
             path = copy.deepcopy(self)
@@ -144,20 +147,30 @@ class Path:
             for seg in path.segs[1:]:
                 seg.draw(out)
 
+    def _approach(self, check: bool = True) -> None:
+        """An approach that ends behind its start starts above its end; then every segment
+        must move Z one way (falling) and X one way."""
+        first = self.segs[0]
+        if (first.b - first.a).real > 0:
+            first.a = complex(first.b.real, first.a.imag)
+        if check and not all(seg.monotonic() for seg in self.segs):
+            raise ValueError("Not monotonic")
+
     def rough(self, out: Recorder, pockets: int, shift: complex, allowance: float,
               depth: float, retract: float, facing: bool) -> None:
+        out.rapid(self.segs[0].a)
         if facing:
             self.turn()
+        self.fall()
+        self._approach(check=False)
         self.offset(allowance)
         self.fall()
         for seg in self.segs:
             seg.transform(lambda p: p + shift)
+        if not all(seg.monotonic() for seg in self.segs[1:]):
+            raise ValueError("Not monotonic")
         out.frame = self.frame
         first = self.segs[0]
-        if (first.b - first.a).real > 0:       # the approach ends behind the start: start above
-            first.a = complex(first.b.real, first.a.imag)
-        if not all(seg.monotonic() for seg in self.segs):
-            raise ValueError("Not monotonic")
         out.rapid(first.a)
         last = self.segs[-1].b
         if last.imag < first.a.imag:            # leave the contour at the start point's X
