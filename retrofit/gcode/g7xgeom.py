@@ -79,7 +79,7 @@ class Line:
 
     def climb(self, at: complex, out):
         """Follow a climbing segment: (True, at) if it does not climb."""
-        if self.b.imag < self.a.imag:
+        if self.b.imag < self.a.imag - EPS:
             return True, at
         if abs(at - self.a) > EPS:
             raise ValueError("How did we get here?")
@@ -87,7 +87,7 @@ class Line:
         return False, self.b
 
     def climb_only(self, at: complex, out) -> complex:
-        if self.b.imag < self.a.imag:
+        if self.b.imag < self.a.imag - EPS:
             return at
         zs = self.crossings(at.imag)
         if not zs:
@@ -99,10 +99,10 @@ class Line:
 
     def dive(self, at: complex, x: float, out, fast: bool):
         """Go down this segment as far as X = ``x``: (True, at) if it does not go down."""
-        if self.a.imag <= self.b.imag:
+        if self.a.imag <= self.b.imag + EPS:   # level (to EPS) or climbing: not a dive
             return True, at
         move = out.rapid if fast else out.feed
-        if x < self.b.imag:
+        if x < self.b.imag - EPS:             # (a layer within EPS of the end stops on it)
             move(self.b)
             return False, self.b
         zs = self.crossings(x)

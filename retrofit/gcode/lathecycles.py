@@ -1,12 +1,12 @@
 """G70, G71 and G72, the lathe cycles, as LinuxCNC 2.9's rs274 runs them.
 
-``G70 Q<sub> [X Z] [D E P]`` finishes, ``G71 Q<sub> [X Z] [D I R U W]`` roughs along Z and
+``G70 Q<sub> [X Z] [D E P]`` finishes, ``G71 Q<sub> [X Z] [D I R]`` roughs along Z and
 ``G72`` along X (``.1``: no pockets, ``.2``: the pockets alone). The profile is the moves of
 ``o<sub> sub`` (X and Z words, G0/G1 lines and G2/G3 arcs by I K or R), read from its text, not
 called; its first segment is the approach from the start point (X Z, or where the tool is). The
 passes are made by :mod:`retrofit.gcode.lathepasses` and go through the translator as G0, G1,
 G2 and G3 moves, in the program's units with X as written. F, S and T on the cycle's line act
-before its moves. rs274's word defaults: D0 E0 P1 for G70; D0 I1 R0.5 U0 W0 for G71/G72.
+before its moves. rs274's word defaults: D0 E0 P1 for G70; D0 I1 R0.5 for G71/G72.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from .lathepasses import Move, Segment, finish, rough
 
 #: the G codes run here, by the number rs274 gives them
 CODES = (70.0, 71.0, 71.1, 71.2, 72.0, 72.1, 72.2)
-CYCLE_WORDS = set("GQXZDEIPRUW")
+CYCLE_WORDS = set("GQXZDEIPR")
 OTHER_WORDS = set("FST")
 _POCKETS = {0: "all", 1: "none", 2: "only"}
 
@@ -36,7 +36,7 @@ def run_cycle(runner, src, line, words: list[tuple[str, float]]) -> bool:
     v = dict(words)
     extra = sorted({k for k, _ in words} - CYCLE_WORDS - OTHER_WORDS)
     if extra or sum(1 for k, _ in words if k == "G") != 1:
-        raise RuleError(f"{name}: write it alone with Q, X, Z, D, E, I, R, U, W, P and F, S, T "
+        raise RuleError(f"{name}: write it alone with Q, X, Z, D, E, I, R, P and F, S, T "
                         f"(found {', '.join(extra) or 'other G codes'})")
     if "Q" not in v:
         raise RuleError(f"{name} requires a Q word (the O-number of the profile subroutine)")
@@ -74,8 +74,7 @@ def _passes(code: float, profile, start, v) -> list[Move]:
                       passes=int(passes))
     sub = round((code - int(code)) * 10)
     return rough(profile, start, depth=v.get("I", 1.0), retract=v.get("R", 0.5),
-                 allowance=v.get("D", 0.0), shift=(v.get("W", 0.0), v.get("U", 0.0)),
-                 facing=int(code) == 72, pockets=_POCKETS[sub])
+                 allowance=v.get("D", 0.0), facing=int(code) == 72, pockets=_POCKETS[sub])
 
 
 def _move(runner, line, src, move: Move) -> None:

@@ -237,17 +237,25 @@ class Layers:
     def __init__(self, segs: list[Line], depth: float, escape: complex, out: Recorder):
         self.segs, self.depth, self.escape, self.out = segs, depth, escape, out
         self.budget = 200000
+        self.top = segs[0].a.imag
 
     def cut(self, pockets: int, at: complex, k: int) -> None:
+        """Cut from segment ``k`` on; every pocket's layers count down from ``self.top``."""
         segs, out = self.segs, self.out
-        x = segs[0].a.imag
+        x = self.top
         if pockets == 2:                         # skip the first roughing: the pockets alone
             while k < len(segs):
                 stop, at = segs[k].dive(at, -1e9, out, k == 0)
                 if stop:
                     break
                 k += 1
-            pockets = 0
+            for j in range(k, len(segs)):        # along the contour to the first pocket
+                stop, at = segs[j].climb(at, out)
+                if stop:                         # layers from the tool's height on
+                    self.top = at.imag
+                    self.cut(0, at, j)
+                    return
+            return
         while k < len(segs):
             self.budget -= 1
             if self.budget < 0:
