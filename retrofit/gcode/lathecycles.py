@@ -50,10 +50,10 @@ def run_cycle(runner, src, line, words: list[tuple[str, float]]) -> bool:
     others = [(k, x) for k, x in words if k in OTHER_WORDS]
     if others:
         runner.tr.run(make_block(line.number, others, runner.machine), src.file)
-    unit = 25.4 if s.inch else 1.0
-    here = (s.program_position("Z") / unit, s.program_position("X") / unit * (2 if s.diameter else 1))
-    start = (v.get("Z", here[0]), v.get("X", here[1]))
-    profile = _profile(runner, src, sub, start, name)
+    across = 2.0 if s.diameter else 1.0          # rs274 computes in radii under G7
+    here = _here(s)
+    start = (v.get("Z", here[0]), v["X"] / across if "X" in v else here[1])
+    profile = _profile(runner, src, sub, start, name, across)
     if not profile:
         return False
     try:
@@ -61,7 +61,7 @@ def run_cycle(runner, src, line, words: list[tuple[str, float]]) -> bool:
     except ValueError as exc:
         raise RuleError(f"{name}: G7X error: {exc}") from None
     for move in moves:
-        _move(runner, line, src, move)
+        _move(runner, line, src, move, across)
     return False
 
 
@@ -77,10 +77,10 @@ def _passes(code: float, profile, start, v) -> list[Move]:
                  allowance=v.get("D", 0.0), facing=int(code) == 72, pockets=_POCKETS[sub])
 
 
-def _move(runner, line, src, move: Move) -> None:
+def _move(runner, line, src, move: Move, across: float) -> None:
     kind = {"rapid": 0.0, "feed": 1.0, "cw": 2.0, "ccw": 3.0}[move.kind]
     z, x = move.end
-    words = [("G", kind), ("X", x), ("Z", z)]
+    words = [("G", kind), ("X", x * across), ("Z", z)]
     if move.centre is not None:
         s = runner.tr.state
         ref = (0.0, 0.0) if not s.arc_incremental else _here(s)
@@ -89,11 +89,12 @@ def _move(runner, line, src, move: Move) -> None:
 
 
 def _here(s) -> tuple[float, float]:
+    """Where the tool is, ``(z, x)`` in program units, X a radius."""
     unit = 25.4 if s.inch else 1.0
-    return (s.program_position("Z") / unit, s.program_position("X") / unit * (2 if s.diameter else 1))
+    return (s.program_position("Z") / unit, s.program_position("X") / unit)
 
 
-def _profile(runner, src, sub: str, start: tuple, name: str) -> list[Segment]:
+def _profile(runner, src, sub: str, start: tuple, name: str, across: float) -> list[Segment]:
     """The sub's moves as segments, ``(z, x)``; the first starts at ``start``. As rs274 reads
     the profile, its loops and branches run, and ``#<_x>`` and ``#<_z>`` read the profile's
     point so far."""
@@ -111,13 +112,13 @@ def _profile(runner, src, sub: str, start: tuple, name: str) -> list[Segment]:
             _, pc = runner._oword(src, pc, line, [], repeats)
             continue
         pc += 1
-        at = {"_x": here[1], "_z": here[0]}
+        at = {"_x": here[1] * across, "_z": here[0]}
         read = lambda ref, at=at: at[ref] if ref in at else runner._read(ref)  # noqa: E731
         w = {k: t if type(t) is float else evaluate(t, read, runner.params.exists)
              for k, t in line.words}
         if "G" in w:
             motion = w["G"]
-        end = (w.get("Z", here[0]), w.get("X", here[1]))
+        end = (w.get("Z", here[0]), w["X"] / across if "X" in w else here[1])
         if end == here or motion is None:
             continue
         if motion in (0.0, 1.0):

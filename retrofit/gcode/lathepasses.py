@@ -162,13 +162,11 @@ class Path:
         if facing:
             self.turn()
         self.fall()
-        self._approach(check=False)
+        self._approach()
         self.offset(allowance)
         self.fall()
         for seg in self.segs:
             seg.transform(lambda p: p + shift)
-        if not all(seg.monotonic() for seg in self.segs[1:]):
-            raise ValueError("Not monotonic")
         out.frame = self.frame
         first = self.segs[0]
         out.rapid(first.a)
