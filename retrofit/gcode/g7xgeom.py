@@ -226,8 +226,6 @@ def join(p: Line, n: Line) -> None:
         n.a = p.b = (ps + f * (pe - ps)) / rot + n.b
         return
     if type(n) is Arc and type(p) is Arc:
-        if n.ccw != p.ccw:
-            return
         ra, rb, d = abs(n.a - n.c), abs(p.a - p.c), abs(n.c - p.c)
         cos_b = (d * d + ra * ra - rb * rb) / 2.0 / ra / d
         turn = complex(cos_b, math.sqrt(1 - min(cos_b * cos_b, 1.0)))

@@ -236,6 +236,7 @@ class Layers:
         self.segs, self.depth, self.escape, self.out = segs, depth, escape, out
         self.budget = 200000
         self.top = segs[0].a.imag
+        self.pockets_only = False
 
     def cut(self, pockets: int, at: complex, k: int) -> None:
         """Cut from segment ``k`` on; every pocket's layers count down from ``self.top``."""
@@ -247,12 +248,8 @@ class Layers:
                 if stop:
                     break
                 k += 1
-            for j in range(k, len(segs)):        # along the contour to the first pocket
-                stop, at = segs[j].climb(at, out)
-                if stop:                         # layers from the tool's height on
-                    self.top = at.imag
-                    self.cut(0, at, j)
-                    return
+            self.pockets_only = True             # along the contour to the first pocket
+            self._climb(0, at, k)
             return
         while k < len(segs):
             self.budget -= 1
@@ -276,6 +273,8 @@ class Layers:
                 continue
             stop, at = self.segs[j].climb(at, self.out)
             if stop:
+                if self.pockets_only:            # each pocket's layers from the tool's height
+                    self.top = at.imag
                 self.cut(0, at, j)
                 return
 
