@@ -61,8 +61,8 @@ def rough(profile: list[Segment], start: tuple[float, float], *, depth: float,
 
     >>> p = [Segment("line", (0, 0), (0, 10)), Segment("line", (0, 10), (-5, 10)),
     ...      Segment("line", (-5, 10), (-5, 12))]
-    >>> [(m.kind, m.end) for m in rough(p, (2, 12), depth=1.5, retract=0.5)][:3]
-    [('rapid', (2.0, 12.0)), ('rapid', (2.0, 12.0)), ('feed', (-5.0, 12.0))]
+    >>> [(m.kind, m.end) for m in rough(p, (2, 12), depth=1.5, retract=0.5)][3:7]
+    [('feed', (-5.0, 12.0)), ('rapid', (-4.5, 12.5)), ('rapid', (1.5, 12.5)), ('rapid', (2.0, 12.0))]
     """
     if not depth > 0:
         raise ValueError(f"the depth of cut (I) must be > 0, not {depth:g}")
