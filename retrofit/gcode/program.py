@@ -65,7 +65,7 @@ class Interpreter:
         self.params = translator.state.params
         self.search_path = [Path(p) for p in search_path]
         self.sources: dict[str, Source] = {}
-        self.messages: list[tuple[str, int, str, str]] = []
+        self.messages: list[tuple[str, int, str, str]] = translator.messages
         self.steps = 0
         #: called now and then with the share of the main program's lines run (a progress bar)
         self.on_progress = None
