@@ -7,7 +7,7 @@ the passes come back as :class:`Move` in the same frame, for the caller to run a
 
 The rules are those of LinuxCNC 2.9's rs274 (its G7x code, read for its behaviour):
 
-- The profile is turned so that X and Z both fall from its first point to its last (and, for
+- The profile is mirrored so that Z falls and X rises from its first point to its last (and, for
   G72 or a G70 on a profile that is not monotonic in Z, first a quarter turn); the passes are
   made in that frame and turned back.
 - Roughing (G71/G72) offsets the profile by ``allowance`` (D, towards the stock), shifts it by
@@ -57,7 +57,7 @@ def rough(profile: list[Segment], start: tuple[float, float], *, depth: float,
     (the cycle's start point: the first segment is the approach to the contour). ``depth`` is
     the depth of each layer (I, > 0), ``retract`` the 45-degree retract after each layer (R),
     ``allowance`` the stock left on the contour (D), ``shift`` the contour's shift ``(w, u)``
-    (W on Z, U on X). Raises :class:`ValueError` with rs274's reason ("Not monotonic", ...).
+    (W on Z, U on X), which moves the whole path, the start included, as rs274 moves it. Raises :class:`ValueError` with rs274's reason ("Not monotonic", ...).
 
     >>> p = [Segment("line", (0, 0), (0, 10)), Segment("line", (0, 10), (-5, 10)),
     ...      Segment("line", (-5, 10), (-5, 12))]
@@ -124,7 +124,7 @@ class Path:
         self._map(lambda p: -1j * p, False, 4)
 
     def fall(self) -> None:
-        """Mirror the profile so that X and Z fall from its first point to its last."""
+        """Mirror the profile so that Z falls and X rises from its first point to its last."""
         d = self.segs[0].b - self.segs[-1].b
         if d.imag > 0:
             self._map(lambda p: p.conjugate(), True, 2)
@@ -149,7 +149,7 @@ class Path:
 
     def _approach(self, check: bool = True) -> None:
         """An approach that ends behind its start starts above its end; then every segment
-        must move Z one way (falling) and X one way."""
+        must move Z one way (falling); X may fall and climb (a pocket)."""
         first = self.segs[0]
         if (first.b - first.a).real > 0:
             first.a = complex(first.b.real, first.a.imag)

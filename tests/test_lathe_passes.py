@@ -1,0 +1,95 @@
+"""The lathe passes from a plain profile (retrofit.gcode.lathepasses), against hand-worked paths.
+
+The profile of every test is a shaft: from the start point (Z2, X12) in to the face at X5, along
+X5 to Z-10, up a shoulder to X10, along to Z-20, out to X12. Each expected path below is worked
+out by hand from the rules in the module's doc (layers I apart from the start's X, each fed
+along Z to the profile and retracted R at 45 degrees; D and U/W move the contour), not by the
+code under test.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from retrofit.gcode.lathepasses import Segment, finish, rough
+
+START = (2.0, 12.0)
+POINTS = [(0.0, 5.0), (-10.0, 5.0), (-10.0, 10.0), (-20.0, 10.0), (-20.0, 12.0)]
+SHAFT = [Segment("line", START, POINTS[0])] + [Segment("line", a, b) for a, b in zip(POINTS, POINTS[1:])]
+
+
+def _path(moves):
+    return [(m.kind, round(m.end[0], 6), round(m.end[1], 6)) for m in moves]
+
+
+def _on_approach(x: float) -> float:
+    """Z of the approach line (Z2 X12 to Z0 X5) at ``x``."""
+    return 2.0 + (x - 12.0) / (5.0 - 12.0) * (0.0 - 2.0)
+
+
+def test_g71_layers_are_i_apart_from_the_start_and_end_along_the_contour():
+    moves = rough(SHAFT, START, depth=2.5, retract=0.5)
+    z95, z7 = round(_on_approach(9.5), 6), round(_on_approach(7.0), 6)
+    assert _path(moves) == [
+        ("rapid", 2.0, 12.0), ("rapid", 2.0, 12.0), ("rapid", 2.0, 12.0),
+        # layer at X12 (the start): to the last shoulder, out 0.5, back, in
+        ("feed", -20.0, 12.0), ("rapid", -19.5, 12.5), ("rapid", 1.5, 12.5), ("rapid", 2.0, 12.0),
+        # X9.5 and X7: start on the approach, end on the shoulder at Z-10
+        ("rapid", z95, 9.5), ("feed", -10.0, 9.5), ("rapid", -9.5, 10.0),
+        ("rapid", round(z95 - 0.5, 6), 10.0), ("rapid", z95, 9.5),
+        ("rapid", z7, 7.0), ("feed", -10.0, 7.0), ("rapid", -9.5, 7.5),
+        ("rapid", round(z7 - 0.5, 6), 7.5), ("rapid", z7, 7.0),
+        # X4.5 is below the contour: down the approach to the face, then along the contour
+        ("rapid", 0.0, 5.0), ("feed", -10.0, 5.0), ("feed", -10.0, 10.0), ("feed", -20.0, 10.0),
+        ("feed", -20.0, 12.0)]
+
+
+def test_g71_allowance_and_shift_move_the_contour():
+    """D0.5 leaves 0.5 on the faces and diameters (the shoulder's outer corner rounded by an arc
+    of 0.5 about the corner); the shift (W0.1, U0.2) then moves the whole path, start included,
+    as rs274 moves it."""
+    moves = rough(SHAFT, START, depth=10.0, retract=0.5, allowance=0.5, shift=(0.1, 0.2))
+    assert _path(moves)[1] == ("rapid", 2.1, 12.2)
+    tail = _path(moves)[-5:]
+    assert tail == [("feed", -9.4, 5.7), ("feed", -9.4, 10.2), ("ccw", -9.9, 10.7),
+                    ("feed", -19.4, 10.7), ("feed", -19.4, 12.2)]
+    assert moves[-3].centre == pytest.approx((-9.9, 10.2))
+
+
+def test_g70_passes_go_from_d_to_e_off_the_contour():
+    short = [Segment("line", START, (0.0, 5.0)), Segment("line", (0.0, 5.0), (-10.0, 5.0)),
+             Segment("line", (-10.0, 5.0), (-10.0, 12.0))]
+    moves = finish(short, START, first=0.5, last=0.0, passes=2)
+    assert _path(moves) == [
+        ("rapid", 2.0, 12.0),
+        ("rapid", 2.0, 12.0), ("rapid", 0.0, 5.25), ("feed", -9.75, 5.25), ("feed", -9.75, 12.0),
+        ("rapid", 2.0, 12.0), ("rapid", 0.0, 5.0), ("feed", -10.0, 5.0), ("feed", -10.0, 12.0)]
+
+
+def test_g71_1_follows_the_contour_without_pockets_and_g71_2_cuts_only_the_pocket():
+    groove = [Segment("line", START, (0.0, 8.0)), Segment("line", (0.0, 8.0), (-4.0, 8.0)),
+              Segment("line", (-4.0, 8.0), (-4.0, 6.0)), Segment("line", (-4.0, 6.0), (-8.0, 6.0)),
+              Segment("line", (-8.0, 6.0), (-8.0, 8.0)), Segment("line", (-8.0, 8.0), (-12.0, 8.0)),
+              Segment("line", (-12.0, 8.0), (-12.0, 12.0))]
+    no_pockets = _path(rough(groove, START, depth=1.0, retract=0.5, pockets="none"))
+    assert all(x >= 8.0 for _, _, x in no_pockets)              # never into the groove
+    only = _path(rough(groove, START, depth=1.0, retract=0.5, pockets="only"))
+    layers = sorted({x for kind, z, x in only if kind == "feed" and z == -8.0}, reverse=True)
+    assert layers == [8.0, 7.0, 6.0]                 # the groove's layers, then its floor
+    assert only[2] == ("rapid", 0.0, 8.0) and all(z <= 0.0 for _, z, _ in only[2:])
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"depth": 0.0}, "depth"), ({"depth": 1.0, "retract": -1.0}, "retract"),
+    ({"depth": 1.0, "pockets": "some"}, "pockets")], ids=["depth-0", "retract-negative", "pockets"])
+def test_bad_parameters_are_refused_naming_them(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        rough(SHAFT, START, **kwargs)
+
+
+def test_a_profile_that_turns_back_is_not_monotonic():
+    back = [Segment("line", START, (0.0, 5.0)), Segment("line", (0.0, 5.0), (-6.0, 5.0)),
+            Segment("line", (-6.0, 5.0), (-6.0, 8.0)), Segment("line", (-6.0, 8.0), (-3.0, 8.0)),
+            Segment("line", (-3.0, 8.0), (-3.0, 12.0))]
+    with pytest.raises(ValueError, match="Not monotonic"):
+        rough(back, START, depth=1.0)
