@@ -93,3 +93,29 @@ def test_a_profile_that_turns_back_is_not_monotonic():
             Segment("line", (-3.0, 8.0), (-3.0, 12.0))]
     with pytest.raises(ValueError, match="Not monotonic"):
         rough(back, START, depth=1.0)
+
+
+def _profiles():
+    from hypothesis import strategies as st
+    point = st.tuples(st.integers(-40, 4).map(float), st.integers(0, 30).map(float))
+    return st.lists(point, min_size=2, max_size=7)
+
+
+def test_any_profile_gives_passes_or_a_reason_never_a_crash_or_a_hang():
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
+    @settings(max_examples=50, deadline=None, suppress_health_check=list(HealthCheck))
+    @given(_profiles(), st.sampled_from(["all", "none", "only"]), st.sampled_from([0.0, 0.3]),
+           st.booleans())
+    def run(points, pockets, allowance, facing):
+        segs = [Segment("line", a, b) for a, b in zip([START] + points, points)]
+        for call in (lambda: rough(segs, START, depth=1.0, retract=0.5, allowance=allowance,
+                                   facing=facing, pockets=pockets),
+                     lambda: finish(segs, START, first=allowance, passes=2)):
+            try:
+                moves = call()
+            except ValueError:
+                continue
+            assert all(abs(v) < 1e4 for m in moves for v in m.end)   # nothing runs away
+    run()

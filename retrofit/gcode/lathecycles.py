@@ -138,7 +138,10 @@ def _centre(runner, a, b, motion, w, name):
         za, xa, zb, xb, r = a[0], a[1], b[0], b[1], w["R"]
         dz, dx = zb - za, xb - xa
         n2 = dz * dz + dx * dx
-        k = ((r * r - n2 / 4) / n2) ** 0.5
+        if r * r < n2 / 4 - 1e-9:
+            raise RuleError(f"{name}: an arc of R{r:g} cannot reach from Z{za:g} X{xa:g} to "
+                            f"Z{zb:g} X{xb:g} (the radius is under half the chord)")
+        k = (max(r * r - n2 / 4, 0.0) / n2) ** 0.5
         sign = 1 if motion == 3.0 else -1
         return ((za + zb) / 2 - sign * k * dx, (xa + xb) / 2 + sign * k * dz)
     if "I" not in w and "K" not in w:

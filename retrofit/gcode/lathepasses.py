@@ -22,11 +22,14 @@ The rules are those of LinuxCNC 2.9's rs274 (its G7x code, read for its behaviou
 from __future__ import annotations
 
 import copy
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 from .g7xgeom import EPS, NEAR, Arc, Line, Recorder, join
 
 POCKETS = {"all": 0, "none": 1, "only": 2}
+#: the offset grows by at most half the shortest segment a round: a bound on the rounds
+MAX_OFFSET_ROUNDS = 20000
 
 
 @dataclass(frozen=True)
@@ -72,7 +75,8 @@ def rough(profile: list[Segment], start: tuple[float, float], *, depth: float,
         raise ValueError(f"pockets must be one of {', '.join(POCKETS)}, not {pockets!r}")
     path = Path(_segments(profile, start))
     out = Recorder()
-    path.rough(out, POCKETS[pockets], complex(*shift), allowance, depth, retract, facing)
+    with _degenerate():
+        path.rough(out, POCKETS[pockets], complex(*shift), allowance, depth, retract, facing)
     return [Move(kind, _pair(end), None if c is None else _pair(c)) for kind, end, c in out.moves]
 
 
@@ -84,13 +88,26 @@ def finish(profile: list[Segment], start: tuple[float, float], *, first: float =
         raise ValueError(f"the number of passes (P) must be a whole number >= 1, not {passes:g}")
     path = Path(_segments(profile, start))
     out = Recorder()
-    path.finish(out, first, last, int(passes))
+    with _degenerate():
+        path.finish(out, first, last, int(passes))
     return [Move(kind, _pair(end), None if c is None else _pair(c)) for kind, end, c in out.moves]
 
 
+@contextmanager
+def _degenerate():
+    """A profile whose geometry divides by zero (a segment shrunk to nothing, parallel lines
+    to meet) is refused with that reason, not a crash."""
+    try:
+        yield
+    except (ZeroDivisionError, IndexError, OverflowError) as exc:
+        raise ValueError(f"the profile's geometry degenerates ({exc}): a segment of no length, "
+                         f"an arc of no radius, or an allowance larger than the profile") from None
+
+
 def _segments(profile: list[Segment], start) -> list:
-    if not profile:
-        raise ValueError("the profile has no moves")
+    if len(profile) < 2:
+        raise ValueError("the profile needs a move after its first point (its first move is "
+                         "the approach from the start point)")
     segs = []
     for n, seg in enumerate(profile):
         a = complex(*(start if n == 0 else seg.start))
@@ -182,8 +199,12 @@ class Path:
         if ((segs[0].b - segs[0].a) / (segs[-1].a - segs[0].a)).imag < 0:
             distance = -distance
         approach, rest = segs[0], segs[1:]
-        done = 0.0
+        done, rounds = 0.0, 0
         while done != distance:
+            rounds += 1
+            if rounds > MAX_OFFSET_ROUNDS:
+                raise ValueError(f"an offset of {abs(distance):g} takes more than "
+                                 f"{MAX_OFFSET_ROUNDS} rounds on this profile's short segments")
             step = min([1e9, abs(distance - done)] + [s.radius() / 2 for s in rest])
             step = -step if distance < 0 else step
             rest = self._offset_once(rest, step, distance > 0)
