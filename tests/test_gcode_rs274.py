@@ -207,7 +207,8 @@ def test_the_corpus_is_large_enough_and_both_accept_most():
 @pytest.mark.skipif(shutil.which("rs274") is None and not Path("/usr/bin/rs274").exists(),
                     reason="LinuxCNC's rs274 is not installed (Debian package linuxcnc-uspace)")
 @pytest.mark.parametrize("name", ["programs/g28-named-axis-bug1.ngc", "programs/g28-after-g92-bug2.ngc",
-                                  "programs/oword-recursion.ngc", "programs/cycle-g83-g98.ngc"])
+                                  "programs/oword-recursion.ngc", "programs/cycle-g83-g98.ngc",
+                                  "programs/g71-pocket.ngc", "programs/g72.2-face-pocket.ngc"])
 def test_golden_files_are_what_rs274_prints_today(name):
     from tests.gcode.regenerate import run_rs274  # noqa: PLC0415
     program = HERE / name

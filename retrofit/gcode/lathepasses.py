@@ -60,7 +60,8 @@ def rough(profile: list[Segment], start: tuple[float, float], *, depth: float,
     (the cycle's start point: the first segment is the approach to the contour). ``depth`` is
     the depth of each layer (I, > 0), ``retract`` the 45-degree retract after each layer (R),
     ``allowance`` the stock left on the contour (D), ``shift`` the contour's shift ``(w, u)``
-    (W on Z, U on X), which moves the whole path, the start included, as rs274 moves it. Raises :class:`ValueError` with rs274's reason ("Not monotonic", ...).
+    (W on Z, U on X), which moves the whole path, the start included, as rs274 moves it.
+    Raises :class:`ValueError` with rs274's reason ("Not monotonic", ...).
 
     >>> p = [Segment("line", (0, 0), (0, 10)), Segment("line", (0, 10), (-5, 10)),
     ...      Segment("line", (-5, 10), (-5, 12))]

@@ -139,12 +139,13 @@ class Translator:
 
     # -- words acting before the motion ------------------------------------------------------
     def _feed_word(self, value: float) -> None:
-        if value < 0.0 or (value > MAX_FEED_MM_MIN and self.state.inverse_time):
+        if value < 0.0 or (value > MAX_FEED_MM_MIN and (self.state.inverse_time or self.state.per_rev)):
             raise RuleError(f"F{value:g}: a feed is from 0 to {MAX_FEED_MM_MIN:g}")
         if self.state.inverse_time:
             self.state.feed_mm_min = value
             return
-        self.state.feed_mm_min = feedcap.capped(self, clean_mm(self.state.to_mm(value)), value)
+        feed = clean_mm(self.state.to_mm(value))
+        self.state.feed_mm_min = feed if self.state.per_rev else feedcap.capped(self, feed, value)
 
     def _spindle(self, block: Block) -> None:
         s = self.state
