@@ -119,3 +119,43 @@ def test_any_profile_gives_passes_or_a_reason_never_a_crash_or_a_hang():
                 continue
             assert all(abs(v) < 1e4 for m in moves for v in m.end)   # nothing runs away
     run()
+
+
+def test_g71_on_the_shipped_lathe_never_cuts_into_the_stock_left_for_finishing():
+    """Every point the roughing moves to (chord points of its arcs too) stays at least D off the
+    finished contour -- a chamfer, a diameter, a G2 shoulder, a taper -- and outside it."""
+    import math
+
+    from retrofit.commands import FMov, PMov
+    from retrofit.config import load_machine
+    from retrofit.gcode import compile_program
+
+    program = ("G18 G21 G90 G94 G8\nF200\nO100 SUB\nG0 X4 Z1\nG1 X6 Z0\nZ-8\nG2 X9 Z-11 I3 K0\n"
+               "G1 X11 Z-14\nZ-20\nG1 X14\nO100 ENDSUB\nG0 X16 Z3\nG71 Q100 X16 Z3 D0.3 I1 R0.5\nM2\n")
+    prog = compile_program(program, load_machine("chivu-lathe"), file="g71.ngc")
+    contour = [(1.0, 4.0), (0.0, 6.0), (-8.0, 6.0)]
+    contour += [(-8.0 - 3 * math.sin(t / 200 * math.pi / 2), 9.0 - 3 * math.cos(t / 200 * math.pi / 2))
+                for t in range(1, 201)]                         # the G2 shoulder, centre Z-8 X9
+    contour += [(-14.0, 11.0), (-20.0, 11.0), (-20.0, 14.0)]
+
+    def gap(z, x):
+        best = math.inf
+        for (z0, x0), (z1, x1) in zip(contour, contour[1:]):
+            dz, dx = z1 - z0, x1 - x0
+            t = max(0.0, min(1.0, ((z - z0) * dz + (x - x0) * dx) / (dz * dz + dx * dx)))
+            best = min(best, math.hypot(z - z0 - t * dz, x - x0 - t * dx))
+        return best
+
+    cut = [(dict(c.axes)["Z"], dict(c.axes)["X"]) for c, line in zip(prog.commands, prog.lines)
+           if isinstance(c, (FMov, PMov)) and line == 13]
+    assert len(cut) > 40                                        # the layers are there
+    inside = [(z, x) for z, x in cut if -20.0 <= z <= 1.0 and x < 14.0]
+    def surface(z):                                             # the contour's X at z
+        for (z0, x0), (z1, x1) in zip(contour, contour[1:]):
+            if z1 <= z <= z0 and z1 < z0:
+                return x0 + (x1 - x0) * (z - z0) / (z1 - z0)
+        return max(x for zc, x in contour if abs(zc - z) < 1e-9)
+
+    assert all(x > surface(z) for z, x in inside)               # outside the part
+    assert inside and min(gap(z, x) for z, x in inside) >= 0.3 - 1e-3
+    assert min(gap(z, x) for z, x in inside) <= 0.3 + 1e-3       # and the last pass is on it
