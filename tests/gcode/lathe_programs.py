@@ -85,6 +85,11 @@ def lathe_cycles() -> dict[str, str]:
         "G1 X12.0 Z-36.1\nG1 Z-38.1\nG0 X15.0\nO100 ENDSUB\n",
         "T2 M6 G43\nG71.1 Q100 X15 Z3.041 D1 I1 R0.3\nG71.2 Q100 X15 Z3.041 D0.51 I0.5 R0.3\n"
         "G70 Q100 X15 Z3.041 E0 D0.5 P2\n")
+    p["g71-tool-on-line"] = _prog(TURN, g0 + "G71 Q100 X16 Z3 I1 T3 S500 F150\nM6\nG70 Q100 X16 Z3\n")
+    p["g72-diameter-g7"] = _prog(
+        "O100 SUB\nG0 X0 Z0\nG1 X8\nZ-1\nX16 Z-2\nZ-4\nX28\nO100 ENDSUB\n",
+        "G0 X32 Z2\nG72 Q100 X32 Z2 D0.2 I0.5 R0.3\nG70 Q100 X32 Z2\nG8\n",
+        head="G18 G21 G90 G94 G40 G7\nF200\n")
     # refusals
     p["err-g71-incremental"] = _prog(TURN, g0 + "G91\nG71 Q100 X0 Z0 I1\n")
     p["err-g71-no-q"] = _prog(TURN, g0 + "G71 X16 Z3 I1\n")
