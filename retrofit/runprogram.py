@@ -92,6 +92,9 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
                                       spindle_tool=spindle_tool, probe=prober,
                                       dialect=getattr(opts, "dialect", None),
                                       on_progress=lambda done: progress.fraction("compile", done))
+        for file, number, kind, text in run.program.messages:
+            if kind == "WARNING":                  # e.g. a feed lowered to the machine's fastest
+                print(f"{file}:{number}: warning: {text}", file=sys.stderr)
         opened = prober.handoff() if hasattr(prober, "handoff") and prober.moves else None
         if prober is not None and prober.moves and opened is None:
             refuse_real_probing(opts.urls, name)
