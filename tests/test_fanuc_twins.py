@@ -75,3 +75,26 @@ def test_the_machine_file_chooses_the_dialect_and_the_same_text_reads_otherwise_
     rs274 = compile_program(text.replace("G98", "G94"), machine, "part.ngc", dialect="rs274")
     assert str(fanuc.commands[-1]) == "FMOV X20 Z2"      # 40 mm diameter: 20 mm from the axis
     assert str(rs274.commands[-1]) == "FMOV X40 Z2"
+
+
+@pytest.mark.parametrize("name", ["g71", "g72"])
+def test_fanuc_roughing_cuts_where_linuxcnc_roughing_cuts(name):
+    """The same part roughed by the Fanuc G71/G72 (two blocks, no allowance) and by LinuxCNC's
+    G71/G72 with a subroutine profile (retrofit's RS274 cycles, made apart from the Fanuc ones):
+    every cut ends at the same point. LinuxCNC's form also cuts a layer on the start point's line
+    and leaves the profile at feed there; those are left out, the rapids differ by design."""
+    machine = load_machine(MACHINE)
+    folder = DATA / "cycles"
+    fanuc = compile_program((folder / f"{name}-fanuc.nc").read_text(), machine, "f.nc")
+    linuxcnc = compile_program((folder / f"{name}-linuxcnc.ngc").read_text(), machine, "l.ngc",
+                               dialect="rs274")
+    start = {"g71": ("X", 21.0), "g72": ("Z", 2.0)}[name]
+
+    def cuts(program):
+        ends = [dict(w) for n, w in path_of(program) if n == "PMOV"]
+        return [(e["X"], e["Z"]) for e in ends if abs(e[start[0]] - start[1]) > 1e-9]
+    ours, theirs = cuts(fanuc), cuts(linuxcnc)
+    assert len(ours) >= 8
+    assert len(ours) == len(theirs)
+    for a, b in zip(ours, theirs):
+        assert abs(a[0] - b[0]) <= 1e-4 and abs(a[1] - b[1]) <= 1e-4, (a, b)
