@@ -3,10 +3,8 @@ does: the twins of tests/test_fanuc_twins.py are checked at their source.
 
 Each ``*-linuxcnc.ngc`` of tests/data/fanuc/twins runs through ``rs274`` (where it is installed)
 and through retrofit, without the tool offsets (rs274 without a configuration reads tool tables
-in inches); every canonical move must be matched by retrofit within 1e-4 mm. The G76 twin is
-left out: rs274's G76 differs from retrofit's in the air moves (the tool goes out to the drive
-line plus the depth still to cut, and each pass starts ``depth tan Q`` before the thread's start;
-the passes are spaced alike, so the thread is the same) and, under G7, reads I J K as diameters.
+in inches); every canonical move must be matched by retrofit within 1e-4 mm, the G76 twins'
+(diameter mode, I J K as diameters) included.
 """
 
 from __future__ import annotations
@@ -25,7 +23,7 @@ from tests.test_gcode_rs274 import canon_events, compare
 
 DATA = Path(__file__).parent / "data" / "fanuc"
 RS274 = shutil.which("rs274") or "/usr/bin/rs274"
-TWINS = sorted(p for p in (DATA / "twins").glob("*-linuxcnc.ngc") if not p.name.startswith("g76"))
+TWINS = sorted((DATA / "twins").glob("*-linuxcnc.ngc"))
 
 pytestmark = pytest.mark.skipif(not Path(RS274).exists(),
                                 reason="LinuxCNC's rs274 is not installed (Debian linuxcnc-uspace)")

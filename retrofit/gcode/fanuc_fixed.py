@@ -11,8 +11,9 @@ along Z per revolution). Every cycle starts and ends at its start point A.
 * G76 (two blocks): passes ``dd sqrt(n)`` deep (at least ``dmin`` more each time) until ``k - d``,
   then the finishing depth ``k`` m times. Each pass starts from A's X, moves in at rapid, cuts
   the thread, rapids out at the end and back along A's X. The infeed follows the flank at half
-  the thread angle ``a``: a shallower pass is set back from the thread's start by ``(k - depth)
-  tan(a/2)`` -- the deepest pass starts at A's Z, as retrofit's LinuxCNC G76 Q does. A chamfer
+  the thread angle ``a``: a pass ``depth`` below the crest starts ``depth tan(a/2)`` on from A's Z
+  and ends ``(k - depth) tan(a/2)`` short of the end -- the deepest pass ends at the end, as
+  LinuxCNC's G76 Q places its passes (docs/fanuc.md: the way out differs). A chamfer
   ``rr`` (tenths of the lead) pulls each pass out at 45 degrees over its last ``rr L / 10``.
 * G74 (face pecking, along Z) and G75 (grooving, along X): ``P`` shifts across, ``Q`` pecks,
   the first block's ``R`` the return after each peck; the second block's ``R`` a relief at the
@@ -83,9 +84,9 @@ def thread_cycle(start, x_root: float, z_end: float, taper: float, height: float
         raise RuleError(f"G76: the thread chamfer ({chamfer:g}) must be shorter than the thread")
     path = []
     for depth in depths:
-        shift = (depth - height) * slope * toward
+        shift, z_in = (depth - height) * slope * toward, z0 + depth * slope * toward
         x_end = x_root + outward * (height - depth)
-        path += [(0, (x0, z0 + shift), None), (0, (x_end + taper, z0 + shift), None)]
+        path += [(0, (x0, z_in), None), (0, (x_end + taper, z_in), None)]
         if chamfer:
             share = chamfer / abs(z_end - z0)
             x_at = x_end + taper * share

@@ -19,6 +19,8 @@ The machine-dependent choices (:mod:`retrofit.gcode.fanuc_settings`) come from `
 
 from __future__ import annotations
 
+import math
+
 from . import fanuc_calls, fanuc_cycle_run
 from .blocks import make_block
 from .errors import RuleError
@@ -356,8 +358,8 @@ class FanucRunner:
                 dz = abs(p[1] - here[1])
                 if dz == 0.0:
                     raise RuleError("a thread move must move along Z (the lead is per turn along Z)")
-                length = ((p[1] - here[1]) ** 2 + (p[0] - here[0]) ** 2) ** 0.5
-                words.append(("K", extra * length / dz))
+                length = math.hypot(p[1] - here[1], p[0] - here[0])   # exact along Z alone
+                words.append(("K", extra * (length / dz)))
             self.emit(words)
             here = p
 
