@@ -177,12 +177,19 @@ def _words(tr, block) -> dict:
         raise RuleError("G76 H (spring passes) must be a whole number >= 0 and L one of 0, 1, 2, 3")
     if not -90.0 < w["Q"] < 90.0:
         raise RuleError(f"{block.texts['Q']}: the compound angle must be within -90..90 deg")
+    if w["Q"] == -1.0:
+        raise RuleError(f"{block.texts['Q']}: LinuxCNC reads Q-1 as no compound angle (Q0); write "
+                        f"Q0, or the angle you mean")
     length = abs(w["Z"] - tr.state.position["Z"])
     if length == 0.0:
         raise RuleError("G76: Z is where the cycle starts; the thread needs a length")
     if not 0.0 <= w["E"] <= length / 2.0:
         raise RuleError(f"{block.texts['E']}: the taper must be >= 0 and at most half the drive "
                         f"line ({length:.3f} mm)")
+    # depths from the drive line counted in the program's units, as LinuxCNC counts the passes
+    peak = abs(v["I"]) * across
+    w["depths"] = [mm(peak + d) for d in pass_depths(v["J"] * across, v["K"] * across, w["R"],
+                                                     int(w["H"]), peak)]
     return w
 
 
@@ -220,9 +227,7 @@ def g76(tr, block) -> None:
     here = dict(tr.state.position)
     point = lambda x, z: {**here, "X": clean_mm(x), "Z": clean_mm(z)}  # noqa: E731
     lean = math.tan(math.radians(w["Q"]))
-    peak = abs(w["I"])
-    depths = [peak + d for d in pass_depths(w["J"], w["K"], w["R"], int(w["H"]), peak)]
-    passes = [_pass_moves(w, here["X"], here["Z"], depth, lean) for depth in depths]
+    passes = [_pass_moves(w, here["X"], here["Z"], depth, lean) for depth in w["depths"]]
     for moves in passes:
         for _kind, x, z, _lead in moves:
             check_soft_limits(tr.machine, point(x, z), " (G76 pass)")

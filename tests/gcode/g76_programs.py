@@ -46,6 +46,10 @@ def g76_programs() -> dict[str, str]:
     p["linuxcnc-g76-ngc"] = ("G20 G18 G90 G94 G40 G8\nS300 M3\nG0 Z0.2 X0.2\n"
                              "g76 p.05 z-.5 i-.075 j.008 k.045 h3 r2.0 q29.5 e.05 l2\n"
                              "g0x.5\ng0z0\nM5\nM2\n")
+    p["ext-negative-q"] = MM + "G0 X12 Z5\nG76 P1.5 Z-20 I-1 J0.2 K0.92 R2 Q-29.5 H1\nG0 X20\n"
+    p["inch-diameter-exact-passes"] = ("G18 G20 G90 G94 G40 G7\nS300 M3\nG0 X0.6 Z0.2\n"
+                                       "G76 P0.05 Z-0.6 I-0.02 J0.01 K0.04 R1 Q29.5\nG0 X1\n")
+    p["q-minus-one"] = MM + "G0 X12 Z5\nG76 P1.5 Z-20 I-1 J0.2 K0.92 Q-1\nG0 X20\n"
     p["err-k-not-above-j"] = MM + "G0 X12 Z5\nG76 P1.5 Z-20 I-1 J0.5 K0.5\n"
     p["err-i-zero"] = MM + "G0 X12 Z5\nG76 P1.5 Z-20 I0 J0.2 K0.9\n"
     p["err-j-zero"] = MM + "G0 X12 Z5\nG76 P1.5 Z-20 I-1 J0 K0.9\n"
