@@ -18,7 +18,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 RS274 = "/usr/bin/rs274"
-FOLDERS = ("programs", "linuxcnc")
+FOLDERS = ("programs", "linuxcnc", "tapping")
 
 
 def inch_tool_table() -> Path:
