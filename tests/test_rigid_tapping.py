@@ -15,9 +15,10 @@ import pytest
 
 from retrofit.commands import CStp, FMov, IStp, PFdr, PMov, Spin
 from retrofit.config import load_machine
-from retrofit.controller.program import ProgramError, run_commands
+from retrofit.controller.program import run_commands
 from retrofit.errors import GcodeError, OutputError
 from retrofit.gcode import compile_program, load_program
+from retrofit.outputs import open_output
 from retrofit.outputs.serial import refuse_rigid_tap
 from retrofit.sim import SimMachine
 from retrofit.sim.spindle import SimSpindle
@@ -115,7 +116,7 @@ def tapped(request):
 
 
 def test_the_carriage_follows_the_spindle_angle_in_through_the_reversal_and_out(tapped):
-    s, z0, depth, sim, ticks, steps, revs = tapped          # s < 0: M4, the count falls going in
+    s, z0, _, _, ticks, steps, revs = tapped                # s < 0: M4, the count falls going in
     sign, s = np.sign(s), abs(s)
     phi = steps + sign * s * revs
     tap = np.arange(len(steps)) >= np.flatnonzero(np.diff(steps) < 0)[0]   # from the tap's first step
@@ -132,7 +133,7 @@ def test_the_carriage_follows_the_spindle_angle_in_through_the_reversal_and_out(
 
 
 def test_the_tap_reaches_the_programmed_depth_and_ends_where_it_started(tapped):
-    s, z0, depth, sim, ticks, steps, revs = tapped
+    _, z0, depth, _, _, steps, _ = tapped
     assert steps.min() == pytest.approx(depth * SPM, abs=1.0)     # the deepest point, within a step
     assert steps.min() >= depth * SPM - 1.0                      # never past it
     first_down = int(np.flatnonzero(np.diff(steps) < 0)[0])
@@ -152,7 +153,7 @@ def test_the_tap_never_passes_its_depth_whatever_the_drive(drive_rpm_s):
     """The approach is closed on the encoder: a drive quicker than the machine file says still
     stops at the depth; a slower one overruns it with the spindle, never with the tap."""
     machine = reversible(drive_rpm_s=drive_rpm_s, file_rpm_s=3000.0, noise=0.0)
-    ctl, sim, ticks, steps, revs = tap_run(machine, "G18 G21 G90\nG0 X0 Z5\nS600 M3\nG33.1 Z-10 K1\nG0 X5\n")
+    ctl, _, _, steps, revs = tap_run(machine, "G18 G21 G90\nG0 X0 Z5\nS600 M3\nG33.1 Z-10 K1\nG0 X5\n")
     assert ctl.fault is None
     assert steps.min() == pytest.approx(-10 * SPM, abs=1.0)
     assert steps[-1] == pytest.approx(5 * SPM, abs=1.0)
@@ -161,8 +162,8 @@ def test_the_tap_never_passes_its_depth_whatever_the_drive(drive_rpm_s):
 
 
 @pytest.mark.parametrize("machine, reason", [
-    (BASE, r"tap.ngc:4: G33.1: the spindle of machine mitic-lathe does not reverse on command with a "
-           r"two-way encoder; .*\[spindle\] reverse_rpm_s"),
+    (BASE, (r"tap.ngc:4: G33.1: the spindle of machine mitic-lathe does not reverse on command with a "
+            r"two-way encoder; .*\[spindle\] reverse_rpm_s")),
     (load_machine("chivu-lathe"), r"tap.ngc:4: G33.1: machine chivu-lathe has no spindle encoder"),
     (load_machine(HERE / "rs274-mill.toml"), r"tap.ngc:4: G33.1: machine rs274-mill has no spindle encoder"),
 ], ids=["one-way-encoder", "no-encoder", "mill-without-spindle"])
@@ -184,10 +185,13 @@ def test_tap_words_are_checked_with_the_line(text, message):
 
 
 def test_the_serial_link_refuses_a_rigid_tap_before_sending_anything():
-    prog = compile_program("G18 G21 G90\nG0 X0 Z5\nS300 M3\nG33.1 Z-10 K1.5\n", reversible(), "t.ngc")
-    with pytest.raises(OutputError, match=r"serial://x: command 6 \(SPIN S300 D-1\) reverses the spindle "
-                                          r"inside a synchronised \(ISTP\) chain.*encoder one way"):
-        refuse_rigid_tap("serial://x", list(prog.commands))
+    """Nothing listens on the port: the refusal comes before the link is opened."""
+    machine = reversible()
+    prog = compile_program("G18 G21 G90\nG0 X0 Z5\nS300 M3\nG33.1 Z-10 K1.5\n", machine, "t.ngc")
+    out = open_output("serial+socket://127.0.0.1:9", machine)
+    with pytest.raises(OutputError, match=r"127\.0\.0\.1:9: command 7 \(SPIN S300 D-1\) reverses the "
+                                          r"spindle inside a synchronised \(ISTP\) chain.*encoder one way"):
+        out.send_program(prog.commands)
     refuse_rigid_tap("serial://x", [Spin(300.0, 1), IStp(), PFdr(1.0), PMov((("Z", -3.0),)), CStp(),
                                    Spin(300.0, -1)])                    # after the chain: fine
 
