@@ -19,9 +19,7 @@ from __future__ import annotations
 import math
 
 from ..errors import MotionError
-
-#: share of the drive's reversing rate the approach plans with (the rest takes up the load)
-PLAN_SHARE = 0.8
+from ..motion.indexer import PLAN_SHARE
 #: the approach never asks for less than this share of the cruising speed (it would never arrive)
 FLOOR_SHARE = 0.005
 

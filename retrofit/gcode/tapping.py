@@ -16,8 +16,9 @@ Only a spindle that reverses on command, with an encoder that counts both ways, 
 from __future__ import annotations
 
 from ..commands import CStp, IStp, PFdr, PMov, Spin
+from ..motion.indexer import PLAN_SHARE, lead_in_mm, stopping_revs
 from .errors import RuleError
-from .threading import check_synchronised, leave, spindle_turning
+from .threading import _path, check_synchronised, leave, spindle_turning
 from .validate import check_soft_limits
 
 WHY = ("a rigid tap follows the spindle in, through its reversal and out, so it needs a spindle that "
@@ -39,13 +40,9 @@ def reversible(tr):
     return spindle
 
 
-def _stopping_mm(pitch: float, rpm: float, reverse_rpm_s: float) -> float:
-    """How far the tap goes while the spindle stops from ``rpm`` at ``reverse_rpm_s``."""
-    return pitch * rpm * rpm / (120.0 * reverse_rpm_s)
-
-
 def _check_room(tr, spindle, start: dict, end: dict, pitch: float, scale: float) -> None:
-    """Each way has room to reach speed (the lead-in, going in) and to stop before its end."""
+    """Each way within the axes' speed; going in, room for the lead-in and the spindle's stop at
+    the bottom; coming out, room for its stop at the top (at up to ``speed_tolerance`` fast)."""
     s = tr.state
     check_synchronised(tr, "G33.1", start, end, pitch, first=True)
     rpm = s.rpm
@@ -54,13 +51,16 @@ def _check_room(tr, spindle, start: dict, end: dict, pitch: float, scale: float)
         check_synchronised(tr, "G33.1 (out)", end, start, pitch, first=False)
     finally:
         s.rpm = rpm
-    length = sum((end[n] - start[n]) ** 2 for n in start) ** 0.5
-    top = rpm * max(1.0, scale) * (1.0 + spindle.speed_tolerance)
-    stop = _stopping_mm(pitch, top, spindle.reverse_rpm_s)
-    if stop > length / 2.0:
-        raise RuleError(f"G33.1: at up to {top:.0f} rpm the spindle turns {stop:.2f} mm of the tap "
-                        f"while it reverses at {spindle.reverse_rpm_s:g} rpm/s, more than half the "
-                        f"{length:.2f} mm tap; lower S (or I)")
+    length, _, a_max, _ = _path(tr.machine, start, end)
+    fast = 1.0 + spindle.speed_tolerance
+    lead = lead_in_mm(pitch, rpm * fast, a_max * spindle.sync_accel_share)
+    for what, top, room in (("in", rpm * fast, length - lead), ("out", rpm * scale * fast, length)):
+        stop = pitch * stopping_revs(top, spindle.reverse_rpm_s)
+        if stop > room:
+            raise RuleError(f"G33.1: at up to {top:.0f} rpm the spindle turns {stop:.2f} mm of the tap "
+                            f"while it stops ({what}, planned at {PLAN_SHARE:.0%} of reverse_rpm_s "
+                            f"{spindle.reverse_rpm_s:g}), more than the {room:.2f} mm left of the "
+                            f"{length:.2f} mm tap; lower S (or I)")
 
 
 def g33_1(tr, block, end: dict) -> None:
