@@ -86,7 +86,7 @@ def test_the_golden_set_has_taps_in_inch_incremental_m4_and_subroutines():
 @pytest.mark.skipif(not Path("/usr/bin/rs274").exists(), reason="LinuxCNC's rs274 is not installed")
 @pytest.mark.parametrize("program", TAPS, ids=lambda p: p.stem)
 def test_the_tap_golden_files_are_what_rs274_prints_today(program):
-    from tests.gcode.regenerate import run_rs274  # noqa: PLC0415
+    from tests.gcode.regenerate import run_rs274
     recorded = (HERE / "golden" / "tapping" / f"{program.stem}.canon").read_text()
     assert run_rs274(program) == recorded
 
@@ -183,9 +183,9 @@ def test_a_machine_without_a_reversible_spindle_refuses_with_the_reason(machine,
 @pytest.mark.parametrize("text, message", [
     ("S300 M3\nG33.1 Z-10 K1.5 I0", "I0: G33.1's I scales the spindle speed"),
     ("S300 M3\nG33.1 Z-10 K0", "K0: G33.1's K must be > 0"),
-    ("S1000 M3\nG33.1 Z0 K1", r"G33.1: at up to 1150 rpm the spindle turns 4\.59 mm of the tap while it "
+    ("S1000 M3\nG33.1 Z0 K1", (r"G33.1: at up to 1150 rpm the spindle turns 4\.59 mm of the tap while it "
                                r"stops \(in, planned at 80% of reverse_rpm_s 3000\), more than the 4\.\d\d mm "
-                               r"left of the 5\.00 mm tap"),
+                               r"left of the 5\.00 mm tap")),
     ("S600 M3\nG33.1 Z-1 K1 I2", r"\(out, .* more than the 6\.00 mm left of the 6\.00 mm tap"),
     ("S300 M3\nG95\nG33.1 Z-10 K1", "G33.1 under G96/G95"),
     ("S300 M3\nG1 Z-10 I2 F100", "I2: I word with no G code that uses it"),

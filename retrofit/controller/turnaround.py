@@ -20,6 +20,7 @@ import math
 
 from ..errors import MotionError
 from ..motion.indexer import PLAN_SHARE
+
 #: the approach never asks for less than this share of the cruising speed (it would never arrive)
 FLOOR_SHARE = 0.005
 
