@@ -13,10 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from retrofit import machines
 from retrofit.commands import CStp, FMov, IStp, PFdr, PMov, Spin
 from retrofit.config import load_machine
 from retrofit.controller.program import run_commands
-from retrofit.errors import GcodeError, OutputError
+from retrofit.errors import ConfigError, GcodeError, OutputError
 from retrofit.gcode import compile_program, load_program
 from retrofit.outputs import open_output
 from retrofit.outputs.serial import refuse_rigid_tap
@@ -254,3 +255,15 @@ def test_the_readable_tick_loop_makes_the_same_tap():
     (fast, z_fast), (ref, z_ref) = runs
     assert np.array_equal(fast.ticks, ref.ticks) and np.array_equal(fast.values, ref.values)
     assert z_fast == z_ref and min(z_ref) == pytest.approx(-3.0, abs=1 / SPM)
+
+
+@pytest.mark.parametrize("value, message", [
+    ("-5", r"bad\.toml \[spindle\] reverse_rpm_s = -5: must be > 0"),
+    ('"fast"', r"bad\.toml \[spindle\] reverse_rpm_s.*must be a number"),
+], ids=["negative", "text"])
+def test_a_wrong_reverse_rate_names_the_file_section_and_key(tmp_path, value, message):
+    text = (Path(machines.__file__).parent / "mitic-lathe.toml").read_text()
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace("[spindle]\n", f"[spindle]\nreverse_rpm_s = {value}\n", 1))
+    with pytest.raises(ConfigError, match=message):
+        load_machine(bad)
