@@ -7,6 +7,8 @@ what the simulated machine did; along one helix ``steps + S revs`` is a constant
 revolution), going in, while the spindle slows, stops and reverses, and coming out.
 """
 
+import subprocess
+import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -206,6 +208,21 @@ def test_the_serial_link_refuses_a_rigid_tap_before_sending_anything():
         out.send_program(prog.commands)
     refuse_rigid_tap("serial://x", [Spin(300.0, 1), IStp(), PFdr(1.0), PMov((("Z", -3.0),)), CStp(),
                                    Spin(300.0, -1)])                    # after the chain: fine
+
+
+def test_retrofit_run_to_the_firmware_refuses_a_rigid_tap_naming_its_line(tmp_path):
+    """The run's firmware check names the program's line; nothing is sent (nothing listens)."""
+    machine_file = tmp_path / "tap-lathe.toml"
+    text = (Path(machines.__file__).parent / "mitic-lathe.toml").read_text()
+    machine_file.write_text(text.replace("[spindle]\n", "[spindle]\nreverse_rpm_s = 3000.0\n", 1))
+    program = tmp_path / "tap.ngc"
+    program.write_text("G18 G21 G90\nG0 X0 Z5\nS300 M3\nG33.1 Z-10 K1.5\nM2\n")
+    proc = subprocess.run([sys.executable, "-m", "retrofit.cli", "run", str(program), "--machine",
+                           str(machine_file), "--output", "serial+socket://127.0.0.1:9", "--progress", "off"],
+                          capture_output=True, text=True, timeout=120, check=False)
+    assert proc.returncode == 2
+    assert "tap.ngc:4: SPIN S300 D-1 reverses the spindle inside a synchronised (ISTP) chain, a rigid " \
+           "tap (G33.1); the firmware's indexer counts its encoder one way" in proc.stderr
 
 
 def test_the_two_way_encoder_counts_down_backwards_and_indexes_both_ways():

@@ -187,6 +187,17 @@ class SerialOutput(Output):
         super().close()
 
 
+#: why a controller on the link cannot run a rigid tap
+RIGID_TAP_REASON = ("reverses the spindle inside a synchronised (ISTP) chain, a rigid tap (G33.1); the "
+                    "firmware's indexer counts its encoder one way and cannot follow the spindle back; "
+                    "run rigid taps on sim://, or tap with G84/G74 and a floating holder")
+
+
+def reverses_in_chain(cmd, indexing: bool, direction: int) -> bool:
+    """Whether ``cmd`` reverses a spindle turning ``direction`` inside an ISTP chain."""
+    return isinstance(cmd, Spin) and indexing and direction != 0 and cmd.direction == -direction
+
+
 def refuse_rigid_tap(url: str, program) -> None:
     """OutputError, before a byte is sent, for a spindle reversed between ISTP moves (G33.1)."""
     indexing, direction = False, 0
@@ -194,12 +205,8 @@ def refuse_rigid_tap(url: str, program) -> None:
         if isinstance(cmd, (IStp, CStp)):
             indexing = isinstance(cmd, IStp)
         elif isinstance(cmd, Spin):
-            if indexing and direction and cmd.direction == -direction:
-                raise OutputError(f"{url}: command {k + 1} ({cmd}) reverses the spindle inside a "
-                                  f"synchronised (ISTP) chain, a rigid tap (G33.1); the firmware's "
-                                  f"indexer counts its encoder one way and cannot follow the spindle "
-                                  f"back; run rigid taps on sim://, or tap with G84/G74 and a "
-                                  f"floating holder")
+            if reverses_in_chain(cmd, indexing, direction):
+                raise OutputError(f"{url}: command {k + 1} ({cmd}) {RIGID_TAP_REASON}")
             direction = cmd.direction
 
 
