@@ -32,7 +32,11 @@ TAP_MILL = load_machine(HERE / "rs274-tap.toml")
 TAPS = sorted((HERE / "tapping").glob("*.ngc"))
 MOVES = ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "ARC_FEED", "NURBS_FEED", "RIGID_TAP")
 #: rs274's refusals and the line retrofit must name (counted by hand in the programs)
-REFUSED_AT = {"err-tap-no-k": (5, "G33.1 needs K"), "err-tap-spindle-stopped": (3, "G33.1 with the spindle stopped")}
+REFUSED_AT = {   # program: (line, retrofit's words, rs274's)
+    "err-tap-no-k": (5, "G33.1 needs K", "K word missing with g33/g33.1"),
+    "err-tap-spindle-stopped": (3, "G33.1 with the spindle stopped", "Spindle not turning in G33.1"),
+    "err-tap-cutter-comp": (6, r"G33.1 with cutter radius compensation on \(G41.1\)", "Bug code not g0 or g1"),
+}
 
 BASE = load_machine("mitic-lathe")
 SPM = BASE.axis("Z").steps_per_mm                               # 80 steps/mm
@@ -57,8 +61,8 @@ def rs274_moves(text: str) -> list[tuple]:
 def test_taps_agree_with_rs274(program):
     accepted, status, body = golden(program)
     if program.stem in REFUSED_AT:
-        line, words = REFUSED_AT[program.stem]
-        assert not accepted and "g33.1" in status.lower()
+        line, words, theirs = REFUSED_AT[program.stem]
+        assert not accepted and status == theirs
         with pytest.raises(GcodeError, match=rf"{program.name}:{line}: {words}"):
             load_program(program, TAP_MILL)
         return

@@ -77,6 +77,9 @@ def g33_1(tr, block, end: dict) -> None:
         raise RuleError(f"{block.texts['I']}: G33.1's I scales the spindle speed of the way out: "
                         f"above 0 and at most 10")
     spindle_turning(tr, "G33.1")
+    if tr.comp.geometry is not None:
+        raise RuleError(f"G33.1 with cutter radius compensation on (G{tr.comp.code:g}): a tap goes "
+                        f"where the program puts it, not beside it; G40 first")
     s = tr.state
     start = dict(s.position)
     check_soft_limits(tr.machine, end)
