@@ -19,7 +19,7 @@ import math
 from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, ZMov
 from ..config import Machine
 from ..motion.arcs import arc_columns, arc_extent
-from . import coords, cycles, feedcap, iowords, modalsave, pathcontrol, polar, probing, radiuscomp, spindle, splines, tools
+from . import coords, cycles, feedcap, iowords, modalsave, pathcontrol, polar, probing, radiuscomp, spindle, splines, tapping, tools
 from .arcwords import arc_center, chord_moves, plane_axes
 from .blocks import Block
 from .errors import RuleError
@@ -239,6 +239,9 @@ class Translator:
             cycles.run(self, block, mode)
             return
         end = self.state.target(block.axes, machine_coords)
+        if mode == 33.1:
+            tapping.g33_1(self, block, end)
+            return
         if mode == 33:
             self._needs_encoder("G33")
             g33(self, block, end)
