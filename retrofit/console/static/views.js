@@ -271,52 +271,6 @@ RV.localSource = function (run) {
   };
 };
 
-// The report's packed arrays (base64 of gzip of little-endian numbers, see report_html.packed)
-// as typed arrays; DecompressionStream is the browser's own gzip.
-RV.unpack = async function (b64, Type) {
-  const bin = atob(b64), bytes = new Uint8Array(bin.length);
-  for (let i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
-  const stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream("gzip"));
-  const planes = new Uint8Array(await new Response(stream).arrayBuffer());
-  const size = Type.BYTES_PER_ELEMENT, n = planes.length / size, out = new Uint8Array(planes.length);
-  for (let b = 0; b < size; b++) for (let i = 0; i < n; i++) out[i * size + b] = planes[b * n + i];
-  return new Type(out.buffer);
-};
-
-RV.unpackRun = async function (run) {
-  const mm = await RV.unpack(run.backplot.mm, Float32Array), n = run.backplot.axes, rows = [];
-  for (let i = 0; i + n <= mm.length; i += n) {            // rows as the console's state sends them
-    const at = Array.from(mm.subarray(i, i + n));
-    rows.push([0].concat(at, at));
-  }
-  run.backplot = rows;
-  const f = run.frames, deltas = await RV.unpack(f.ticks, Uint32Array);
-  const ticks = new Float64Array(deltas.length);
-  for (let i = 0, t = 0; i < deltas.length; i++) { t += deltas[i]; ticks[i] = t; }
-  f.ticks = ticks;
-  f.values = await RV.unpack(f.values, Uint8Array);
-  const tl = run.timeline, grid = await RV.unpack(tl.ticks, Uint32Array), t = new Float64Array(grid.length);
-  for (let i = 0, k = 0; i < grid.length; i++) { k += grid[i]; t[i] = k * run.tick_s; }
-  run.timeline = {};
-  run.window_s = tl.window_s;
-  for (const [name, ax] of Object.entries(tl.axes)) {
-    run.timeline[name] = {};
-    for (const [k, s] of Object.entries(ax)) {
-      const keep = await RV.unpack(s.i, Uint32Array);
-      run.timeline[name][k] = {t: Float64Array.from(keep, i => t[i]), y: await RV.unpack(s.y, Float32Array)};
-    }
-  }
-  const sg = run.preview.segments;
-  if (sg && sg.count !== undefined) {
-    const cut = await RV.unpack(sg.cut, Uint8Array), line = await RV.unpack(sg.line, Uint32Array);
-    const mm = await RV.unpack(sg.mm, Float32Array), n = sg.axes, round = (v) => Math.round(v * 1e4) / 1e4;
-    run.preview.segments = Array.from(cut, (c, i) => ({kind: c ? "cut" : "rapid", line: line[i] || null,
-      start: Array.from(mm.subarray(2 * n * i, 2 * n * i + n), round),
-      end: Array.from(mm.subarray(2 * n * i + n, 2 * n * (i + 1)), round)}));
-  }
-  return run;
-};
-
 // A source that asks the console's server (with the headers the page sets in RV.headers: its token).
 RV.headers = () => ({});
 RV.serverSource = {
