@@ -10,9 +10,9 @@ import sys
 import pytest
 
 from retrofit.config import load_machine
-from test_console_browser import CHROMEDRIVER, CHROMIUM, chromium, wait_for  # noqa: F401  (skip marks)
+from console_kit import chromium, needs_chromium, wait_for
 
-pytestmark = pytest.mark.skipif(not __import__("os").path.exists(CHROMEDRIVER), reason="needs chromium-driver")
+pytestmark = needs_chromium
 
 
 @pytest.fixture(scope="module")
@@ -56,6 +56,7 @@ def test_report_opens_offline_without_a_network_request(report_page):
     assert title == "lathe-profile.ngc on the chivu-lathe, backlash compensation on"
 
 
+@pytest.mark.slow
 def test_pulse_view_zooms_to_single_pulses_of_the_machines_width(report_page):
     driver, folder = report_page
     lathe = load_machine("chivu-lathe")

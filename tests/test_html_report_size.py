@@ -14,9 +14,9 @@ import pytest
 
 from retrofit.config import load_machine, machines_dir
 from retrofit.console.report_html import REPORT_BYTES
-from test_console_browser import CHROMEDRIVER, chromium, wait_for
+from console_kit import browser, needs_chromium, wait_for  # noqa: F401 (browser)
 
-pytestmark = pytest.mark.skipif(not Path(CHROMEDRIVER).exists(), reason="needs chromium-driver")
+pytestmark = [needs_chromium, pytest.mark.slow]
 CHIPS = Path(__file__).parent / "gcode" / "linuxcnc" / "3D_Chips.ngc"
 
 
@@ -31,13 +31,6 @@ def chips_job(folder: Path) -> tuple[str, str]:
         text = text.replace(old, new)
     (folder / "wide.toml").write_text(text)
     return str(program), str(folder / "wide.toml")
-
-
-@pytest.fixture(scope="module")
-def browser(tmp_path_factory):
-    driver = chromium(tmp_path_factory.mktemp("chromium-profile"))
-    yield driver
-    driver.quit()
 
 
 def make_report(folder: Path, program: str, machine: str) -> Path:
@@ -56,7 +49,6 @@ def open_report(browser, page: Path) -> dict:
                                   ".map(m => [m.name, Math.round(m.startTime)]))")
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("job", ["lathe", "engraving", "chips"])
 def test_report_size_and_what_it_draws(browser, tmp_path, job):
     program, machine = {"lathe": ("lathe-profile.ngc", "chivu-lathe"),

@@ -205,10 +205,10 @@ RV.attachRunViews = function (timelineDiv, pulsesDiv, source, endTick, tickS, vi
     if (kind === "timeline") {
       const fig = RV.timelineFigure(await source.timeline(t0, t1), violations, tickS);
       fig.layout.xaxis.range = [t0 * tickS, t1 * tickS];
-      await Plotly.react(div, fig.data, fig.layout, {displaylogo: false});
+      await Plotly.react(div, fig.data, fig.layout, {displaylogo: false, responsive: true});
     } else {
       const fig = RV.pulsesFigure(await source.pulses(t0, t1));
-      await Plotly.react(div, fig.data, fig.layout, {displaylogo: false});
+      await Plotly.react(div, fig.data, fig.layout, {displaylogo: false, responsive: true});
     }
     const ms = performance.now() - start;
     window.retrofitZoomMs.push({view: kind, ms: ms, t0: t0, t1: t1});
