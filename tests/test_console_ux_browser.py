@@ -177,6 +177,7 @@ def test_tul_mill_console_changes_t3_by_the_carousel_and_records_it(browser):
                           "document.getElementById('state').textContent === 'done'", timeout=120)
         assert browser.execute_script("return document.getElementById('tool').textContent") == "3"
         assert not browser.execute_script("return document.getElementById('dialog').open")
+        assert browser.find_element("id", "violations").text == "no violations"   # the magazine checked too
         report = browser.execute_script("return window.retrofitReport")
         changes = [e["text"] for e in report["events"] if e["kind"] == "tool change"]
         assert changes == ["tool change T0 -> T3 by the changer (condition 1)"]
