@@ -24,7 +24,7 @@ from ..config import Machine
 from ..frames import PortFrames
 from .api import STATIC, plotly_js
 from .packing import Store, ascii_page, ascii_script, escaped
-from .views import axis_steps, preview, timeline
+from .views import AVERAGE_S, TIMELINE_POINTS as WINDOW_POINTS, axis_steps, preview, timeline
 
 #: the most a report weighs (bytes); the pulse view's port frames fill what the rest leaves
 REPORT_BYTES = 2_000_000
@@ -135,6 +135,8 @@ def run_data(machine: Machine, frames: PortFrames, sim, report: dict, program, s
                   {"name": f"{a.name} dir", "bit": a.dir_bit, "inv": int(a.invert_dir)}]
     listed = source[:MAX_LISTING_CHARS].rsplit("\n", 1)[0] if len(source) > MAX_LISTING_CHARS else source
     return {"preview": pv, "backplot": backplot, "tick_s": machine.tick_s, "end_tick": end,
+            "per_mm": per_mm, "start_steps": list(start_steps or [0] * len(machine.axes)),
+            "average_s": AVERAGE_S, "window_points": WINDOW_POINTS,
             "timeline": packed_timeline(timeline(steps, machine, 0, end, carriage_at, TIMELINE_POINTS),
                                         machine.tick_s, store),
             "frames": {"lines": lines, "total": len(frames)},

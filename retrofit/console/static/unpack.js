@@ -89,5 +89,72 @@ RV.unpackRun = async function (run, store) {
       end: Array.from(ends.subarray(2 * a * i + a, 2 * a * (i + 1)), round)}));
   }
   run.source = await get(run.source);
+  run.steps = RV.axisSteps(run.frames, run.start_steps);
   return run;
+};
+
+// Every step of each axis in the port frames held, decoded as a driver decodes them (a rising step
+// edge, the direction line sampled at it): the tick of each and the position after it (steps).
+RV.axisSteps = function (f, starts) {
+  const out = [];
+  for (let k = 0; k + 1 < f.lines.length; k += 2) {
+    const st = f.lines[k], dr = f.lines[k + 1], ticks = [], position = [];
+    let before = 0, p = starts[k / 2];
+    for (let i = 0; i < f.values.length; i++) {
+      const v = f.values[i], level = ((v >> st.bit) & 1) ^ st.inv;
+      if (level && !before) {
+        p += (((v >> dr.bit) & 1) ^ dr.inv) ? 1 : -1;
+        ticks.push(f.ticks[i]);
+        position.push(p);
+      }
+      before = level;
+    }
+    out.push({ticks: Float64Array.from(ticks), position: Float64Array.from(position), start: starts[k / 2]});
+  }
+  return out;
+};
+
+RV.bisect = (a, x, right) => {                 // the first index whose value is > x (>= x when !right)
+  let lo = 0, hi = a.length;
+  while (lo < hi) { const m = (lo + hi) >> 1; if (right ? a[m] <= x : a[m] < x) lo = m + 1; else hi = m; }
+  return lo;
+};
+
+// How many points of the kept (downsampled) position trace of the first axis fall in [t0, t1).
+RV.keptIn = function (run, t0, t1) {
+  const s = Object.values(run.timeline)[0].position_mm;
+  return RV.bisect(s.t, t1 * run.tick_s, false) - RV.bisect(s.t, t0 * run.tick_s, false);
+};
+
+// A window of the timeline computed from every step, as the console's server computes it
+// (views.timeline): position, velocity and acceleration averaged over the stated window; the
+// carriage error is the kept trace's (the report holds no carriage per step).
+RV.fullTimeline = function (run, t0, t1) {
+  const n = run.window_points, ticks = [];
+  for (let i = 0; i < n; i++) {
+    const t = Math.round(t0 + (t1 - 1 - t0) * i / (n - 1));
+    if (!ticks.length || t !== ticks[ticks.length - 1]) ticks.push(t);
+  }
+  const spacing = ticks.length > 1 ? ticks[1] - ticks[0] : 1;
+  const half = Math.max(Math.floor(run.average_s / run.tick_s / 2), spacing, 1);
+  const out = {axes: {}, window_s: 2 * half * run.tick_s}, names = Object.keys(run.timeline);
+  const at = (s, t) => { const k = RV.bisect(s.ticks, t, true); return k ? s.position[k - 1] : s.start; };
+  const rate = (s, t) => {
+    const first = RV.bisect(s.ticks, t - half, false), last = RV.bisect(s.ticks, t + half, true) - 1;
+    if (last > first) return (s.position[last] - s.position[first]) / (s.ticks[last] - s.ticks[first]);
+    if (last === first) return (s.position[first] - (first ? s.position[first - 1] : s.start)) / (2 * half);
+    return 0;
+  };
+  names.forEach((name, i) => {
+    const s = run.steps[i], mm = run.per_mm[i], scale = 60 / (mm * run.tick_s), t = ticks.map(k => k * run.tick_s);
+    const error = run.timeline[name].error_mm, e0 = RV.bisect(error.t, t0 * run.tick_s, false) - 1;
+    const e1 = RV.bisect(error.t, t1 * run.tick_s, false) + 1;
+    out.axes[name] = {
+      position_mm: {t: t, y: ticks.map(k => at(s, k) / mm)},
+      velocity_mm_min: {t: t, y: ticks.map(k => rate(s, k) * scale)},
+      accel_mm_s2: {t: t, y: ticks.map(k => (rate(s, k + half) - rate(s, k - half)) * scale / 60 / (2 * half * run.tick_s))},
+      error_mm: {t: Array.from(error.t.subarray(Math.max(e0, 0), e1)), y: Array.from(error.y.subarray(Math.max(e0, 0), e1))},
+    };
+  });
+  return out;
 };

@@ -239,6 +239,9 @@ RV.localSource = function (run) {
   const bisect = (a, x) => { let lo = 0, hi = a.length; while (lo < hi) { const m = (lo + hi) >> 1; if (a[m] <= x) lo = m + 1; else hi = m; } return lo; };
   return {
     timeline: async (t0, t1) => {               // each trace's points in the window (min/max kept)
+      if (run.steps && (run.frames.shown === run.frames.total || t1 <= run.frames.ticks[run.frames.shown - 1]) &&
+          RV.keptIn(run, t0, t1) < run.window_points)
+        return RV.fullTimeline(run, t0, t1);    // zoomed in where the port frames are held: every step
       const out = {axes: {}, window_s: run.window_s}, a = t0 * run.tick_s, b = t1 * run.tick_s;
       for (const [name, ax] of Object.entries(run.timeline)) {
         out.axes[name] = {};
