@@ -118,3 +118,24 @@ def run_frames(program: str, machine):
     opts = SimpleNamespace(backlash_comp=True, reference=False, controller=False, urls=["sim://"],
                            keep_frames=True, keep_commands=True, before_outputs=None)
     return run_program(text, name, machine, opts, silent(STAGE_WEIGHTS)).log.frames
+
+
+def test_a_program_with_megabytes_of_comments_stays_within_the_limit(browser, tmp_path):
+    """1.5 MB of comments that do not pack (random letters): the report keeps the listing's first
+    lines within its share, says how many, and stays within 2 MB."""
+    import random
+    import string
+    r = random.Random(7)
+    lines = ["G21 G90", "G0 Z1", "G1 Z-0.5 F300"]
+    lines += [f"G1 X{10 + i % 7} Y{10 + i % 5} F1500 ; " + "".join(r.choices(string.ascii_letters, k=1500))
+              for i in range(1000)]
+    (tmp_path / "notes.ngc").write_text("\n".join(lines + ["G0 Z1", "M30"]) + "\n")
+    page = make_report(tmp_path, "notes.ngc", "engraver")
+    assert page.stat().st_size <= REPORT_BYTES
+    open_report(browser, page)
+    seen = browser.execute_script("return {rows: [...document.querySelectorAll('#listing > div')].map(d => "
+                                  "d.childNodes[1].textContent), notes: [...document.querySelectorAll('.note')]"
+                                  ".map(p => p.textContent)}")
+    kept = len(seen["rows"])
+    assert 10 < kept < len(lines) and seen["rows"] == lines[:kept]
+    assert f"the listing shows the first {kept} of {len(lines) + 2} lines" in seen["notes"]

@@ -39,9 +39,10 @@ FRAME_CHUNK = 131_072
 MAX_FRAMES = 4_000_000
 #: carriage points of the embedded backplot at most
 BACKPLOT_POINTS = 20_000
-#: preview segments embedded at most, and characters of the program's listing
-MAX_SEGMENTS = 100_000
-MAX_LISTING_CHARS = 1_000_000
+#: packed bytes the preview's segments and the program's listing take at most (the first ones
+#: that fit are kept, and the page says so)
+SEGMENT_BYTES = 150_000
+LISTING_BYTES = 120_000
 
 
 def write_html_report(args, log, sim, report: dict, commands=None, target: Path | None = None,
@@ -133,14 +134,14 @@ def run_data(machine: Machine, frames: PortFrames, sim, report: dict, program, s
     for a in machine.axes:
         lines += [{"name": f"{a.name} step", "bit": a.step_bit, "inv": int(a.invert_step)},
                   {"name": f"{a.name} dir", "bit": a.dir_bit, "inv": int(a.invert_dir)}]
-    listed = source[:MAX_LISTING_CHARS].rsplit("\n", 1)[0] if len(source) > MAX_LISTING_CHARS else source
+    listed, _ = packed_within(store, lambda lines: store.text("\n".join(lines)), source.splitlines(), LISTING_BYTES)
     return {"preview": pv, "backplot": backplot, "tick_s": machine.tick_s, "end_tick": end,
             "per_mm": per_mm, "start_steps": list(start_steps or [0] * len(machine.axes)),
             "average_s": AVERAGE_S, "window_points": WINDOW_POINTS,
             "timeline": packed_timeline(timeline(steps, machine, 0, end, carriage_at, TIMELINE_POINTS),
                                         machine.tick_s, store),
             "frames": {"lines": lines, "total": len(frames)},
-            "source": store.text(listed), "source_lines": len(source.splitlines()),
+            "source": listed, "source_lines": len(source.splitlines()),
             "violations": report.get("violations", [])}
 
 
@@ -184,14 +185,28 @@ def packed_timeline(data: dict, tick_s: float, store: Store, points: int = TRACE
 
 def packed_segments(segments: list[dict], per_mm: list[float], store: Store) -> dict:
     """The preview's segments packed: kind (0 rapid, 1 cut), program line, and their start and end
-    points quantised to the step (the first :data:`MAX_SEGMENTS`)."""
-    segments = segments[:MAX_SEGMENTS]
+    points quantised to the step (the first ones that fit in :data:`SEGMENT_BYTES`)."""
     axes = len(per_mm)
-    points = np.array([s["start"] + s["end"] for s in segments], np.float64).reshape(-1, axes)
-    return {"count": len(segments), "axes": axes,
-            "cut": store.array([s["kind"] == "cut" for s in segments], np.uint8),
-            "line": store.array([s["line"] or 0 for s in segments], np.uint32),
-            "mm": store.steps(points, per_mm)}
+
+    def pack(kept):
+        points = np.array([s["start"] + s["end"] for s in kept], np.float64).reshape(-1, axes)
+        return {"count": len(kept), "axes": axes, "cut": store.array([s["kind"] == "cut" for s in kept], np.uint8),
+                "line": store.array([s["line"] or 0 for s in kept], np.uint32), "mm": store.steps(points, per_mm)}
+    return packed_within(store, pack, segments, SEGMENT_BYTES)[0]
+
+
+def packed_within(store: Store, pack, items: list, limit: int):
+    """(``pack(items[:n])``, n) for the first ``n`` items whose blocks take at most ``limit`` bytes
+    of ``store`` (all of them when they fit; cut by the share that fits, a few tries)."""
+    n = len(items)
+    while True:
+        before = len(store.blocks)
+        ref = pack(items[:n])
+        used = sum(len(b) for b in store.blocks[before:])
+        if used <= limit or n == 0:
+            return ref, n
+        store.drop(before)
+        n = int(n * limit / used * 0.95)
 
 
 def _summary(report: dict) -> list[str]:
