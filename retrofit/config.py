@@ -22,6 +22,8 @@ DB25_DATA_PINS = tuple(range(2, 10))
 PORT_KINDS = ("db25", "ramps", "none")
 #: the axis letters of RS274 (LinuxCNC's XYZABCUVW): an axis is named by one of them ...
 AXIS_NAMES = "XYZABCUVW"
+#: ... of which A, B and C turn (degrees: retrofit.rotary)
+ROTARY_NAMES = "ABC"
 #: ... or by E, the drive of a tool carousel (an axis no G-code word moves; [atc] axis = "E")
 AUX_AXIS_NAMES = "E"
 #: the largest step count a position may have: a signed 32-bit count, as the firmware keeps it
@@ -50,6 +52,8 @@ class Axis:
     dir_pin: int | None
     invert_step: bool = False
     invert_dir: bool = False
+    rotary: bool = False        # A, B, C: every "mm" of this axis is a degree
+    wrap: bool = False          # a rotary axis without limits: G90 moves take the shorter way round
 
     @property
     def backlash_steps(self) -> int:
@@ -238,6 +242,9 @@ def _read_axis(key: str, sec: Section, port: str, index: int) -> Axis:
         step_pin = sec.get_int("step_pin", minval=0, maxval=255, why=why.format("step_pin")) if required else None
         dir_pin = sec.get_int("dir_pin", minval=0, maxval=255, why=why.format("dir_pin")) if required else None
         step_bit, dir_bit = 2 * index, 2 * index + 1
+    if key.upper() in ROTARY_NAMES:
+        from .rotary import read_rotary
+        return read_rotary(key, sec, step_pin, dir_pin, step_bit, dir_bit)
     steps_per_mm = sec.get_float("steps_per_mm", above=0.0, maxval=1e6)
     reach = STEPS_MAX / steps_per_mm            # the travel a signed 32-bit step count covers
     min_mm = sec.get_float("min_mm", minval=-reach, maxval=reach)

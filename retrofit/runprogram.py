@@ -91,6 +91,9 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
         run.program = compile_program(text, machine, file=name, tool_table=tool_table,
                                       spindle_tool=spindle_tool, probe=prober,
                                       on_progress=lambda done: progress.fraction("compile", done))
+        for file, number, kind, text in run.program.messages:
+            if kind == "WARNING":                  # e.g. a feed lowered to the machine's fastest
+                print(f"{file}:{number}: warning: {text}", file=sys.stderr)
         opened = prober.handoff() if hasattr(prober, "handoff") and prober.moves else None
         if prober is not None and prober.moves and opened is None:
             refuse_real_probing(opts.urls, name)

@@ -38,9 +38,6 @@ REFUSED: dict[str, str] = {
     "G33.1": "rigid tapping is not supported (the indexer follows a spindle turning one way); "
              "tap with G84/G74 and a floating holder",
     "G43.2": "G43.2 is not supported (use G43 H or G43.1)", "G52": "G52 is not supported (use G92)",
-    **dict.fromkeys(("G71", "G71.1", "G71.2", "G72", "G72.1", "G72.2"),
-                    "the lathe roughing cycles G71 and G72 are not supported (G70 finishing is); "
-                    "write the roughing passes out (or with an O-word loop)"),
     **dict.fromkeys(("M67", "M68"), "analog outputs are not supported (the boards have none)"),
     "M19": "spindle orientation is not supported",
 }

@@ -65,7 +65,7 @@ class Interpreter:
         self.params = translator.state.params
         self.search_path = [Path(p) for p in search_path]
         self.sources: dict[str, Source] = {}
-        self.messages: list[tuple[str, int, str, str]] = []
+        self.messages: list[tuple[str, int, str, str]] = translator.messages
         self.steps = 0
         #: called now and then with the share of the main program's lines run (a progress bar)
         self.on_progress = None
@@ -127,7 +127,7 @@ class Interpreter:
 
     def _line(self, src: Source, line) -> bool:
         """One line of words; True when it ends the program."""
-        if line.plain and ("G", 70.0) not in line.words:
+        if line.plain and not lathecycles.is_cycle(line.words):
             return self.tr.run(make_block(line.number, line.words, self.machine), src.file)
         for kind, text in line.messages:
             self.messages.append((src.file, line.number, kind, self._substitute(text)))
@@ -141,8 +141,8 @@ class Interpreter:
                 self.params.write(ref, value)
         if not words:
             return False
-        if ("G", 70.0) in words:
-            return lathecycles.run_g70(self, src, line, words)
+        if lathecycles.is_cycle(words):
+            return lathecycles.run_cycle(self, src, line, words)
         return self.tr.run(make_block(line.number, words, self.machine), src.file)
 
     def _ref(self, target):
