@@ -250,7 +250,7 @@ RV.unpack(store, packedRun.plotly).then(code => {{
 performance.mark("unpacked");
 window.retrofitRun = run;
 const listing = document.getElementById("listing");
-run.source.replace(/\\n$/, "").split("\\n").forEach((text, i) => {{
+run.source.split("\\n").forEach((text, i) => {{
   const row = document.createElement("div"), n = document.createElement("span");
   row.id = "L" + (i + 1); n.className = "n"; n.textContent = i + 1;
   row.append(n, text);
