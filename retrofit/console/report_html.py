@@ -121,9 +121,8 @@ def run_data(machine: Machine, frames: PortFrames, sim, report: dict, program, s
     else:
         pv = {"lathe": is_lathe(machine), "axes": [{"name": a.name, "label": a.label, "min": a.min_mm,
               "max": a.max_mm} for a in machine.axes], "segments": [], "rapids": 0, "cuts": 0}
-    carriage = np.asarray(carriage_path(sim), np.float64)
-    stride = max(1, len(carriage) // BACKPLOT_POINTS)
-    backplot = {"axes": len(machine.axes), "mm": store.steps(carriage[::stride], per_mm)}
+    carriage = np.asarray(carriage_path(sim, BACKPLOT_POINTS), np.float64)
+    backplot = {"axes": len(machine.axes), "mm": store.steps(carriage, per_mm)}
 
     def carriage_at(i, ticks):
         trace = sim.traces[machine.axes[i].name]
