@@ -58,7 +58,7 @@ RV.drawPreview = function (div, pv, title, opts) {
       return [Math.max(lo, mn - m), Math.min(hi, mx + m)];
     };
     div.dataset.position = "";
-    Plotly.newPlot(div, traces, {title: {text: title || "", font: {size: 14}}, margin: {t: 40, l: 60, r: 10, b: 50},
+    Plotly.newPlot(div, traces, {title: {text: title || "", font: {size: 14}, x: 0.01, xanchor: "left"}, margin: {t: 40, l: 60, r: 10, b: 50},
       xaxis: {title: {text: RV.axisTitle(ah)}, range: span(xs.concat(pv.stock ? pv.stock.z : []), ah.min, ah.max)},
       yaxis: {title: {text: RV.axisTitle(av)}, scaleanchor: "x", range: span(ys, av.min, av.max)},
       legend: {orientation: "h", y: -0.2}}, {responsive: true, displaylogo: false});
@@ -84,7 +84,7 @@ RV.drawPreview = function (div, pv, title, opts) {
     const framed = RV.frame(pv.segments), scene = Object.assign({aspectmode: "data"}, framed);
     ["xaxis", "yaxis", "zaxis"].forEach((a, i) => { scene[a] = Object.assign(t(i), framed[a]); });
     div.dataset.position = "";
-    Plotly.newPlot(div, traces, {title: {text: title || "", font: {size: 14}}, margin: {t: 40, l: 0, r: 0, b: 0},
+    Plotly.newPlot(div, traces, {title: {text: title || "", font: {size: 14}, x: 0.01, xanchor: "left"}, margin: {t: 40, l: 0, r: 0, b: 0},
       scene: scene, legend: {orientation: "h"}}, {responsive: true, displaylogo: false});
   }
   return {rapids: pv.rapids, cuts: pv.cuts};
