@@ -77,13 +77,15 @@ class RecordCompiler:
         return [axis.take() for axis in self.axes]
 
 
+    def finish(self, end_tick: int) -> list[list[int]]:
+        """The records left at the run's end (a pulse still high is closed at ``end_tick``)."""
+        for axis in self.axes:
+            if axis.rising:
+                axis.feed(end_tick, axis.dir_mask if axis.dir else 0)
+        return [axis.take() for axis in self.axes]
+
+
 def compile_records(machine, frames: PortFrames) -> list[list[int]]:
-    """All records of a whole run's frames, per axis (a pulse still high at the end is closed at
-    ``frames.end_tick``)."""
+    """All records of a whole run's frames, per axis."""
     comp = RecordCompiler(machine)
-    words = comp.feed(frames)
-    for axis, out in zip(comp.axes, words):
-        if axis.rising:
-            axis.feed(frames.end_tick, axis.dir_mask if axis.dir else 0)
-            out.extend(axis.take())
-    return words
+    return [a + b for a, b in zip(comp.feed(frames), comp.finish(frames.end_tick))]

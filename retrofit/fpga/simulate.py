@@ -1,14 +1,16 @@
 """The pulse engine in Amaranth's simulator, fed a run's pulse records, its pins recorded as port
 frames (what ``fpga-sim://`` and the tests compare with ``sim://``'s frames).
 
-The host model writes one record per clock cycle into whichever FIFO has room (round robin), primes
-the FIFOs before the first tick, then sets ``run``. With ``clocks_per_tick`` = K the pins are read
-at each tick's clock; tick n is the n-th tick after ``run``.
+The host model writes one record per clock cycle into whichever FIFO has room (round robin),
+primes the FIFOs before the first tick, then sets ``run``. With ``clocks_per_tick`` = K the pins
+are read at each tick's clock; tick n is the n-th tick after ``run``. Records can be added while
+the simulation runs (:meth:`GateSim.add`, then :meth:`GateSim.run_to`), so a streamed run is
+simulated chunk by chunk.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from amaranth.hdl import Cat, Module, Signal
@@ -28,7 +30,6 @@ class GateRun:
     fault: bool = False
     cycles: int = 0
     fault_tick: int | None = None
-    events: dict = field(default_factory=dict)
 
 
 def engine_for(machine, clocks_per_tick: int = 1, depth: int = 16) -> PulseEngine:
@@ -36,76 +37,104 @@ def engine_for(machine, clocks_per_tick: int = 1, depth: int = 16) -> PulseEngin
     return PulseEngine([AxisTiming.of(a) for a in machine.axes], clocks_per_tick, depth)
 
 
-def simulate(machine, words: list[list[int]], end_tick: int, clocks_per_tick: int = 1,
-             stop_tick: int | None = None, late_feed: dict | None = None, depth: int = 16) -> GateRun:
-    """Run the engine for ``end_tick`` ticks on per-axis records ``words``; its pins as frames.
+class GateSim:
+    """One simulated engine, its host model and the record of its pins, run tick range by range.
 
     ``stop_tick`` raises ``stop`` from that tick on; ``late_feed`` = {axis: tick} holds back that
     axis's records after the first until that tick (to provoke an underrun).
     """
-    dut = engine_for(machine, clocks_per_tick, depth)
-    pins = PinMap(machine)
-    n = len(machine.axes)
-    queues = [list(w) for w in words]
-    heads = [0] * n
-    out: dict = {"ticks": [], "values": []}
-    status: dict = {}
 
-    top = Module()
-    top.submodules.engine = dut
-    watch = Signal(3 * n + 2)          # step pins, dir pins, FIFOs with room, underrun, fault: one read
-    top.d.comb += watch.eq(Cat(*dut.steps, *dut.dirs, *[a.fifo.w_rdy for a in dut.axes], dut.underrun, dut.fault))
+    def __init__(self, machine, clocks_per_tick: int = 1, stop_tick: int | None = None,
+                 late_feed: dict | None = None, depth: int = 16):
+        self.dut = dut = engine_for(machine, clocks_per_tick, depth)
+        self.pins, self.n, self.k = PinMap(machine), len(machine.axes), clocks_per_tick
+        self.stop_tick, self.late_feed, self.depth = stop_tick, late_feed or {}, depth
+        self.queues: list[list[int]] = [[] for _ in range(self.n)]
+        self.heads = [0] * self.n
+        self.ticks: list[int] = []
+        self.values: list[int] = []
+        self.tick, self.cycles, self.fault_tick = 0, 0, None
+        self._limit = 0
+        top = Module()
+        top.submodules.engine = dut
+        self.watch = Signal(3 * self.n + 2)   # step pins, dir pins, FIFOs with room, underrun, fault
+        top.d.comb += self.watch.eq(Cat(*dut.steps, *dut.dirs, *[a.fifo.w_rdy for a in dut.axes],
+                                        dut.underrun, dut.fault))
+        self.sim = Simulator(top)
+        self.sim.add_clock(1e-6 / clocks_per_tick)
+        self.sim.add_testbench(self._bench)
+        self.status: dict = {}
 
-    def feed(ctx, tick: int, seen: int) -> None:
+    def add(self, words: list[list[int]]) -> None:
+        """More records per axis (they follow the ones already given)."""
+        for queue, more in zip(self.queues, words):
+            queue.extend(more)
+
+    def run_to(self, end_tick: int) -> None:
+        """Simulate until the pins of ticks before ``end_tick`` are recorded."""
+        self._limit = max(self._limit, end_tick)
+        while self.tick < self._limit:
+            self.sim.advance()
+
+    def result(self, end_tick: int) -> GateRun:
+        """The pins of ticks 0..end_tick-1 as frames, and the engine's status."""
+        self.run_to(end_tick)
+        frames = PortFrames(np.array(self.ticks, np.int64), np.array(self.values, np.uint8), end_tick)
+        s = self.status
+        return GateRun(frames, s["positions"], s["underrun"], s["fault"], s["cycles"], self.fault_tick)
+
+    def _feed(self, ctx, tick: int, seen: int) -> None:
         """Write one record (if any axis has room and something to send) before the next edge."""
+        dut, n = self.dut, self.n
         for k in range(n):
             a = (tick + k) % n
-            held = late_feed is not None and a in late_feed and heads[a] >= 1 and tick < late_feed[a]
-            if heads[a] < len(queues[a]) and not held and seen >> (2 * n + a) & 1:
+            held = a in self.late_feed and self.heads[a] >= 1 and tick < self.late_feed[a]
+            if self.heads[a] < len(self.queues[a]) and not held and seen >> (2 * n + a) & 1:
                 ctx.set(dut.wr_axis, a)
-                ctx.set(dut.wr_data, queues[a][heads[a]])
+                ctx.set(dut.wr_data, self.queues[a][self.heads[a]])
                 ctx.set(dut.wr_en, 1)
-                heads[a] += 1
+                self.heads[a] += 1
                 return
         ctx.set(dut.wr_en, 0)
 
-    async def bench(ctx):
-        for _ in range(depth * n + 2):                   # prime the FIFOs
-            feed(ctx, 0, ctx.get(watch))
+    async def _bench(self, ctx):
+        dut, n, k = self.dut, self.n, self.k
+        for _ in range(self.depth * n + 2):                   # prime the FIFOs
+            self._feed(ctx, 0, ctx.get(self.watch))
             await ctx.tick()
         ctx.set(dut.run, 1)
-        last, tick, cycle, seen = -1, 0, 0, ctx.get(watch)
-        mask_pins, last_pins = (1 << 2 * n) - 1, -1
-        while tick < end_tick:
-            if stop_tick is not None and tick >= stop_tick:
+        last, seen, last_pins, mask_pins = -1, ctx.get(self.watch), -1, (1 << 2 * n) - 1
+        while True:
+            if self.stop_tick is not None and self.tick >= self.stop_tick:
                 ctx.set(dut.stop, 1)
-            feed(ctx, tick, seen)
+            self._feed(ctx, self.tick, seen)
             await ctx.tick()
-            seen = ctx.get(watch)
-            cycle += 1
-            if clocks_per_tick > 1 and (cycle - 1) % clocks_per_tick:
+            seen = ctx.get(self.watch)
+            self.cycles += 1
+            if k > 1 and (self.cycles - 1) % k:
                 continue
             if seen & mask_pins != last_pins:
                 last_pins = seen & mask_pins
-                value = pins.byte([seen >> a & 1 for a in range(n)], [(seen >> (n + a) & 1) * 2 - 1 for a in range(n)])
+                value = self.pins.byte([seen >> a & 1 for a in range(n)],
+                                       [(seen >> (n + a) & 1) * 2 - 1 for a in range(n)])
                 if value != last:
-                    out["ticks"].append(tick)
-                    out["values"].append(value)
+                    self.ticks.append(self.tick)
+                    self.values.append(value)
                     last = value
-            if status.get("fault_tick") is None and seen >> (3 * n):
-                status["fault_tick"] = tick
-            tick += 1
-        status["positions"] = [ctx.get(a.position) for a in dut.axes]
-        status["underrun"], status["fault"] = bool(ctx.get(dut.underrun)), bool(ctx.get(dut.fault))
-        status["cycles"] = cycle
+            if self.fault_tick is None and seen >> (3 * n):
+                self.fault_tick = self.tick
+            self.tick += 1
+            self.status = {"positions": [ctx.get(a.position) for a in dut.axes],
+                           "underrun": bool(seen >> (3 * n) & 1), "fault": bool(seen >> (3 * n + 1) & 1),
+                           "cycles": self.cycles} if self.tick == self._limit else self.status
 
-    sim = Simulator(top)
-    sim.add_clock(1e-6 / clocks_per_tick)
-    sim.add_testbench(bench)
-    sim.run()
-    frames = PortFrames(np.array(out["ticks"], np.int64), np.array(out["values"], np.uint8), end_tick)
-    return GateRun(frames, status["positions"], status["underrun"], status["fault"], status["cycles"],
-                   status.get("fault_tick"))
+
+def simulate(machine, words: list[list[int]], end_tick: int, clocks_per_tick: int = 1,
+             stop_tick: int | None = None, late_feed: dict | None = None, depth: int = 16) -> GateRun:
+    """Run the engine for ``end_tick`` ticks on per-axis records ``words``; its pins as frames."""
+    gate = GateSim(machine, clocks_per_tick, stop_tick, late_feed, depth)
+    gate.add(words)
+    return gate.result(end_tick)
 
 
 def first_difference(expected: PortFrames, got: PortFrames) -> str | None:
@@ -113,13 +142,12 @@ def first_difference(expected: PortFrames, got: PortFrames) -> str | None:
     if expected == got:
         return None
     end = max(expected.end_tick, got.end_tick)
-    ticks = np.union1d(expected.ticks, got.ticks)
-    for tick in ticks.tolist() + [end]:
+    for tick in np.union1d(expected.ticks, got.ticks).tolist() + [end]:
         want = expected.value_at(tick) if tick < expected.end_tick else None
         have = got.value_at(tick) if tick < got.end_tick else None
         if want != have:
-            fmt = lambda v: "ended" if v is None else f"{v:08b}"
-            return f"tick {tick}: reference {fmt(want)}, gateware {fmt(have)}"
+            shown = ["ended" if v is None else f"{v:08b}" for v in (want, have)]
+            return f"tick {tick}: reference {shown[0]}, gateware {shown[1]}"
     return f"same levels, frames differ (ends {expected.end_tick} / {got.end_tick})"
 
 
