@@ -74,7 +74,7 @@ def test_underrun_stops_every_axis_and_latches():
     assert run.underrun and not run.fault
     step_y, _ = pin_levels(COARSE, run.frames, 1)
     assert run.positions[0] == -1                 # only X's first pulse went out
-    assert 60 <= run.fault_tick <= 62             # flagged when the late record comes
+    assert 60 <= run.fault_tick <= 63             # flagged when the late record reaches the head
     step_x, _ = pin_levels(COARSE, run.frames, 0)
     assert step_y[:run.fault_tick].sum() > 0
     assert not step_y[run.fault_tick + 1:].any() and not step_x[run.fault_tick + 1:].any()

@@ -56,41 +56,45 @@ class AxisEngine(Elaboratable):
         self.halt = Signal()                    # in: empty the FIFO, drop the step pin
         self.step = Signal()                    # out: the step pin (logical level)
         self.dir = Signal()                     # out: the direction pin (1 = positive)
-        self.position = Signal(signed(32))      # out: rises counted, +1 / -1 by direction
+        self.position = Signal(signed(24))      # out: rises counted, +1 / -1 by direction
         self.late = Signal()                    # out: the head record's tick has passed
         self.refused = Signal()                 # out: the head record breaks the driver's timing
         self.fired = Signal()                   # out: an event is made this tick
+        self.waiting = Signal(range(depth + 2))  # out: records not yet fired (FIFO and head)
 
     def elaborate(self, platform):
         m = Module()
-        fifo = m.submodules.fifo = ResetInserter(self.halt)(self.fifo)
-        head = PulseRecord(self.fifo.r_data)
+        m.submodules.fifo = ResetInserter(self.halt)(self.fifo)
+        head = PulseRecord(Signal(RECORD_BITS))          # the next record, out of the FIFO's RAM
+        head_valid = Signal()
         since_event = Signal(range(MAX_DELAY + 2))      # next tick's distance from the last event
         high = Signal(8)                                # step-high ticks still to come
         since_rise = Signal(range(GUARD_MAX + 1), init=GUARD_MAX)
         since_turn = Signal(range(GUARD_MAX + 1), init=GUARD_MAX)
         t = self.timing
 
-        due = self.fifo.r_rdy & (head.delay == since_event)
+        due = head_valid & (head.delay == since_event)
         turning = head.dir != self.dir
         rising = head.width != 0
-        gap_rise = Signal(range(GUARD_MAX + 2))
-        gap_turn = Signal(range(GUARD_MAX + 2))
         m.d.comb += [
-            gap_rise.eq(since_rise + 1),
-            gap_turn.eq(since_turn + 1),
             self.step.eq((high != 0) & ~self.halt),
-            self.late.eq(self.fifo.r_rdy & (head.delay < since_event)),
-            self.refused.eq(due & ((turning & (gap_rise < t.hold))
-                                   | (rising & (gap_rise < t.period))
+            self.late.eq(head_valid & (head.delay < since_event)),
+            # the event tick is since_* + 1 ticks after the last rise / turn: compared with constants
+            self.refused.eq(due & ((turning & (since_rise < t.hold - 1))
+                                   | (rising & (since_rise < t.period - 1))
                                    | (rising & turning & (t.setup > 0))
-                                   | (rising & (gap_turn < t.setup)))),
+                                   | (rising & (since_turn < t.setup - 1)))),
             self.fired.eq(self.tick & due & ~self.refused & ~self.halt),
-            self.fifo.r_en.eq(self.fired),
+            self.fifo.r_en.eq(~head_valid | self.fired),
         ]
         with m.If(self.halt):
-            m.d.sync += [high.eq(0), since_event.eq(0)]
-        with m.Elif(self.tick):
+            m.d.sync += [high.eq(0), since_event.eq(0), head_valid.eq(0)]
+        with m.Elif(self.fifo.r_rdy & self.fifo.r_en):      # the head register refilled
+            m.d.sync += [head.eq(self.fifo.r_data), head_valid.eq(1)]
+        with m.Elif(self.fired):
+            m.d.sync += head_valid.eq(0)
+        m.d.comb += self.waiting.eq(self.fifo.level + head_valid)
+        with m.If(self.tick & ~self.halt):
             self._count(m, since_event, MAX_DELAY + 1, restart=self.fired, to=1)
             self._count(m, since_turn, GUARD_MAX, restart=self.fired & turning, to=0)
             self._count(m, since_rise, GUARD_MAX, restart=self.fired & rising, to=0)
@@ -130,8 +134,8 @@ class PulseEngine(Elaboratable):
         self.wr_en = Signal()
         self.wr_rdy = Signal()
         self.rd_axis = Signal(range(max(n, 2)))
-        self.rd_position = Signal(signed(32))
-        self.rd_level = Signal(range(depth + 1))
+        self.rd_position = Signal(signed(24))
+        self.rd_level = Signal(range(depth + 2))
         self.run = Signal()                 # the host primed the FIFOs: ticks may start
         self.stop = Signal()
         self.clear = Signal()
@@ -155,7 +159,7 @@ class PulseEngine(Elaboratable):
             with m.If(selected):
                 m.d.comb += self.wr_rdy.eq(axis.fifo.w_rdy & ~self.halted)
             with m.If(self.rd_axis == k):
-                m.d.comb += [self.rd_position.eq(axis.position), self.rd_level.eq(axis.fifo.level)]
+                m.d.comb += [self.rd_position.eq(axis.position), self.rd_level.eq(axis.waiting)]
             with m.If(self.tick & axis.late & ~self.halted):
                 m.d.sync += self.underrun.eq(1)
             with m.If(self.tick & axis.refused & ~self.halted):
