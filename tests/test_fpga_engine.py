@@ -107,3 +107,44 @@ def test_pins_equal_the_reference_on_200_random_programs(batch):
         run, diff = gateware_equals(machine, frames)
         assert diff is None, f"seed {seed}: {diff}\n{text}"
         assert not run.underrun and not run.fault, f"seed {seed}"
+
+
+def quiet_start(frames, near: int, quiet: int = 300) -> int:
+    """A tick at or after ``near`` with no pin change in the ``quiet`` ticks before it and the 20
+    after it: there the gateware can start from the pins' levels alone (its guards are past)."""
+    ticks = frames.ticks
+    for i in range(int(np.searchsorted(ticks, near)), len(ticks) - 1):
+        if ticks[i + 1] - ticks[i] >= quiet + 20:
+            return int(ticks[i]) + quiet
+    raise AssertionError(f"no quiet stretch after tick {near}")
+
+
+def window(frames, start: int, length: int):
+    """The frames of ticks start..start+length-1, counted from 0 (the levels at ``start`` first)."""
+    from retrofit.frames import PortFrames
+    lo = int(np.searchsorted(frames.ticks, start, side="right"))
+    hi = int(np.searchsorted(frames.ticks, start + length))
+    ticks = np.concatenate(([0], frames.ticks[lo:hi] - start))
+    values = np.concatenate(([frames.value_at(start)], frames.values[lo:hi]))
+    return PortFrames(ticks, values, length)
+
+
+@pytest.fixture(scope="module")
+def engraving_frames():
+    from importlib import resources
+    text = (resources.files("retrofit") / "examples" / "engraving.ngc").read_text()
+    return frames_of(text, ENGRAVER)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fraction", [0.0, 0.3, 0.6, 0.9], ids=["start", "30pc", "60pc", "90pc"])
+def test_pins_equal_the_reference_on_windows_of_the_shipped_engraving(engraving_frames, fraction):
+    """engraving.ngc at the engraver's own 1 us tick (95 M ticks in all): 30 000-tick windows that
+    start where the pins have been still for 300 ticks, at four places along the run."""
+    frames = engraving_frames
+    start = 0 if fraction == 0 else quiet_start(frames, int(frames.end_tick * fraction))
+    part = window(frames, start, 30_000)
+    assert len(part) > 20, "a window with pulses in it"
+    run, diff = gateware_equals(ENGRAVER, part)
+    assert diff is None, f"window from tick {start}: {diff}"
+    assert not run.underrun and not run.fault
