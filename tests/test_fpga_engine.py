@@ -41,7 +41,7 @@ def test_pins_equal_the_reference_on_a_short_move_with_a_reversal():
 
 
 def test_pins_equal_the_reference_when_the_fpga_clock_is_three_ticks():
-    frames = frames_of("G1 X0.05 Y0.03 F3000\nG1 Y0.01\n")
+    frames = frames_of("G1 X0.025 Y0.0125 F3000\nG1 Y0\n")
     run, diff = gateware_equals(COARSE, frames, clocks_per_tick=3)
     assert diff is None, diff
     assert run.cycles == 3 * (frames.end_tick - 1) + 1      # tick n is read at clock 3n + 1
