@@ -148,3 +148,17 @@ def test_pins_equal_the_reference_on_windows_of_the_shipped_engraving(engraving_
     run, diff = gateware_equals(ENGRAVER, part)
     assert diff is None, f"window from tick {start}: {diff}"
     assert not run.underrun and not run.fault
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("batch", range(4), ids=[f"seeds-{1000 + 5 * b}-{1004 + 5 * b}" for b in range(4)])
+def test_pins_equal_the_reference_with_two_fpga_clocks_a_tick(batch):
+    """With two or more clocks a tick (every board build) the engine decides a clock ahead of the
+    tick (registered): 20 more random programs with the FPGA clock twice the tick."""
+    from tests.fpga_programs import random_machine, random_program
+    for seed in range(1000 + 5 * batch, 1005 + 5 * batch):
+        rng = np.random.default_rng(seed)
+        machine, text = random_machine(rng), random_program(rng)
+        run, diff = gateware_equals(machine, frames_of(text, machine), clocks_per_tick=2)
+        assert diff is None, f"seed {seed}: {diff}\n{text}"
+        assert not run.underrun and not run.fault, f"seed {seed}"

@@ -1,4 +1,4 @@
-"""The pulse engine on a real iCE40 board: its pins (the board file), a 24 MHz clock from the PLL,
+"""The pulse engine on a real iCE40 board: its pins (the board file), a 36 MHz clock from the PLL,
 and the build with Yosys and nextpnr-ice40 (the YoWASP builds from PyPI unless ``YOSYS``,
 ``NEXTPNR_ICE40`` and ``ICEPACK`` name other ones), read back as resources and the maximum clock.
 
@@ -26,10 +26,10 @@ from .spi import SpiBridge
 
 #: board name -> (module, platform class) in amaranth-boards
 BOARDS = {"icebreaker": ("amaranth_boards.icebreaker", "ICEBreakerPlatform")}
-#: the FPGA clock: the board's 12 MHz through the PLL (DIVR 0, DIVF 63, DIVQ 5: 12 * 64 / 32);
-#: the engine places at about 33 MHz (docs/fpga.md), so 48 MHz (DIVQ 4) is not used yet
-CLOCK_HZ = 24e6
-DIVQ = 5
+#: the FPGA clock: the board's 12 MHz through the PLL (DIVR 0, DIVF 47, DIVQ 4: 12 * 48 / 16);
+#: the engine places at about 44 MHz (docs/fpga.md), so not yet at 48 MHz (DIVF 63)
+CLOCK_HZ = 36e6
+DIVF = 47
 
 _LVCMOS = Attrs(IO_STANDARD="SB_LVCMOS")
 RESOURCES = [
@@ -60,9 +60,9 @@ class BoardTop(Elaboratable):
         m = Module()
         m.domains.sync = ClockDomain("sync")
         locked, pll_clk = Signal(), Signal()
-        platform.add_clock_constraint(pll_clk, CLOCK_HZ)
+        # nextpnr carries the board's 12 MHz constraint through the PLL: no constraint of our own
         m.submodules.pll = Instance(
-            "SB_PLL40_PAD", p_FEEDBACK_PATH="SIMPLE", p_DIVR=0, p_DIVF=63, p_DIVQ=DIVQ, p_FILTER_RANGE=1,
+            "SB_PLL40_PAD", p_FEEDBACK_PATH="SIMPLE", p_DIVR=0, p_DIVF=DIVF, p_DIVQ=4, p_FILTER_RANGE=1,
             i_PACKAGEPIN=platform.request("clk12", dir="-").io, i_RESETB=1, i_BYPASS=0,
             o_PLLOUTGLOBAL=pll_clk, o_LOCK=locked)
         m.d.comb += [ClockSignal("sync").eq(pll_clk), ResetSignal("sync").eq(~locked)]

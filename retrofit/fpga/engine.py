@@ -1,8 +1,9 @@
 """The pulse engine of 004's FPGA: per axis a FIFO of pulse records, counters that raise the step
 pin after each record's delay for its width, the direction set at the event, a position counter.
 
-All counting is in ticks: a prescaler divides the FPGA clock by ``clocks_per_tick`` (48 at 48 MHz
-for the engraver's 1 us tick); in simulation it is 1. On each tick the engine computes the pins
+All counting is in ticks: a prescaler divides the FPGA clock by ``clocks_per_tick`` (36 at 36 MHz
+for the engraver's 1 us tick); in simulation it is 1. With two or more clocks a tick the fire
+decision is registered a clock ahead of the tick (the counters only change at ticks). On each tick the engine computes the pins
 of the next tick ``n``: the head record fires when ``n`` is ``delay`` ticks after the axis's last
 event. The pins hold what was computed until the next tick.
 
@@ -47,10 +48,11 @@ class AxisTiming:
 class AxisEngine(Elaboratable):
     """One axis: its record FIFO, the delay and width counters, the step and direction pins."""
 
-    def __init__(self, timing: AxisTiming, depth: int = 16):
+    def __init__(self, timing: AxisTiming, depth: int = 16, registered: bool = False):
         if max(timing.period, timing.setup, timing.hold) > GUARD_MAX:
             raise ValueError(f"axis timing {timing} above {GUARD_MAX} ticks: the guard counters are 8 bits")
         self.timing = timing
+        self.registered = registered     # decide a clock ahead of the tick (needs 2+ clocks a tick)
         self.fifo = SyncFIFOBuffered(width=RECORD_BITS, depth=depth)
         self.tick = Signal()                    # in: one clock cycle per tick
         self.halt = Signal()                    # in: empty the FIFO, drop the step pin
@@ -73,17 +75,23 @@ class AxisEngine(Elaboratable):
         since_turn = Signal(range(GUARD_MAX + 1), init=GUARD_MAX)
         t = self.timing
 
-        due = head_valid & (head.delay == since_event)
         turning = head.dir != self.dir
         rising = head.width != 0
+        due = Signal()
+        # the event tick is since_* + 1 ticks after the last rise / turn: compared with constants
+        decide = [due.eq(head_valid & (head.delay == since_event)),
+                  self.late.eq(head_valid & (head.delay < since_event)),
+                  self.refused.eq(head_valid & (head.delay == since_event)
+                                  & ((turning & (since_rise < t.hold - 1))
+                                     | (rising & (since_rise < t.period - 1))
+                                     | (rising & turning & (t.setup > 0))
+                                     | (rising & (since_turn < t.setup - 1))))]
+        if self.registered:          # the state a clock before the tick is the state at the tick
+            m.d.sync += decide
+        else:
+            m.d.comb += decide
         m.d.comb += [
             self.step.eq((high != 0) & ~self.halt),
-            self.late.eq(head_valid & (head.delay < since_event)),
-            # the event tick is since_* + 1 ticks after the last rise / turn: compared with constants
-            self.refused.eq(due & ((turning & (since_rise < t.hold - 1))
-                                   | (rising & (since_rise < t.period - 1))
-                                   | (rising & turning & (t.setup > 0))
-                                   | (rising & (since_turn < t.setup - 1)))),
             self.fired.eq(self.tick & due & ~self.refused & ~self.halt),
             self.fifo.r_en.eq(~head_valid | self.fired),
         ]
@@ -126,7 +134,7 @@ class PulseEngine(Elaboratable):
     """
 
     def __init__(self, timings, clocks_per_tick: int = 1, depth: int = 16):
-        self.axes = [AxisEngine(t, depth) for t in timings]
+        self.axes = [AxisEngine(t, depth, registered=clocks_per_tick > 1) for t in timings]
         self.clocks_per_tick = clocks_per_tick
         n = len(self.axes)
         self.wr_axis = Signal(range(max(n, 2)))
@@ -175,10 +183,11 @@ class PulseEngine(Elaboratable):
             m.d.comb += self.tick.eq(self.run)
             return
         count = Signal(range(self.clocks_per_tick))       # the first tick is the first clock of ``run``
-        m.d.comb += self.tick.eq(self.run & (count == 0))
+        at_zero = Signal(init=1)                          # count == 0, kept in a register
+        m.d.comb += self.tick.eq(self.run & at_zero)
         with m.If(~self.run):
-            m.d.sync += count.eq(0)
-        with m.Elif(count == 0):
-            m.d.sync += count.eq(self.clocks_per_tick - 1)
+            m.d.sync += [count.eq(0), at_zero.eq(1)]
+        with m.Elif(at_zero):
+            m.d.sync += [count.eq(self.clocks_per_tick - 1), at_zero.eq(0)]
         with m.Else():
-            m.d.sync += count.eq(count - 1)
+            m.d.sync += [count.eq(count - 1), at_zero.eq(count == 1)]
