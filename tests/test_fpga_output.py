@@ -32,7 +32,7 @@ def test_run_on_the_engraver_through_the_gateware_lands_the_carriages(tmp_path):
 def test_a_run_past_the_bound_is_refused_before_it_is_simulated():
     machine = load_machine("engraver")
     frames = PortFrames(np.array([0], np.int64), np.array([0], np.uint8), 2_000_000)
-    with pytest.raises(OutputError, match=r"tick 2000000, past the bound of 500000 ticks.*limit_s"):
+    with pytest.raises(OutputError, match=r"tick 2000000 or later, past the bound of 500000 ticks.*limit_s"):
         with open_output("fpga-sim://", machine) as out:
             out.write(frames)
 

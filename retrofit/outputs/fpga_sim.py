@@ -9,7 +9,7 @@ report reads. The pins must equal the run's frames at every tick, and the engine
 no underrun and no refused record: anything else is an error naming the first tick that differs
 (so a ``vcd://`` output beside it shows the gateware's pins too).
 
-Amaranth's simulator takes about 10^4 ticks a CPU-second (docs/fpga.md), so a run longer than
+Amaranth's simulator takes about 6 000 ticks a CPU-second (docs/fpga.md), so a run longer than
 ``limit_s`` seconds of machine time (default 0.5) is refused before it is simulated.
 """
 
@@ -50,9 +50,9 @@ class FpgaSimOutput(SimOutput):
 
     def write(self, frames: PortFrames) -> None:
         if frames.end_tick > self.limit_ticks:
-            raise OutputError(f"{self.url.text}: the run reaches tick {frames.end_tick}, past the bound "
-                              f"of {self.limit_ticks} ticks ({self.opts['limit_s']:g} s of machine time); "
-                              f"the simulated gateware takes about 10^4 ticks a second: raise limit_s "
+            raise OutputError(f"{self.url.text}: the run goes on to tick {frames.end_tick} or later, past the "
+                              f"bound of {self.limit_ticks} ticks ({self.opts['limit_s']:g} s of machine time); "
+                              f"the simulated gateware takes about 6 000 ticks a CPU-second: raise limit_s "
                               f"(?limit_s=SECONDS) or run on sim://")
         self.gate = self.gate or self._make_gate()
         self.chunks.append(frames)
