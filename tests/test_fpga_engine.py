@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 from retrofit.config import load_machine
-from retrofit.fpga.host import compile_records
 from retrofit.fpga.record import pack
 from retrofit.fpga.simulate import gateware_equals, simulate
 from retrofit.frames import PinMap

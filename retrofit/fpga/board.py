@@ -122,13 +122,16 @@ def build(machine, board: str, build_dir: Path) -> BuildReport:
     module, cls = BOARDS[board]
     platform = getattr(import_module(module), cls)()
     platform.add_resources(RESOURCES)
-    os.environ.update(yowasp_env())
-    name = "pulse_engine"
+    name, tools = "pulse_engine", yowasp_env()
+    os.environ.update(tools)                   # Amaranth's build script reads them from the environment
     try:
         platform.build(BoardTop(machine), name=name, build_dir=str(build_dir))
     except subprocess.CalledProcessError:
         raise RetrofitError(f"the {board} build failed in {build_dir} (Yosys: {name}.rpt, nextpnr: "
                             f"{name}.tim)") from None
+    finally:
+        for var in tools:
+            os.environ.pop(var, None)
     return read_report(board, platform.device, Path(build_dir), name)
 
 
