@@ -30,7 +30,7 @@ from .sim import SimMachine
 #: outputs that write a file named by the URL's target
 FILE_SCHEMES = ("vcd", "parport+record")
 #: outputs that stand for no real machine: a pause is recorded, nobody is asked
-SIMULATED_SCHEMES = ("sim", "vcd")
+SIMULATED_SCHEMES = ("sim", "vcd", "fpga-sim")
 #: ticks per slice of frames handed to the outputs (a progress step)
 SLICE_TICKS = 200_000
 #: the longest slice of real time an output paced in real time is handed at once (seconds)

@@ -33,7 +33,7 @@ from ..errors import ToolStateError
 from ..atomic import write_json_atomic
 
 #: outputs that move no machine: their runs keep the simulated spindle's record
-SIMULATED_SCHEMES = ("sim", "vcd", "parport+record")
+SIMULATED_SCHEMES = ("sim", "vcd", "parport+record", "fpga-sim")
 
 
 def default_state_dir() -> Path:

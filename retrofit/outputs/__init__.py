@@ -17,7 +17,7 @@ REGISTRY: dict[str, str] = {
     "sim": "retrofit.outputs.sim:SimOutput",
     "parport": "retrofit.outputs.parport:ParportOutput",
     "parport+record": "retrofit.outputs.record:RecordOutput",
-    "vcd": "retrofit.outputs.vcd:VcdOutput",
+    "vcd": "retrofit.outputs.vcd:VcdOutput", "fpga-sim": "retrofit.outputs.fpga_sim:FpgaSimOutput",
     "serial": "retrofit.outputs.serial:SerialOutput", "serial+socket": "retrofit.outputs.serial:SerialSocketOutput",
 }
 
