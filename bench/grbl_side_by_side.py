@@ -16,7 +16,7 @@ segments, streamed). The base rate climbs in 2.5 kHz steps from 10 kHz (short se
 off). Clean: every axis makes exactly its steps; every base-axis interval of the middle half
 within +-1 us of the period (none shorter: no period below the minimum, none longer: no stall;
 short segments: within +-10 %, the chain holds its feed across the joints); no interval of
-another axis shorter than the base period less 1 us. (At low rates both tick faster than the base
+another axis there shorter than the base period less 1 us. (At low rates both tick faster than the base
 axis steps, AMASS, so the other axes step between its steps.)
 
     python3 bench/grbl_side_by_side.py [--grbl-src PATH_OR_URL] [--cache DIR] [--top 70000]
@@ -154,16 +154,18 @@ def ours_run(elf: Path, machine, lines: list[str], steps: dict[str, int], second
 
 def clean(edges: dict, steps: dict[str, int], rate: float, tol_us: float = 1.0) -> bool:
     """Exact steps, the middle half's base intervals within +-``tol_us``, no other axis's interval
-    shorter than the base period (less 1 us)."""
+    there shorter than the base period (less 1 us)."""
     base = max(steps, key=lambda a: steps[a])
     if any(len(edges[a][0]) != n or len(edges[a][1]) != n for a, n in steps.items()):
         return False
     rises = edges[base][0]
-    gaps = np.diff(rises)[len(rises) // 4: 3 * len(rises) // 4]
+    lo, hi = len(rises) // 4, 3 * len(rises) // 4
+    gaps = np.diff(rises)[lo:hi]
     if np.abs(gaps - S / rate).max() > tol_us * 16:
         return False
     for a in steps:
         r = edges[a][0]
+        r = r[(r >= rises[lo]) & (r <= rises[hi])]
         if a != base and len(r) > 1 and np.diff(r).min() < S / rate - 16:
             return False
     return True
@@ -198,9 +200,9 @@ def main() -> int:
               "+-1 us (short segments +-10 %), no period below the base period), pulse widths seen:")
         print(f"  {'case':<34}{'grbl 1.1h':>12}{'this firmware':>16}   pulses grbl / ours (us)")
         for name, case in CASES.items():
-            best, widths = {}, {}
+            best, widths, past = {}, {}, {}
             for who in ("grbl", "ours"):
-                best[who], widths[who] = 0.0, (0.0, 0.0)
+                best[who], widths[who], past[who] = 0.0, (0.0, 0.0), ""
                 first = 2_500.0 if case == "segments" else 10_000.0
                 for rate in np.arange(first, args.top + 1, 2_500.0):
                     lines, steps, seconds = grbl_lines(case, float(rate))
@@ -208,11 +210,14 @@ def main() -> int:
                              else ours_run(ours, machine, lines, steps, seconds))
                     tol = 0.1e6 / rate if case == "segments" else 1.0
                     if not clean(edges, steps, float(rate), tol):
+                        made = " ".join(f"{a} {len(edges[a][0])}/{n}" for a, n in steps.items())
+                        past[who] = f"{rate:.0f}: steps {made}"
                         break
                     best[who], widths[who] = float(rate), pulse_us(edges)
             print(f"  {name:<34}{best['grbl']:>12.0f}{best['ours']:>16.0f}   "
                   f"{widths['grbl'][0]:.1f}-{widths['grbl'][1]:.1f} / {widths['ours'][0]:.1f}-{widths['ours'][1]:.1f}",
                   flush=True)
+            print(f"    first unclean rate: grbl {past['grbl'] or '-'}; this firmware {past['ours'] or '-'}")
     return 0
 
 
