@@ -25,7 +25,7 @@ mx = pytest.importorskip("retrofit.firmware_stress_mix")
 
 #: the slow stage's long run: chunks of at least CHUNK_S simulated seconds, each a fresh board
 #: with seed LONG_SEED * 10 000 + chunk, CHUNKS of them: ten simulated minutes in all
-LONG_SEED, CHUNKS, CHUNK_S = 1, 60, 10.0
+LONG_SEED, CHUNKS, CHUNK_S = 1, 120, 5.0
 
 
 @pytest.fixture(scope="module")
