@@ -29,11 +29,16 @@ static const uint16_t backlash[N_AXES] = BACKLASH_STEPS;      /* 'JocL' / 'JocT'
  * still prepares the segments and answers the link (RDST every 2 ms), by the number of moving
  * axes, for lines whose axes all step at every event (PLAIN) and for lines with Bresenham axes
  * (BRES): measured in simavr by bench/firmware_steprate.py. No line is planned faster, whatever
- * its feed: a rate the interrupt cannot keep would starve the segment supply mid-move. */
+ * its feed: a rate the interrupt cannot keep would starve the segment supply mid-move. 4 axes in
+ * Bresenham ratios: 35 000 restarted the board under the heaviest polling, 30 000 holds. */
 #ifndef KEEP_RATE_PLAIN
 #define KEEP_RATE_PLAIN { 47500.0f, 47500.0f, 50000.0f, 47500.0f, 40000.0f }
-#define KEEP_RATE_BRES  { 47500.0f, 42500.0f, 40000.0f, 35000.0f, 30000.0f }
+#define KEEP_RATE_BRES  { 47500.0f, 42500.0f, 40000.0f, 30000.0f, 30000.0f }
 #endif
+/* A line that watches a switch (a homing seek or release, PROB) runs on the slow tick, which
+ * reads the switch before every step: 25 000 events/s held under RDST every 2 ms, 27 500 restarted
+ * the board (tests/test_firmware_stress_mix.py); kept with the host's margin of 0.8. */
+#define KEEP_RATE_WATCH 20000.0f
 static const float keep_plain[5] = KEEP_RATE_PLAIN, keep_bres[5] = KEEP_RATE_BRES;
 
 #define JUNCTION_SHARE 0.5f            /* of an axis's acceleration, for a turn's velocity jump */
@@ -90,6 +95,8 @@ static void limits(move_t *m)
     float keep = moving ? (bres ? keep_bres : keep_plain)[moving - 1] : MAX_RATE;
     if (keep > MAX_RATE)
         keep = MAX_RATE;
+    if ((m->kind == MOVE_SEEK || m->kind == MOVE_RELEASE) && keep > KEEP_RATE_WATCH)
+        keep = KEEP_RATE_WATCH;
     if (v * per_mm > keep)
         v = keep / per_mm;                     /* the rate the firmware keeps */
     m->v_cap = v;
@@ -291,6 +298,8 @@ static void replan(void)
 uint8_t planner_submit(move_t *m)
 {
     uint8_t need = 1, any = 0;
+    if (m->kind == MOVE_SEEK || m->kind == MOVE_RELEASE)
+        limits(m);                             /* (PROB makes its line a watched one after planning) */
     for (uint8_t i = 0; i < N_AXES; i++)
         any |= m->takeup[i] != 0;
     need += any;

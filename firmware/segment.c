@@ -262,7 +262,10 @@ void segment_prepare(void)
         return;                                /* cannot happen: v >= MIN_RATE events/s */
     /* The events come at the segment's mean speed; the fraction of an event travelled beyond
      * the last whole one is carried into the next segment, and so is its time. */
-    timing(s, n, travelled / t_seg);
+    float rate = t_seg > 0.0f ? travelled / t_seg : 0.0f;
+    if (!(rate >= MIN_RATE))                   /* a move's last sliver of an event, in no time */
+        rate = fmaxf(v * per_mm, MIN_RATE);
+    timing(s, n, rate);
     s->line = first ? new_line(m) : line_slot;
     s->flags = (uint8_t)((first ? SEG_FIRST : 0) | (done ? SEG_LAST : 0));
     first = 0;

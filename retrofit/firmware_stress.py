@@ -78,11 +78,12 @@ class StressRun:
 
 
 def random_moves(machine: Machine, rng: random.Random, n: int, top_rate: float,
-                 span_steps: int = 40_000) -> list[Move]:
-    """``n`` moves from 0 on: 1 to all axes, each a random share of the base axis's steps
-    (or all of them), base rates from 500 steps/s to ``top_rate``, within +-``span_steps``."""
+                 span_steps: int = 40_000, start: tuple[int, ...] | None = None) -> list[Move]:
+    """``n`` moves from ``start`` (0) on: 1 to all axes, each a random share of the base axis's
+    steps (or all of them), base rates from 500 steps/s to ``top_rate``; an axis that would leave
+    +-``span_steps`` moves back towards 0 instead."""
     axes = len(machine.axes)
-    pos = [0] * axes
+    pos = list(start or [0] * axes)
     out = []
     for _ in range(n):
         k = rng.randint(1, axes)
@@ -93,7 +94,7 @@ def random_moves(machine: Machine, rng: random.Random, n: int, top_rate: float,
             share = 1.0 if j == 0 or rng.random() < 0.3 else rng.random()
             d = max(1, round(base * share)) * rng.choice((-1, 1))
             if abs(pos[i] + d) > span_steps:
-                d = -d
+                d = -abs(d) if pos[i] > 0 else abs(d)
             new[i] = pos[i] + d
         rate = rng.choice([rng.uniform(500, top_rate), top_rate, rng.uniform(0.8, 1.1) * top_rate])
         out.append(Move(tuple(new), rate))

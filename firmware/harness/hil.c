@@ -24,6 +24,9 @@
  * --boot-ms N plays the Mega's bootloader after a DTR reset: for N ms the CPU spins outside the
  * firmware and what the client sends is lost; then the firmware starts (MCUSR: external reset).
  * Without it the firmware starts at once after a power-on (MCUSR: PORF).
+ * --pipe runs in lockstep with the process that started it: stdin gives "B HEXBYTES" (bytes for the
+ * USART now) and "R CYCLE" (run until then), stdout answers "U CYCLE BYTE" for each byte sent and
+ * "A CYCLE" when it got there; the run ends at EOF. The AVR's time is then the host's only clock.
  * --glitch PIN,CYCLE,CYCLES,LEVEL drives an input to LEVEL for CYCLES from CYCLE, then gives it
  * back its level (a switch's bounce; repeatable). --stall CYCLE[,cli] makes the main loop hang at
  * the first instruction it runs from CYCLE on: the CPU jumps to a loop of its own (with ",cli"
@@ -407,6 +410,8 @@ static uint8_t rx_fifo[RX_FIFO];
 static size_t rx_head, rx_tail;
 static int uart_xon = 1;
 static int client = -1;
+static int pipe_mode;                     /* --pipe: lockstep with the parent over stdin / stdout */
+static unsigned long long run_until;
 
 static void uart_out(struct avr_irq_t *irq, uint32_t value, void *param)
 {
@@ -417,6 +422,8 @@ static void uart_out(struct avr_irq_t *irq, uint32_t value, void *param)
         fprintf(log_file, "U %llu %02x\n", (unsigned long long)avr->cycle, byte);
     if (client >= 0 && send(client, &byte, 1, MSG_NOSIGNAL) < 0)
         client = -1;
+    if (pipe_mode)
+        printf("U %llu %02x\n", (unsigned long long)avr->cycle, byte);
 }
 
 static void uart_xon_cb(struct avr_irq_t *irq, uint32_t value, void *param)
@@ -537,6 +544,32 @@ static int poll_socket(void)
         return 1;
     }
     return 0;
+}
+
+/* --pipe: at the cycle granted, say so and take the parent's bytes and the next grant. */
+static void pipe_turn(void)
+{
+    static char *line;
+    static size_t cap;
+    printf("A %llu\n", (unsigned long long)avr->cycle);
+    fflush(stdout);
+    while (avr->cycle >= run_until) {
+        if (getline(&line, &cap, stdin) <= 0) {
+            stop_now = 1;
+            return;
+        }
+        if (line[0] == 'R')
+            run_until = strtoull(line + 1, NULL, 10);
+        else if (line[0] == 'B')
+            for (char *p = line + 2; p[0] && p[1] && p[0] != '\n'; p += 2) {
+                unsigned v;
+                if (sscanf(p, "%2x", &v) != 1)
+                    break;
+                uint8_t b = (uint8_t)v;
+                if (avr->cycle >= boot_cycles)
+                    rx_push(&b, 1);
+            }
+    }
 }
 
 /* ---- bootloader, glitches, a hung main loop ---------------------------------------------- */
@@ -694,6 +727,7 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--cycles")) { max_cycles = strtoull(v, NULL, 10); i++; }
         else if (!strcmp(a, "--speed")) { speed = atof(v); i++; }
         else if (!strcmp(a, "--once")) once = 1;
+        else if (!strcmp(a, "--pipe")) pipe_mode = 1;
         else if (!strcmp(a, "--boot-ms")) { boot_cycles = (unsigned long long)(atof(v) * 16000.0); i++; }
         else if (!strcmp(a, "--stats")) want_stats = 1;
         else if (!strcmp(a, "--stall")) {
@@ -859,6 +893,11 @@ int main(int argc, char **argv)
     while (!stop_now && state != cpu_Done && state != cpu_Crashed) {
         if (max_cycles && avr->cycle >= max_cycles)
             break;
+        if (pipe_mode && avr->cycle >= run_until) {
+            pipe_turn();
+            if (stop_now)
+                break;
+        }
         while (script_next < n_script && script[script_next].cycle <= avr->cycle) {
             rx_push(script[script_next].bytes, script[script_next].n);
             script_next++;

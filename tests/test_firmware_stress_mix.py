@@ -1,0 +1,95 @@
+"""The mixed stress run on the firmware in simavr (retrofit.firmware_stress_mix): random moves up to
+and above the firmware's ceiling on 1-4 axes, homing and thread passes, RDST polled every 2-20 ms,
+garbage and dropped bytes, the host in lockstep with the AVR's time. At every rest RDPS equals the
+plan (the commanded moves' sum, the home positions) and so do the step pins at the cycle of the
+answer; no RDST says ERROR or STEP_ERROR; the board never restarts.
+
+Oracles: the commanded steps and home positions (summed by the generator, not the firmware), the
+harness's count of the step pins.
+"""
+
+from __future__ import annotations
+
+import shutil
+
+import pytest
+
+from retrofit.config import load_machine
+
+pytestmark = pytest.mark.skipif(
+    shutil.which("avr-gcc") is None or shutil.which("make") is None,
+    reason="the firmware needs avr-gcc and make: apt-get install gcc-avr avr-libc make libsimavr-dev")
+
+fs = pytest.importorskip("retrofit.firmware_sim")
+mx = pytest.importorskip("retrofit.firmware_stress_mix")
+
+#: the slow stage's long run: chunks of at least CHUNK_S simulated seconds, each a fresh board
+#: with seed LONG_SEED * 10 000 + chunk, CHUNKS of them: ten simulated minutes in all
+LONG_SEED, CHUNKS, CHUNK_S = 1, 120, 5.0
+
+
+@pytest.fixture(scope="module")
+def mix(tmp_path_factory):
+    machine = load_machine(mx.MACHINE)
+    return machine, fs.build_copy(machine, tmp_path_factory.mktemp("mix"))
+
+
+def held(run, machine):
+    problems = mx.check(run, machine)
+    assert not problems, "\n".join(problems[:10])
+
+
+@pytest.mark.parametrize("seed,spindle_rpm", [(37, 0.0), (52, 480.0)], ids=["spindle-model", "encoder-480rpm"])
+def test_moves_homing_and_threads_mixed_end_every_rest_where_the_plan_does(mix, seed, spindle_rpm):
+    """Two short seeds, each with moves, a homing and thread passes (with the spindle model in
+    the loop, and with an encoder at a fixed speed)."""
+    machine, elf = mix
+    run = mx.mix_run(elf, machine, seed=seed, parts=4, spindle_rpm=spindle_rpm)
+    kinds = {p.kind for p in run.parts}
+    assert kinds == {"moves", "home", "thread"}, kinds
+    held(run, machine)
+    assert run.garbage_bytes > 0 and run.link["timeouts"] + run.link["naks"] > 0
+    # the check is not blind: a home or a thread's end one step off the plan is caught
+    for kind in ("home", "thread"):
+        part = next(p for p in run.parts if p.kind == kind)
+        axis = (part.homed or [a for a in part.end])[0]
+        part.end[axis] += 1
+        assert any(f"({kind}): RDPS" in p for p in mx.check(run, machine)), kind
+        part.end[axis] -= 1
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("chunk", range(CHUNKS))
+def test_ten_simulated_minutes_of_mixed_stress(mix, chunk):
+    """One of CHUNKS fresh boards, at least CHUNK_S simulated seconds each: moves up to 60 kHz
+    asked, homing, threads (the encoder's speed drawn per chunk)."""
+    machine, elf = mix
+    seed = LONG_SEED * 10_000 + chunk
+    rpm = 0.0 if chunk % 2 else 200.0 + (seed * 37) % 400
+    run = mx.mix_run(elf, machine, seed=seed, parts=200, min_s=CHUNK_S, spindle_rpm=rpm)
+    held(run, machine)
+    assert mx.simulated_s(run) >= CHUNK_S
+
+
+@pytest.mark.parametrize("rate", [40_000, 100_000])
+def test_a_homing_seek_asked_above_what_the_slow_tick_keeps_ends_on_its_switch(mix, rate):
+    """Z seeks its switch 5 000 steps away at a fast feed of ``rate`` steps/s (100 000: the
+    machine's rapid) with RDST every 2 ms. A line that watches a switch is stepped by the slow
+    tick; before, 40 000 crashed the board (interrupts nested without end) and 100 000 (clamped to
+    47 500) stopped it 147 steps into the seek, interrupts off for 1.5 ms. Now (clamped to
+    20 000): one start line, RDPS the home position, the carriage at its switch within the
+    latch's resolution."""
+    from retrofit.link import QUEUED
+    from tests.test_firmware_sim import Script, replies
+    machine, elf = mix
+    end = 2_000_000 + int(5_000 / 20_000 * fs.F_CPU) + 16_000_000
+    script = Script(machine).at(1_500_000, f"FFDR F{rate * 60 / 1000:.3f}").at(2_000_000, "ZMOV Z")
+    for t in range(2_000_000, end - 1_000_000, 32_000):
+        script.at(t, "RDST")
+    script.at(end - 500_000, "RDPS", QUEUED)
+    log = fs.Harness(elf, machine, script=script.items, cycles=end, start_steps={"Z": 45_000}).run()
+    assert log.answer_bytes().count(b"retrofit firmware") == 1
+    position = [r for r in replies(log, machine) if type(r).__name__ == "Position"][-1]
+    assert dict(position.steps)["Z"] == 50_000
+    z = dict(zip([a.name for a in fs.firmware_axes(machine)], log.steps))["Z"]
+    assert abs(z - 50_000) <= mx.latch_steps(machine, "Z")
