@@ -9,6 +9,7 @@ with ``%``, or at the end of the file.
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -19,6 +20,7 @@ from .blocks import make_block
 from .dialect import run_dollar
 from .errors import RuleError
 from .expressions import evaluate
+from .lazylines import LazyLines
 from .lexer import lex_lines
 from . import fanuc, lathecycles, modalsave
 from .ocode import Source, scan
@@ -72,13 +74,23 @@ class Interpreter:
 
     def run(self, main: Source) -> None:
         """Run ``main`` from its first line; RuleErrors carry ``.file`` and ``.line``."""
+        for _ in self.lines_run(main):
+            pass
+
+    def lines_run(self, main: Source):
+        """:meth:`run` one line at a time: a generator that yields after each line (the
+        translator's commands so far are then complete)."""
         src, pc, calls, repeats = main, 0, [], {}
         most = len(main.lines) + MAX_STEPS
-        closing_percent = bool(main.lines) and main.lines[0].percent
+        first = main.lines.first() if hasattr(main.lines, "first") else (main.lines or [None])[0]
+        closing_percent = first is not None and first.percent
         if closing_percent:
-            pc = 1
+            pc = 1 + next(i for i, line in enumerate(main.lines) if line is not None)
         while pc < len(src.lines):
             line = src.lines[pc]
+            if line is None:                     # a comment or spaces only: nothing runs
+                pc += 1
+                continue
             self.steps += 1
             if not self.steps & 4095 and self.on_progress is not None and src is main:
                 self.on_progress(pc / len(main.lines))
@@ -101,6 +113,7 @@ class Interpreter:
                     if nxt is None:
                         return
                     src, pc = nxt
+                    yield
                     continue
                 if self._line(src, line):
                     return
@@ -109,6 +122,7 @@ class Interpreter:
                     exc.file, exc.line = src.file, line.number
                 raise
             pc += 1
+            yield
 
     def _value(self, tree) -> float:
         return tree if type(tree) is float else evaluate(tree, self._read, self.params.exists)
@@ -271,10 +285,6 @@ def _read_text(path: Path) -> str:
         raise GcodeError(f"cannot read the file ({exc.strerror})", str(path)) from None
 
 
-#: the share of compiling spent reading the text into lines (measured on a long CAM program)
-LEX_SHARE = 0.45
-
-
 def compile_program(text: str, machine: Machine, file: str = "<string>",
                     start_mm: dict | None = None, *, tool_table=None, spindle_tool: int = 0,
                     search_path=(), probe=None, on_progress=None) -> Program:
@@ -295,28 +305,37 @@ def compile_program(text: str, machine: Machine, file: str = "<string>",
     >>> [str(c) for c in prog.commands]
     ['FMOV X10 Z2', 'PFDR F100', 'PMOV X10 Z-5']
     """
+    interpreter = start_interpreter(machine, file, start_mm, tool_table, spindle_tool, search_path, probe)
+    interpreter.on_progress = on_progress
+    translator = interpreter.tr
+    with gcode_errors(file):
+        interpreter.run(scan(Source(file, LazyLines(text))))
+        translator.finish()
+    return Program(translator.commands, translator.lines, file, translator.files,
+                   interpreter.messages)
+
+
+def start_interpreter(machine: Machine, file: str, start_mm=None, tool_table=None, spindle_tool: int = 0,
+                      search_path=(), probe=None) -> Interpreter:
+    """An interpreter at the start of a program (see :func:`compile_program` for the arguments)."""
     try:
         state = ModalState.start(machine, start_mm)
     except ValueError as exc:
         raise GcodeError(str(exc), file) from None
     state.tool = int(spindle_tool)
     state.params.write(5400, float(spindle_tool))
-    translator = Translator(machine, state, tool_table, probe)
-    interpreter = Interpreter(machine, translator, search_path)
-    if on_progress is not None:                    # reading the lines is about 45 % of the work
-        interpreter.on_progress = lambda run: on_progress(LEX_SHARE + (1.0 - LEX_SHARE) * run)
+    return Interpreter(machine, Translator(machine, state, tool_table, probe), search_path)
+
+
+@contextmanager
+def gcode_errors(file: str):
+    """A broken rule inside as a GcodeError naming its file and line."""
     try:
-        lines = lex_lines(text)
-        if on_progress is not None:
-            on_progress(LEX_SHARE)
-        interpreter.run(scan(Source(file, lines)))
-        translator.finish()
+        yield
     except RuleError as exc:
         raise GcodeError(str(exc), getattr(exc, "file", file), getattr(exc, "line", None)) from None
     except RecursionError:
         raise GcodeError("an expression nests too deeply", file) from None
-    return Program(translator.commands, translator.lines, file, translator.files,
-                   interpreter.messages)
 
 
 def load_program(path: str | Path, machine: Machine | str, *, tool_table=None,
