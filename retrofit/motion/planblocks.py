@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from ..commands import Prob, Wait
 from ..errors import MotionError
+from ._jit import compiled
 from .planarrays import ArrayWalker, Segments, profiled
 
 
@@ -38,6 +39,7 @@ class BlockPlanner:
     def add(self, commands: list) -> None:
         """Walk the next batch of commands; a MotionError (with ``command_index`` from the
         program's start) when the walker refuses one of them."""
+        compiled(len(commands) * 100)          # as plan_arrays: compiled once the work pays
         saved = self.walker.walker.copy(), self.walker.feeds.copy(), self.walker.commands_before
         seg = self.walker.segments(commands)
         if seg is None:
