@@ -1,8 +1,9 @@
 """A program's lines read as the interpreter reaches them: the text, where each line starts, a lexer.
 
 A file of two million lines lexed whole holds a ``Line`` object per line (several hundred bytes
-each) before the first one runs. :class:`LazyLines` keeps the text as bytes and the start of
-every line that is not empty (found by NumPy in one pass, milliseconds for a long file), and
+each) before the first one runs. :class:`LazyLines` keeps the text (as bytes when it is not
+ASCII) and where every line that is not empty starts and ends (found by NumPy in one pass,
+milliseconds for a long file; 24 bytes a line), and
 lexes a line when it is read (:func:`retrofit.gcode.lexer.lex_text_line`); the last lines read
 are kept, so a loop does not lex its body again each time round. It is a sequence of the same
 lines :func:`~retrofit.gcode.lexer.lex_lines` gives, except that a line holding only a comment
@@ -14,6 +15,7 @@ somewhere on them): :func:`retrofit.gcode.ocode.scan` pairs O-words by reading o
 
 from __future__ import annotations
 
+from array import array
 from functools import lru_cache
 
 import numpy as np
@@ -29,7 +31,9 @@ class LazyLines:
 
     def __init__(self, text: str):
         data = text.encode("utf-8")
-        self.data = data
+        ascii_only = len(data) == len(text)
+        self.text = text if ascii_only else None       # offsets in bytes are offsets in the text
+        self.data = None if ascii_only else data
         raw = np.frombuffer(data, np.uint8)
         lf = raw == 10
         cr = raw == 13
@@ -41,7 +45,10 @@ class LazyLines:
         stops[np.searchsorted(stops, crlf)] -= 1
         numbers = np.arange(1, len(starts) + 1, dtype=np.int64)
         keep = stops > starts
-        self.starts, self.stops, self.numbers = starts[keep], stops[keep], numbers[keep]
+        self.starts, self.stops = array("q", starts[keep].tobytes()), array("q", stops[keep].tobytes())
+        self.numbers = array("q", numbers[keep].tobytes())
+        hits = np.flatnonzero(((raw | 0x20) == ord("o")) | ((raw | 0x20) == ord("m")))
+        self._candidates = np.unique(np.searchsorted(stops[keep], hits, side="left")).tolist()
         self._lex = lru_cache(maxsize=KEEP_LEXED)(self._lex_one)
 
     def __len__(self) -> int:
@@ -61,8 +68,11 @@ class LazyLines:
         return (self._lex(i) for i in range(len(self)))
 
     def _lex_one(self, index: int) -> Line | None:
-        text = self.data[int(self.starts[index]):int(self.stops[index])].decode("utf-8")
-        return lex_text_line(int(self.numbers[index]), text)
+        if self.text is not None:
+            text = self.text[self.starts[index]:self.stops[index]]
+        else:
+            text = self.data[self.starts[index]:self.stops[index]].decode("utf-8")
+        return lex_text_line(self.numbers[index], text)
 
     def first(self) -> Line | None:
         """The first line that holds something (None for a program of comments only)."""
@@ -70,11 +80,7 @@ class LazyLines:
 
     def candidates(self):
         """(index, line) of the lines that may hold an O-word, M98 or M99, in order."""
-        raw = np.frombuffer(self.data, np.uint8)
-        hits = np.flatnonzero((raw | 0x20) == ord("o"))
-        marks = np.flatnonzero((raw | 0x20) == ord("m"))
-        rows = np.unique(np.searchsorted(self.stops, np.concatenate((hits, marks)), side="left"))
-        for i in rows.tolist():
+        for i in self._candidates:
             if i < len(self):
                 line = self._lex(i)
                 if line is not None:

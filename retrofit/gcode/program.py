@@ -24,6 +24,7 @@ from .lazylines import LazyLines
 from .lexer import lex_lines
 from . import fanuc, lathecycles, modalsave
 from .ocode import Source, scan
+from .plainline import run_plain
 from .state import ModalState
 from .translate import Translator
 
@@ -141,8 +142,12 @@ class Interpreter:
 
     def _line(self, src: Source, line) -> bool:
         """One line of words; True when it ends the program."""
-        if line.plain and ("G", 70.0) not in line.words:
-            return self.tr.run(make_block(line.number, line.words, self.machine), src.file)
+        if line.plain:
+            done = run_plain(self.tr, line.words, line.number, src.file)
+            if done is not None:
+                return done
+            if ("G", 70.0) not in line.words:
+                return self.tr.run(make_block(line.number, line.words, self.machine), src.file)
         for kind, text in line.messages:
             self.messages.append((src.file, line.number, kind, self._substitute(text)))
         if line.dollar is not None:

@@ -32,6 +32,8 @@ from .planner import Plan
 from .stepshape import fresh_state, lag_of, shape_steps
 
 _BIG = np.int64(1) << 62
+#: the first window holds this share of ``window_steps`` (the run reads that much before its first step)
+FIRST_WINDOW_SHARE = 8
 
 
 @dataclass
@@ -177,11 +179,16 @@ def stream_blocks(machine, start_steps, blocks, window_steps: int = 1 << 20,
     of the window being made and those the planner has handed on beyond it are held."""
     rate = 1e6 / machine.tick_us
     cols = Columns.rolling(machine, rate, blocks)
-    cols.more(0, window_steps)
+    cols.more(0, _first(window_steps))
     if cols.final and not compiled(int(cols.steps_from(0))):     # small: one chunk by NumPy
         plan = Plan(machine, tuple(start_steps), end_s=cols.end_s, arrays=cols.arrays)
         return (yield from _whole_run(plan, on_waypoints, progress))
     return (yield from stream_columns(cols, window_steps, on_waypoints, progress))
+
+
+def _first(window_steps: int) -> int:
+    """Steps of the first window: a share of the others, so the first step leaves early."""
+    return max(window_steps // FIRST_WINDOW_SHARE, 1)
 
 
 def stream_columns(cols: Columns, window_steps: int, on_waypoints, progress) -> Iterator[PortFrames]:
@@ -194,9 +201,10 @@ def stream_columns(cols: Columns, window_steps: int, on_waypoints, progress) -> 
     end = -1
     lo, chunk_end, first = 0, 0, True
     while True:
-        lo = cols.more(lo, window_steps)
+        size = _first(window_steps) if first else window_steps
+        lo = cols.more(lo, size)
         n_moves = len(cols)
-        hi = cols.window_end(lo, window_steps) if n_moves else 0
+        hi = cols.window_end(lo, size) if n_moves else 0
         last_window = cols.final and hi >= n_moves
         if last_window:
             end = max(end, tick_of(cols.end_s, rate))
