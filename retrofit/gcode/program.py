@@ -25,6 +25,7 @@ from .lexer import lex_lines
 from . import fanuc, lathecycles, modalsave
 from .ocode import Source, scan
 from .plainline import run_plain
+from .plainrun import RUN_LINES, take_run
 from .state import ModalState
 from .translate import Translator
 
@@ -92,6 +93,15 @@ class Interpreter:
             if line is None:                     # a comment or spaces only: nothing runs
                 pc += 1
                 continue
+            if line.plain and self.steps + RUN_LINES <= most and hasattr(src.lines, "text"):
+                taken = take_run(self.tr, src.lines, pc, src.file)      # a run of plain CAM lines
+                if taken:
+                    self.steps += taken
+                    pc += taken
+                    if self.on_progress is not None and src is main and self.steps & 4095 < taken:
+                        self.on_progress(pc / len(main.lines))
+                    yield
+                    continue
             self.steps += 1
             if not self.steps & 4095 and self.on_progress is not None and src is main:
                 self.on_progress(pc / len(main.lines))

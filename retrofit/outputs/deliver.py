@@ -47,8 +47,10 @@ def deliver_plan(plan, urls: list[str], progress: Callable[[float], None] | None
         for out in outputs:
             out.open()
         sim = sims[0].sim if sims else SimMachine(machine, start_steps, **trace)
+        for s in [sim] + [out.sim for out in sims]:
+            s.keep_watched = blocks is None       # read ahead: nothing plots the run afterwards
         feeds = [out.write for out in outputs] + ([] if sims else [sim.feed])
-        table = log.waypoints = WaypointTable(len(machine.axes))
+        table = log.waypoints = WaypointTable(len(machine.axes), keep_all=blocks is None)
         watched, errors = [], _WorstError(machine)
 
         def waypoints(steps, loaded, reached) -> None:
