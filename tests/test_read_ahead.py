@@ -73,11 +73,13 @@ def test_the_interpreter_runs_only_as_far_as_the_first_batch_needs():
                                        for i in range(30_000)) + "M2\n"
     reader = ReadAhead(text, load_machine("engraver"), "long.ngc")
     batches = reader.batches(size=500)
-    commands, lines, _ = next(batches)
-    assert len(commands) >= 500 and max(lines) < 600          # line numbers of the first 500 moves
+    commands, lines, _ = next(batches)                        # a small first batch (a run of
+    assert len(commands) >= 256 and max(lines) < 600          # plain lines is taken whole)
     assert reader.interpreter.steps < 600                     # 29 400 lines not run yet
+    second = next(batches)[0]
+    assert len(second) >= 500 and reader.interpreter.steps < 1500
     rest = sum(len(b[0]) for b in batches)
-    assert len(commands) + rest == len(compile_program(text, load_machine("engraver")).commands)
+    assert len(commands) + len(second) + rest == len(compile_program(text, load_machine("engraver")).commands)
 
 
 def test_a_late_error_names_its_line_when_read_ahead():

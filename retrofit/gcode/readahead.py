@@ -18,8 +18,9 @@ from .lazylines import LazyLines
 from .ocode import Source, scan
 from .program import gcode_errors, start_interpreter
 
-#: commands per batch handed on
+#: commands per batch handed on, and in the first batch
 BATCH = 2048
+FIRST_BATCH = 256
 
 
 class ReadAhead:
@@ -43,11 +44,13 @@ class ReadAhead:
         """(commands, lines, files) lists of at least ``size`` commands each (the last may have
         fewer), in program order."""
         tr = self.interpreter.tr
+        wanted = min(size, FIRST_BATCH)                 # a small first batch: the first step early
         with gcode_errors(self.file):
             main = scan(Source(self.file, self.lines))
             for _ in self.interpreter.lines_run(main):
-                if len(tr.commands) >= size:
+                if len(tr.commands) >= wanted:
                     yield self._take()
+                    wanted = size
             tr.finish()
         yield self._take()
 

@@ -33,7 +33,7 @@ from .stepshape import fresh_state, lag_of, shape_steps
 
 _BIG = np.int64(1) << 62
 #: the first window holds this share of ``window_steps`` (the run reads that much before its first step)
-FIRST_WINDOW_SHARE = 8
+FIRST_WINDOW_SHARE = 32
 
 
 @dataclass
