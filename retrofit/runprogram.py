@@ -6,6 +6,8 @@ replaced (:mod:`retrofit.atc.front`: the changer's sequences, or pauses for manu
 the commands are planned and executed by the fast path (or by the tick-by-tick 002 controller
 for threads and homing); the port frames go to the outputs; the report joins what the controller
 did with what the simulated machine did, every violation with its time and program line.
+A run on ``sim://`` and ``vcd://`` that can is read ahead instead, a window at a time from the
+first line (:mod:`retrofit.runstream`).
 """
 
 from __future__ import annotations
