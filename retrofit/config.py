@@ -22,6 +22,8 @@ DB25_DATA_PINS = tuple(range(2, 10))
 PORT_KINDS = ("db25", "ramps", "none")
 #: the axis letters of RS274 (LinuxCNC's XYZABCUVW): an axis is named by one of them ...
 AXIS_NAMES = "XYZABCUVW"
+#: ... of which A, B and C turn (degrees: retrofit.rotary)
+ROTARY_NAMES = "ABC"
 #: ... or by E, the drive of a tool carousel (an axis no G-code word moves; [atc] axis = "E")
 AUX_AXIS_NAMES = "E"
 #: the largest step count a position may have: a signed 32-bit count, as the firmware keeps it
@@ -50,6 +52,8 @@ class Axis:
     dir_pin: int | None
     invert_step: bool = False
     invert_dir: bool = False
+    rotary: bool = False        # A, B, C: every "mm" of this axis is a degree
+    wrap: bool = False          # a rotary axis without limits: G90 moves take the shorter way round
 
     @property
     def backlash_steps(self) -> int:
@@ -110,6 +114,7 @@ class Machine:
     sim: SimModel
     motion: MotionSettings = MotionSettings()
     parts: dict[str, object] = field(default_factory=dict)   # optional sections, see SECTION_PARSERS
+    dialect: str = "rs274"          # how its programs are read: "rs274" (LinuxCNC) or "fanuc" (lathe)
 
     @property
     def tick_s(self) -> float:
@@ -144,6 +149,7 @@ SECTION_PARSERS: dict[str, str] = {
     "setter": "retrofit.atc.setter:read_setter_section",
     "ramps": "retrofit.atc.board:read_ramps_section",
     "io": "retrofit.iopins:read_io_section",
+    "fanuc": "retrofit.gcode.fanuc_settings:read_fanuc_section",
 }
 
 
@@ -180,6 +186,7 @@ def load_machine(name_or_path: str | Path) -> Machine:
     description = head.get_str("description", "")
     tick_us = head.get_float("tick_us", above=0.0, maxval=1e6)
     port = head.get_str("port", "db25", choices=PORT_KINDS)
+    dialect = head.get_str("dialect", "rs274", choices=("rs274", "fanuc"))
     head.finish()
     axes_section = root.section("axis")
     _check_axis_names(path.name, axes_section)
@@ -201,7 +208,7 @@ def load_machine(name_or_path: str | Path) -> Machine:
     from .iopins import check_io_pins
     check_io_pins(path.name, port, axes, parts)
     return Machine(name=name, description=description, source=str(path), tick_us=tick_us, port=port,
-                   axes=axes, sim=sim, motion=motion, parts=parts)
+                   axes=axes, sim=sim, motion=motion, parts=parts, dialect=dialect)
 
 
 def _check_axis_name(file: str, key: str) -> None:
@@ -238,6 +245,9 @@ def _read_axis(key: str, sec: Section, port: str, index: int) -> Axis:
         step_pin = sec.get_int("step_pin", minval=0, maxval=255, why=why.format("step_pin")) if required else None
         dir_pin = sec.get_int("dir_pin", minval=0, maxval=255, why=why.format("dir_pin")) if required else None
         step_bit, dir_bit = 2 * index, 2 * index + 1
+    if key.upper() in ROTARY_NAMES:
+        from .rotary import read_rotary
+        return read_rotary(key, sec, step_pin, dir_pin, step_bit, dir_bit)
     steps_per_mm = sec.get_float("steps_per_mm", above=0.0, maxval=1e6)
     reach = STEPS_MAX / steps_per_mm            # the travel a signed 32-bit step count covers
     min_mm = sec.get_float("min_mm", minval=-reach, maxval=reach)

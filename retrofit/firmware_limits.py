@@ -172,14 +172,16 @@ def _floor_feed(feed: float) -> float:
 def plan_within_limits(expanded, machine: Machine, limits: Limits | None = None) -> list[str]:
     """Lower the feeds of ``expanded`` (commands, lines, events: changed in place) so that no move
     of a firmware run steps faster than the recorded limits; refuse a thread whose encoder rate
-    the firmware cannot follow. Returns the summary's lines (none when nothing was clamped)."""
+    the firmware cannot follow, and a rigid tap. Returns the summary's lines (none when nothing
+    was clamped)."""
+    from .outputs.serial import RIGID_TAP_REASON, reverses_in_chain
     limits = limits or load()
     check_encoder(machine, limits)
     walk = _Walk(machine, limits)
     fast = machine.motion.rapid_feed_mm_min
     out, lines, where = [], [], []
     program_feed = sent = machine.motion.default_feed_mm_min
-    indexer, rpm, fast_need, fast_lines = False, 0.0, math.inf, []
+    indexer, rpm, turning, fast_need, fast_lines = False, 0.0, 0, math.inf, []
     for cmd, line in zip(expanded.commands, expanded.lines):
         if isinstance(cmd, Init):
             walk.pos = dict.fromkeys(walk.pos, 0)
@@ -196,7 +198,9 @@ def plan_within_limits(expanded, machine: Machine, limits: Limits | None = None)
         elif isinstance(cmd, (IStp, CStp)):
             indexer = isinstance(cmd, IStp)
         elif isinstance(cmd, Spin):
-            rpm = cmd.rpm if cmd.direction else 0.0
+            if reverses_in_chain(cmd, indexer, turning):
+                raise GcodeError(f"{cmd} {RIGID_TAP_REASON}", expanded.file, line)
+            rpm, turning = (cmd.rpm if cmd.direction else 0.0), cmd.direction
         elif isinstance(cmd, FFdr):
             fast = cmd.feed
         elif isinstance(cmd, PFdr):

@@ -90,6 +90,7 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
     if reads_ahead(machine, opts, opts.urls):
         try:         # 1-4 a window at a time, from the first line (retrofit.runstream)
             run_read_ahead(run, text, opts, progress, tool_table, spindle_tool)
+            print_warnings(run.program.messages)
             from .runreport import run_report
             run.report = run_report(run)
             return run
@@ -102,7 +103,9 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
     try:
         run.program = compile_program(text, machine, file=name, tool_table=tool_table,
                                       spindle_tool=spindle_tool, probe=prober,
+                                      dialect=getattr(opts, "dialect", None),
                                       on_progress=lambda done: progress.fraction("compile", done))
+        print_warnings(run.program.messages)
         opened = prober.handoff() if hasattr(prober, "handoff") and prober.moves else None
         if prober is not None and prober.moves and opened is None:
             refuse_real_probing(opts.urls, name)
@@ -150,6 +153,13 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
     for part in run.report.get("remote") or []:
         part["clamped"] = clamped
     return run
+
+
+def print_warnings(messages) -> None:
+    """The program's WARNING messages (e.g. a feed lowered to the machine's fastest) on stderr."""
+    for file, number, kind, text in messages:
+        if kind == "WARNING":
+            print(f"{file}:{number}: warning: {text}", file=sys.stderr)
 
 
 def refuse_io_on_controller(expanded, reason: str) -> None:

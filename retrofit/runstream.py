@@ -9,8 +9,9 @@ makes and delivers the frames a window at a time (:mod:`retrofit.motion.stream`)
 the whole program: memory follows the look-ahead and the windows, not the program's length,
 and the first step leaves after the first window's lines have been read.
 
-It takes runs on ``sim://`` and ``vcd://`` only (nothing waits at a pause), by the fast path,
-on a machine without a tool changer, planned with the trapezoid profile. A program that turns
+It takes runs of RS274NGC programs on ``sim://`` and ``vcd://`` only (nothing waits at a
+pause), by the fast path, on a machine without a tool changer, planned with the trapezoid
+profile. A program that turns
 out to need more (threads or homing through the controller, M62-M66, an input wait, a probing
 move) raises :class:`ReadWhole` as soon as it is read; the run starts again the whole-program
 way (its files staged, so nothing half-written is left).
@@ -35,6 +36,7 @@ def reads_ahead(machine, opts, urls) -> bool:
     from .outputs import OutputURL
     from .runprogram import STREAM_SCHEMES
     return (not opts.reference and not opts.controller and "atc" not in machine.parts
+            and (getattr(opts, "dialect", None) or machine.dialect) == "rs274"
             and machine.motion.profile == "trapezoid"
             and not getattr(opts, "keep_frames", False) and not getattr(opts, "keep_commands", True)
             and all(OutputURL.parse(u).scheme in STREAM_SCHEMES for u in urls))

@@ -250,7 +250,7 @@ def test_arc_chord_outside_the_soft_limits_is_refused(engraver):
      "end radius 10.4000; allowed 0.0282 mm, or 0.1% of the radius)"),
     ("lathe", 7, "G0 X1 Q5", "Q5: Q word with no G code that uses it (G5, G73, G83, G64, G76, M61, M66)"),
     ("lathe", 3, "G65 P1", "unknown G code used: G65"),
-    ("lathe", 9, "G1 F100\nG1 X1 I2", "I2: I word with no G code that uses it (G2/G3 arcs, G5, G5.1, G76, G87)"),
+    ("lathe", 9, "G1 F100\nG1 X1 I2", "I2: I word with no G code that uses it (G2/G3 arcs, G5, G5.1, G33.1, G76, G87)"),
     ("lathe", 4, "G0 X1 Y2", "axis Y is not on machine chivu-lathe (axes: X, Z)"),
     ("lathe", 15, "G0 X45", "X 45.000 mm is outside the soft limits -40..40 mm"),
     ("lathe", 5, "F0\nG1 X1", "G1 with feed 0 (set F > 0)"),

@@ -42,10 +42,8 @@ RETROFIT_ALLOWS = {
 RETROFIT_REFUSES = {
     **dict.fromkeys(("gridprobe", "smartprobe", "tool-length-probe", "x-trim"),
                     "G38 probing: the test machine has no probe input"),
-    **dict.fromkeys(("lathe_g70_71_demo", "lathe_g7x_face_boring", "lathe_g7x_quadrants"),
-                    "G71/G72 lathe roughing cycles"),
-    "lathe-g70-offset": "G70 passes offset from the profile (D, E not 0)",
-    **dict.fromkeys(("3D_Chips", "b-index", "daisy"), "axes A/B/C: not on the test machine"),
+    **dict.fromkeys(("b-index", "daisy"), "axes A/B: not on this test machine (tests/test_gcode_rotary.py "
+                                          "runs them on XYZA and XYZB machines)"),
     "threading": "G33 on a machine without a spindle encoder",
     "err-unclosed-sub": "an o-sub never closed (rs274 stops at the M2 inside it)",
 }
@@ -209,7 +207,8 @@ def test_the_corpus_is_large_enough_and_both_accept_most():
 @pytest.mark.skipif(shutil.which("rs274") is None and not Path("/usr/bin/rs274").exists(),
                     reason="LinuxCNC's rs274 is not installed (Debian package linuxcnc-uspace)")
 @pytest.mark.parametrize("name", ["programs/g28-named-axis-bug1.ngc", "programs/g28-after-g92-bug2.ngc",
-                                  "programs/oword-recursion.ngc", "programs/cycle-g83-g98.ngc"])
+                                  "programs/oword-recursion.ngc", "programs/cycle-g83-g98.ngc",
+                                  "programs/g71-pocket.ngc", "programs/g72.2-face-pocket.ngc"])
 def test_golden_files_are_what_rs274_prints_today(name):
     from tests.gcode.regenerate import run_rs274  # noqa: PLC0415
     program = HERE / name

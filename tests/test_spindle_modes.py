@@ -94,7 +94,7 @@ def test_g97_sets_rpm_again():
     (PLAIN, "M3 S500\nG96 S100 D1500", "t.ngc:4: G96 needs a spindle encoder"),
     (LATHE, "M3 S500\nG96 S100\nG33 Z-5 K1", "t.ngc:5: G33 under G96/G95"),
     (LATHE, "M3 S500 D3", "t.ngc:3: D3: D word with no G code that uses it"),
-    (LATHE, "G33.1 Z-5 K1", "t.ngc:3: G33.1: rigid tapping"),
+    (LATHE, "G33.1 Z-5 K1", "t.ngc:3: G33.1: the spindle of machine mitic-lathe does not reverse on command"),
 ])
 def test_refusals(machine, text, words):
     with pytest.raises(GcodeError) as err:

@@ -40,12 +40,14 @@ def noisy(machine=BASE, noise=0.10, seed=7):
 
 
 def with_speeds(commands, speeds):
-    """A SPIN before each pass (the rapid back to the drive line), cycling through ``speeds``."""
+    """A SPIN before each pass (the rapid back to the pass's start, before the rapid in), cycling
+    through ``speeds``."""
     out, k = [], 0
     for i, cmd in enumerate(commands):
         nxt = commands[i + 1] if i + 1 < len(commands) else None
         if (isinstance(cmd, FMov) and isinstance(nxt, FMov)
-                and dict(nxt.axes)["X"] < dict(cmd.axes)["X"] == 12.0):
+                and dict(nxt.axes)["Z"] == dict(cmd.axes)["Z"]
+                and dict(nxt.axes)["X"] < dict(cmd.axes)["X"]):
             out.append(Spin(speeds[k % len(speeds)], 1))
             k += 1
         out.append(cmd)
@@ -178,7 +180,7 @@ def test_a_pass_too_short_for_its_lead_in_is_refused_before_motion():
     ("S300 M3\nG76 P1.5 Z-10 I-1 K1", "missing: J"),
     ("S300 M3\nG76 P1.5 Z-10 I-1 J0.1 K1 R0.5", "R0.5: the depth degression must be >= 1.0"),
     ("S300 M3\nG76 P1.5 Z-10 I0 J0.1 K1", "I0: the peak must be off the drive line"),
-    ("S300 M3\nG76 P1.5 Z-10 I-1 J0.1 K1 E7 L1", "E7: the taper is longer than half the drive line"),
+    ("S300 M3\nG76 P1.5 Z-10 I-1 J0.1 K1 E7 L1", "E7: the taper must be >= 0 and at most half the drive line"),
     ("S300 M3\nG76 X3 P1.5 Z-10 I-1 J0.1 K1", "G76 takes Z as its only axis word"),
     ("S300 M3\nG17 G76 P1.5 Z-10 I-1 J0.1 K1", r"G76 needs the ZX plane \(G18\)"),
     ("G0 X1 Q5", "Q5: Q word with no G code that uses it"),
@@ -223,18 +225,35 @@ def test_rdst_shows_the_spindle_the_index_and_the_indexer():
 
 
 def test_g76_makes_linuxcnc_passes():
+    """rs274's passes (tests/test_gcode_g76.py checks every move against its recorded output):
+    the infeed follows the flank at Q from the thread's start, the deepest pass ends at Z, and
+    each pass goes out to the drive line plus the depth still to cut."""
     prog = compile_program("G0 X12 Z3\nS300 M3\nG76 P1.5 Z-12 I-0.5 J0.25 K0.92 R1.5 Q29.5 H2\n",
                            BASE, "q.ngc")
     cmds = prog.commands
     cuts = [c for c, prev in zip(cmds[1:], cmds) if isinstance(c, PMov) and prev != IStp()]
     starts = [cmds[i - 3] for i, c in enumerate(cmds) if isinstance(c, PMov)]
+    outs = [cmds[i + 2] for i, c in enumerate(cmds) if isinstance(c, PMov)]
     depths = pass_depths(0.25, 0.92, 1.5, 2)
     assert len(depths) == 10 and depths[-3:] == [0.92] * 3
     assert [dict(c.axes)["X"] for c in cuts] == pytest.approx([12 - 0.5 - d for d in depths])
-    tan_q = math.tan(math.radians(29.5))                      # shallower passes start further back
-    assert [dict(c.axes)["Z"] for c in starts] == pytest.approx([3 + (0.92 - d) * tan_q for d in depths])
+    tan_q = math.tan(math.radians(29.5))                      # deeper passes start further on
+    assert [dict(c.axes)["Z"] for c in starts] == pytest.approx([3 - d * tan_q for d in depths])
     assert [dict(c.axes)["Z"] for c in cuts] == pytest.approx([-12 + (0.92 - d) * tan_q for d in depths])
+    assert [dict(c.axes)["X"] for c in outs] == pytest.approx([12 + 0.92 - d for d in depths])
     assert str(cmds[-1]) == "FMOV X12 Z-12"                   # the end of the drive line
+
+
+def test_g76_under_g7_reads_i_j_k_as_diameters():
+    """Diameter mode: the same thread written with diameters cuts where the radius program cuts
+    (a factor two off would cut twice too deep)."""
+    radius = compile_program("G8 G0 X12 Z3\nS300 M3\nG76 P1.5 Z-12 I-0.5 J0.25 K0.92 Q29.5\n",
+                             BASE, "r.ngc")
+    diameter = compile_program("G7 G0 X24 Z3\nS300 M3\nG76 P1.5 Z-12 I-1 J0.5 K1.84 Q29.5\n",
+                               BASE, "d.ngc")
+    assert [str(c) for c in diameter.commands] == [str(c) for c in radius.commands]
+    deepest = min(dict(c.axes)["X"] for c in radius.commands if isinstance(c, PMov))
+    assert deepest == pytest.approx(12 - 0.5 - 0.92)
 
 
 def test_the_simulated_spindle_counts_and_indexes():

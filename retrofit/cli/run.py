@@ -43,6 +43,9 @@ def add_commands(sub) -> None:
                    help="run through the tick-by-tick 002 controller (automatic for threads and homing)")
     r.add_argument("--progress", choices=["auto", "on", "off"], default="auto",
                    help="progress bar on standard error (auto: only on a terminal)")
+    r.add_argument("--dialect", choices=["rs274", "fanuc"], default=None,
+                   help="how the program is written: rs274 (LinuxCNC) or fanuc (Fanuc/Haas lathe, "
+                        "docs/fanuc.md); default: the machine file's dialect, else rs274")
     r.set_defaults(func=cmd_run)
 
 
@@ -138,7 +141,7 @@ def _run(args) -> int:
                            controller=args.controller, urls=urls,
                            keep_frames=bool(getattr(args, "html", None)),
                            keep_commands=bool(getattr(args, "plot", None)),
-                           before_outputs=mark)
+                           before_outputs=mark, dialect=args.dialect)
     progress = Progress(STAGE_WEIGHTS, None if args.progress == "auto" else args.progress == "on")
     try:
         run = run_program(text, name, machine, opts, progress, operator_wait(), table, start_tool)
@@ -152,6 +155,9 @@ def _run(args) -> int:
     lines += [f"  tool table: {table_path}; {store.describe()} (T{exp.end_tool} in the spindle)"
               ] if exp.events or "atc" in machine.parts else []
     lines += remote_lines(run.report.get("remote") or [])
+    notes = [(line, text) for _, line, kind, text in run.program.messages if kind == "NOTE"]
+    lines += [f"  line {line}: note: {text}" for line, text in notes[:10]]
+    lines += [f"  ... and {len(notes) - 10} more notes"] if len(notes) > 10 else []
     files_lines = write_files(files, args, run.log, run.sim, run.report,     # a path is not wrapped
                               run.program.commands, (name, text), run.program)
     print("\n".join(fit(lines) + files_lines))

@@ -13,11 +13,18 @@ A pass runs in four phases:
 A move that follows another ISTP move directly is *chained*: it continues the first one's line
 from the exact count where it ended, with no new synchronisation, so a tapered entry, the thread
 and a tapered exit form one helix.
+
+On a spindle whose encoder counts both ways (``reverse_rpm_s`` in ``[spindle]``) the count is the
+signed angle. A move reads it in its own frame, the sign of the spindle's direction when it
+starts, so that its count rises as it advances; a move chained after a reversal runs back along
+the same helix. When the spindle is to reverse right after a move, the move turns it round in
+time (:class:`~retrofit.controller.turnaround.Turnaround`): a rigid tap's way in and way out.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from fractions import Fraction
 
 from ..errors import MotionError
@@ -35,7 +42,7 @@ class IndexRun:
     needs_spindle = True
 
     def __init__(self, entry, line: LineMove, takeup: tuple[int, ...], spindle, rpm: float,
-                 chained_from: Fraction | None, machine):
+                 chained_from: Fraction | None, machine, direction: int = 1):
         self.entry = entry
         self.rate = 1e6 / machine.tick_us
         self.axis_accel = [a.max_accel_mm_s2 * a.steps_per_mm for a in machine.axes]   # steps/s^2
@@ -43,7 +50,11 @@ class IndexRun:
         self.takeup = takeup                  # signed steps per axis to issue first
         self.spindle = spindle                # SpindleSettings
         self.rpm = rpm                        # commanded spindle speed (magnitude)
-        self.origin = chained_from            # where the previous ISTP move's line ended
+        self.signed = spindle.reverse_rpm_s is not None   # the encoder counts both ways
+        self.sign = -1 if self.signed and direction < 0 else 1   # the move's frame of counts
+        # where the previous ISTP move's line ended (given in the encoder's counts)
+        self.origin = None if chained_from is None else chained_from * self.sign
+        self.turn = None                      # a Turnaround when the spindle reverses at the end
         self.phase = "takeup"
         self.seen = None                      # the index count last seen while waiting
         self.index_at = None                  # the tick it was last seen to change
@@ -61,8 +72,21 @@ class IndexRun:
         """The exact count at which this move's line ends (a chained move starts there)."""
         return self.track.end_count if self.track is not None else None
 
+    @property
+    def end_raw(self) -> Fraction | None:
+        """The same count as the encoder gives it (the next move's frame may differ)."""
+        return self.track.end_count * self.sign if self.track is not None else None
+
+    def _frame(self, inputs):
+        """The encoder's inputs in the move's frame (counts rise as it advances)."""
+        if self.sign > 0:
+            return inputs
+        index = inputs.index_count if inputs.index_tick < 0 else -inputs.index_count
+        return replace(inputs, count=-inputs.count, index_count=index)
+
     def step(self, tick: int, inputs, pulses) -> None:
         """Advance after frame ``tick`` with the spindle ``inputs`` of that tick."""
+        inputs = self._frame(inputs)
         if self.phase == "takeup":
             self._take_up(tick, pulses)
             if self.line.n == 0:
@@ -79,12 +103,21 @@ class IndexRun:
         if self.phase == "armed" and inputs.count >= self.track.start_count:
             self.phase = "run"
         if self.phase == "run":
+            if self.turn is not None:
+                self._turning(tick, inputs.count)
             for cycle in self.executor.advance(inputs.count):
                 for axis, step in enumerate(cycle):
                     if step:
                         pulses.request(axis, tick + 1, step)
             if self.executor.done:
                 self.phase = "done"
+                if self.turn is not None and self.turn.issued_at is None:
+                    self.turn.issue(tick)         # not due earlier (a very short move): now
+
+    def _turning(self, tick: int, count: int) -> None:
+        step_counts = self.spindle.encoder_counts_per_rev / float(self.s)
+        self.turn.watch(tick, count, float(self.track.start_count), float(self.track.end_count), step_counts)
+        self.turn.check(count, step_counts, str(self.entry.cmd))
 
     def _take_up(self, tick: int, pulses) -> None:
         """The clearance steps, timed as a start from rest at the axis's acceleration."""

@@ -25,6 +25,7 @@ from .profiles import MoveProfile, ramp_pieces
 from ..motion.pulses import PulseShaper
 from .record import RunRecord
 from .runs import ClockRun, DwellRun
+from .turnaround import Turnaround
 from .window import WindowPlanner
 
 #: entries the window may hold besides its moves (actions such as SPIN, COOL, PSTN)
@@ -132,6 +133,8 @@ class Processor(FeedOverrides):
                     break
                 run = self.run
                 if isinstance(run, IndexRun):
+                    if run.signed and run.turn is None:
+                        run.turn = self._turn_for(run)
                     run.step(tick, self.spindle_at(tick), self.pulses)
                 elif isinstance(run, HomeRun):
                     run.step(tick, self.closed, self.pulses)
@@ -241,7 +244,19 @@ class Processor(FeedOverrides):
         takeup = tuple(b - a for a, b in zip(entry.start, entry.line_start))
         self.comp = [e - t for e, t in zip(entry.end, entry.target)]
         return IndexRun(entry, line, takeup, self.io.spindle, rpm, self.track_end if entry.chained else None,
-                        self.machine)
+                        self.machine, direction)
+
+    def _turn_for(self, run: IndexRun) -> Turnaround | None:
+        """A Turnaround when the next entry reverses the spindle (a rigid tap's way in or out)."""
+        nxt = self.window[0] if self.window else None
+        if not (isinstance(nxt, ActionEntry) and isinstance(nxt.cmd, Spin)):
+            return None
+        cmd = nxt.cmd
+        if cmd.direction == 0 or cmd.direction == self.spindle_cmd[1] or not cmd.rpm > 0.0:
+            return None
+        spindle = self.io.spindle
+        return Turnaround(cmd.rpm, cmd.direction, self.spindle_cmd, spindle.reverse_rpm_s,
+                          spindle.encoder_counts_per_rev, self._spin)
 
     def _homed_axis(self, entry: HomeEntry, i: int) -> None:
         """Axis ``i`` latched on its reference switch: its position is now the home position."""
@@ -253,7 +268,7 @@ class Processor(FeedOverrides):
         end_tick = tick_of(run.end_time, self.rate) if isinstance(run, (ClockRun, DwellRun)) else tick + 1
         self.record.finish(self.pulses.requested(), end_tick)
         if isinstance(run, IndexRun):
-            self.track_end = run.end_count
+            self.track_end = run.end_raw
         if isinstance(run, HomeRun):
             self.homed = True
         self.run = None
@@ -263,14 +278,18 @@ class Processor(FeedOverrides):
         if isinstance(cmd, Pstn):
             self.offsets = list(entry.offsets)
         elif isinstance(cmd, Spin):
-            was_on = self.spindle_cmd[1] != 0
-            self.spindle_cmd = (cmd.rpm, cmd.direction)
-            if self.sim_spindle is not None:
-                self.sim_spindle.command(tick + 1, cmd.rpm, cmd.direction)
-            if cmd.direction and not was_on:
-                self.spindle_start = tick + 1
+            self._spin(tick, cmd.rpm, cmd.direction)
         else:
             self.coolant = cmd.mode
+
+    def _spin(self, tick: int, rpm: float, direction: int) -> None:
+        """The spindle drive set from tick ``tick + 1`` on."""
+        was_on = self.spindle_cmd[1] != 0
+        self.spindle_cmd = (rpm, direction)
+        if self.sim_spindle is not None:
+            self.sim_spindle.command(tick + 1, rpm, direction)
+        if direction and not was_on:
+            self.spindle_start = tick + 1
 
     def _real(self, walker_steps) -> tuple[int, ...]:
         return tuple(s + d for s, d in zip(walker_steps, self.shift))

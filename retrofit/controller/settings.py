@@ -72,6 +72,9 @@ class SpindleSettings:
     speed_tolerance: float            # the controller plans for a spindle up to this fraction fast
     sync_accel_share: float           # share of an axis's acceleration a thread lead-in may use
     sim: SpindleSim = SpindleSim()
+    #: the drive reverses on command at this rate (rpm/s) and the encoder counts both ways
+    #: (quadrature): rigid tapping (G33.1) needs it; None: a one-way encoder
+    reverse_rpm_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -126,6 +129,8 @@ def read_spindle_section(sec: Section, axes: tuple[Axis, ...]) -> SpindleSetting
         max_rpm=sec.get_float("max_rpm", above=0.0, maxval=100_000.0),
         speed_tolerance=sec.get_float("speed_tolerance", 0.15, minval=0.0, maxval=1.0),
         sync_accel_share=sec.get_float("sync_accel_share", 0.8, above=0.0, maxval=1.0),
+        reverse_rpm_s=sec.get_float("reverse_rpm_s", None, above=0.0, maxval=1_000_000.0)
+        if sec.has("reverse_rpm_s") else None,
         sim=_read_spindle_sim(sec.section("sim", required=False)))
     sec.finish()
     return settings

@@ -5,7 +5,8 @@ controller's state -- step generators, request queues, the simulated carriages a
 spindle, the indexer, the homing jog -- into arrays, lets the compiled loop run as many ticks as
 it can, and unpacks it. The readable objects stay the one source of truth: between spans the
 controller ticks in Python, and a span stops before every tick the readable controller has to
-decide (see the kernels' module doc). Starting a move, dwells, halts and commands stay in Python.
+decide (see the kernels' module doc). Starting a move, dwells, halts and commands stay in Python,
+and so do ISTP moves on a spindle whose encoder counts both ways (rigid tapping).
 """
 
 from __future__ import annotations
@@ -65,8 +66,8 @@ class SpanRunner:
         run = proc.run
         if isinstance(run, ClockRun):
             work = self._clock_work(run)
-        elif isinstance(run, IndexRun) and (run.phase in ("armed", "run")
-                                            or (run.phase == "sync" and run.seen is not None)):
+        elif isinstance(run, IndexRun) and not run.signed and (
+                run.phase in ("armed", "run") or (run.phase == "sync" and run.seen is not None)):
             work = self._index_work(run)
         elif isinstance(run, HomeRun):
             work = self._home_work(run)
@@ -151,7 +152,7 @@ class SpanRunner:
         zeros = np.zeros(n_axes, np.int64)
         clock = clock or (zeros, zeros, zeros, 0)
         index = index or (np.zeros(K.X_N + 1, np.int64), zeros, zeros)
-        spindle = spindle or (np.zeros(5, np.int64), np.zeros(4), np.zeros(4), np.zeros(1))
+        spindle = spindle or (np.zeros(5, np.int64), np.zeros(4), np.zeros(5), np.zeros(1))
         home = home or (np.zeros(5, np.int64), np.zeros(5))
         r_ticks = np.zeros((n_axes, q_due.shape[1]), dtype=np.int64)
         r_n = np.zeros(n_axes, dtype=np.int64)

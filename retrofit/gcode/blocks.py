@@ -15,7 +15,7 @@ from .errors import RuleError
 #: G codes by modal group, as LinuxCNC groups them
 G_GROUPS: dict[float, str] = {
     **dict.fromkeys((4, 10, 28, 28.1, 30, 30.1, 53, 92, 92.1, 92.2, 92.3), "non-modal"),
-    **dict.fromkeys((0, 1, 2, 3, 5, 5.1, 5.2, 33, 38.2, 38.3, 38.4, 38.5, 73, 74, 80, 81, 82, 83,
+    **dict.fromkeys((0, 1, 2, 3, 5, 5.1, 5.2, 33, 33.1, 38.2, 38.3, 38.4, 38.5, 73, 74, 80, 81, 82, 83,
                      84, 85, 86, 87, 88, 89), "motion"),
     76: "non-modal", 5.3: "non-modal",
     **dict.fromkeys((17, 18, 19), "plane"), **dict.fromkeys((20, 21), "units"),
@@ -35,12 +35,7 @@ M_GROUPS: dict[float, str] = {
 }
 #: codes LinuxCNC knows that retrofit refuses, and why
 REFUSED: dict[str, str] = {
-    "G33.1": "rigid tapping is not supported (the indexer follows a spindle turning one way); "
-             "tap with G84/G74 and a floating holder",
     "G43.2": "G43.2 is not supported (use G43 H or G43.1)", "G52": "G52 is not supported (use G92)",
-    **dict.fromkeys(("G71", "G71.1", "G71.2", "G72", "G72.1", "G72.2"),
-                    "the lathe roughing cycles G71 and G72 are not supported (G70 finishing is); "
-                    "write the roughing passes out (or with an O-word loop)"),
     **dict.fromkeys(("M67", "M68"), "analog outputs are not supported (the boards have none)"),
     "M19": "spindle orientation is not supported",
 }

@@ -1,87 +1,133 @@
-"""G70, the lathe finishing cycle, as LinuxCNC 2.9's rs274 runs it (passes on the profile itself).
+"""G70, G71 and G72, the lathe cycles, as LinuxCNC 2.9's rs274 runs them.
 
-``G70 Q<sub> [X Z] [P<passes>]``: the profile is the moves of ``o<sub> sub`` (X and Z words,
-G0/G1 lines and G2/G3 arcs by I K or R), read from its text, not called. The tool rapids to the
-start (X Z, or where it is), rapids to the profile's first point, then follows the rest of the
-profile at the feed (a G0 inside the profile is cut at F, as rs274 does); P repeats it. Every
-segment must be monotonic (Z and X each change one way only, after the profile is turned so that
-both fall, or turned a quarter for a facing profile), else "Not monotonic". Offset passes (D, E
-not 0) and the roughing cycles G71/G72 are refused: their parallel-offset paths are not made here.
+``G70 Q<sub> [X Z] [D E P]`` finishes, ``G71 Q<sub> [X Z] [D I R]`` roughs along Z and
+``G72`` along X (``.1``: no pockets, ``.2``: the pockets alone). The profile is the moves of
+``o<sub> sub`` (X and Z words, G0/G1 lines and G2/G3 arcs by I K or R), read from its text, not
+called; its first segment is the approach from the start point (X Z, or where the tool is). The
+passes are made by :mod:`retrofit.gcode.lathepasses` and go through the translator as G0, G1,
+G2 and G3 moves, in the program's units with X as written. F, S and T on the cycle's line act
+before its moves. rs274's word defaults: D0 E0 P1 for G70; D0 I1 R0.5 for G71/G72.
 """
 
 from __future__ import annotations
 
 from .blocks import make_block
 from .errors import RuleError
+from .expressions import evaluate
+from .lathepasses import Move, Segment, finish, rough
 
-ALLOWED = set("GQXZDEPF")
+#: the G codes run here, by the number rs274 gives them
+CODES = (70.0, 71.0, 71.1, 71.2, 72.0, 72.1, 72.2)
+CYCLE_WORDS = set("GQXZDEIPR")
+OTHER_WORDS = set("FST")
+_POCKETS = {0: "all", 1: "none", 2: "only"}
 
 
-def run_g70(runner, src, line, words: list[tuple[str, float]]) -> bool:
-    """One G70 block (``words`` evaluated); the moves go through the translator as G0/G1/G2/G3."""
-    tr, s = runner.tr, runner.tr.state
+def is_cycle(words) -> bool:
+    """True when the line's words name one of the lathe cycles."""
+    return any(k == "G" and type(v) is float and round(v, 1) in CODES for k, v in words)
+
+
+def run_cycle(runner, src, line, words: list[tuple[str, float]]) -> bool:
+    """One G70/G71/G72 block (``words`` evaluated); the moves go through the translator."""
+    s = runner.tr.state
+    code = next(round(v, 1) for k, v in words if k == "G" and round(v, 1) in CODES)
+    name = f"G{code:g}"
     v = dict(words)
-    extra = sorted({k for k, _ in words} - ALLOWED)
+    extra = sorted({k for k, _ in words} - CYCLE_WORDS - OTHER_WORDS)
     if extra or sum(1 for k, _ in words if k == "G") != 1:
-        raise RuleError(f"G70: write it alone with Q, X, Z, D, E, P, F (found {', '.join(extra) or 'other G codes'})")
+        raise RuleError(f"{name}: write it alone with Q, X, Z, D, E, I, R, P and F, S, T "
+                        f"(found {', '.join(extra) or 'other G codes'})")
     if "Q" not in v:
-        raise RuleError("G70 requires a Q word (the O-number of the profile subroutine)")
-    if v.get("D", 0.0) != 0.0 or v.get("E", 0.0) != 0.0:
-        raise RuleError("G70: finishing passes offset from the profile (D, E not 0) are not "
-                        "supported; give D0 E0 (or leave them out) to cut on the profile")
+        raise RuleError(f"{name} requires a Q word (the O-number of the profile subroutine)")
     if s.incremental:
-        raise RuleError("G70 will only work in absolute distance mode (G90)")
-    passes = v.get("P", 1.0)
-    if passes != int(passes) or not 1 <= passes <= 100:
-        raise RuleError(f"P{passes:g}: G70 runs its profile 1 to 100 times")
-    name = f"{round(v['Q'])}"
-    if name not in src.subs:
-        raise RuleError(f"G70 Q{v['Q']:g}: Q routine not found (no o{name} sub in {src.file})")
-    unit = 25.4 if s.inch else 1.0
-    here = (s.program_position("Z") / unit, s.program_position("X") / unit * (2 if s.diameter else 1))
-    start = (v.get("Z", here[0]), v.get("X", here[1]))
-    path = _profile(runner, src, name, start)
-    if not path:
+        raise RuleError(f"{name} will only work in absolute distance mode (G90)")
+    if code != 70.0 and runner.tr.comp.on:
+        raise RuleError(f"{name} cannot be used with cutter compensation turned on (G40 first)")
+    sub = f"{round(v['Q'])}"
+    if sub not in src.subs:
+        raise RuleError(f"{name} Q{v['Q']:g}: Q routine not found (no o{sub} sub in {src.file})")
+    others = [(k, x) for k, x in words if k in OTHER_WORDS]
+    if others:
+        runner.tr.run(make_block(line.number, others, runner.machine), src.file)
+    across = 2.0 if s.diameter else 1.0          # rs274 computes in radii under G7
+    here = _here(s)
+    start = (v.get("Z", here[0]), v["X"] / across if "X" in v else here[1])
+    profile = _profile(runner, src, sub, start, name, across)
+    if not profile:
         return False
-    _check(path)
-    feed = [("F", v["F"])] if "F" in v else []
-    for _ in range(int(passes)):
-        _move(runner, line, src, [("G", 0.0), ("X", start[1]), ("Z", start[0])] + feed)
-        first = path[0]
-        _move(runner, line, src, [("G", 0.0), ("X", first[2][1]), ("Z", first[2][0])])
-        for kind, a, b, centre in path[1:]:
-            words = [("G", 1.0 if kind == "line" else float(kind)), ("X", b[1]), ("Z", b[0])]
-            if kind != "line":
-                ref = (0.0, 0.0) if not s.arc_incremental else a
-                words += [("I", centre[1] - ref[1]), ("K", centre[0] - ref[0])]
-            _move(runner, line, src, words)
+    try:
+        moves = _passes(code, profile, start, v)
+    except ValueError as exc:
+        raise RuleError(f"{name}: G7X error: {exc}") from None
+    for move in moves:
+        _move(runner, line, src, move, across)
     return False
 
 
-def _move(runner, line, src, words) -> None:
+def _passes(code: float, profile, start, v) -> list[Move]:
+    if code == 70.0:
+        passes = v.get("P", 1.0)
+        if passes != int(passes) or not 1 <= passes <= 100:
+            raise ValueError(f"P{passes:g}: G70 runs its profile 1 to 100 times")
+        return finish(profile, start, first=v.get("D", 0.0), last=v.get("E", 0.0),
+                      passes=int(passes))
+    sub = round((code - int(code)) * 10)
+    return rough(profile, start, depth=v.get("I", 1.0), retract=v.get("R", 0.5),
+                 allowance=v.get("D", 0.0), facing=int(code) == 72, pockets=_POCKETS[sub])
+
+
+def _move(runner, line, src, move: Move, across: float) -> None:
+    kind = {"rapid": 0.0, "feed": 1.0, "cw": 2.0, "ccw": 3.0}[move.kind]
+    z, x = move.end
+    words = [("G", kind), ("X", x * across), ("Z", z)]
+    if move.centre is not None:
+        s = runner.tr.state
+        ref = (0.0, 0.0) if not s.arc_incremental else _here(s)
+        words += [("I", move.centre[1] - ref[1]), ("K", move.centre[0] - ref[0])]
     runner.tr.run(make_block(line.number, words, runner.machine), src.file)
 
 
-def _profile(runner, src, name: str, start: tuple) -> list:
-    """The sub's moves: ("line", start, end, None) and (2 or 3, start, end, centre), (z, x)."""
-    first, last = src.subs[name]
-    here, motion, path = start, None, []
-    for line in src.lines[first + 1:last]:
-        if line.oword is not None or line.assigns:
-            raise RuleError(f"G70 Q{name}: the profile o{name} may hold only moves (line "
-                            f"{line.number})")
-        w = {k: runner._value(t) for k, t in line.words}
+def _here(s) -> tuple[float, float]:
+    """Where the tool is, ``(z, x)`` in program units, X a radius."""
+    unit = 25.4 if s.inch else 1.0
+    return (s.program_position("Z") / unit, s.program_position("X") / unit)
+
+
+def _profile(runner, src, sub: str, start: tuple, name: str, across: float) -> list[Segment]:
+    """The sub's moves as segments, ``(z, x)``; the first starts at ``start``. As rs274 reads
+    the profile, its loops and branches run, and ``#<_x>`` and ``#<_z>`` read the profile's
+    point so far."""
+    first, last = src.subs[sub]
+    here, motion, path, pc, repeats = start, None, [], first + 1, {}
+    while pc < last:
+        line = src.lines[pc]
+        if line.assigns:
+            raise RuleError(f"{name} Q{sub}: the profile o{sub} may hold only moves (line "
+                            f"{line.number} sets a parameter)")
+        if line.oword is not None:
+            if line.oword[1] in ("CALL", "RETURN", "SUB", "ENDSUB"):
+                raise RuleError(f"{name} Q{sub}: o{line.oword[0]} {line.oword[1].lower()} in "
+                                f"the profile (line {line.number}); loops and branches only")
+            _, pc = runner._oword(src, pc, line, [], repeats)
+            continue
+        pc += 1
+        at = {"_x": here[1] * across, "_z": here[0]}
+        read = lambda ref, at=at: at[ref] if ref in at else runner._read(ref)  # noqa: E731
+        w = {k: t if type(t) is float else evaluate(t, read, runner.params.exists)
+             for k, t in line.words}
         if "G" in w:
             motion = w["G"]
-        end = (w.get("Z", here[0]), w.get("X", here[1]))
+        end = (w.get("Z", here[0]), w["X"] / across if "X" in w else here[1])
         if end == here or motion is None:
             continue
         if motion in (0.0, 1.0):
-            path.append(("line", here, end, None))
+            path.append(Segment("line", here, end))
         elif motion in (2.0, 3.0):
-            path.append((int(motion), here, end, _centre(runner, here, end, motion, w, name)))
+            kind = "ccw" if motion == 3.0 else "cw"
+            path.append(Segment(kind, here, end, _centre(runner, here, end, motion, w, name)))
         else:
-            raise RuleError(f"G70 Q{name}: G{motion:g} in the profile (line {line.number}); "
+            raise RuleError(f"{name} Q{sub}: G{motion:g} in the profile (line {line.number}); "
                             f"the profile is G0, G1, G2, G3 moves")
         here = end
     return path
@@ -92,51 +138,15 @@ def _centre(runner, a, b, motion, w, name):
         za, xa, zb, xb, r = a[0], a[1], b[0], b[1], w["R"]
         dz, dx = zb - za, xb - xa
         n2 = dz * dz + dx * dx
-        k = ((r * r - n2 / 4) / n2) ** 0.5
+        if r * r < n2 / 4 - 1e-9:
+            raise RuleError(f"{name}: an arc of R{r:g} cannot reach from Z{za:g} X{xa:g} to "
+                            f"Z{zb:g} X{xb:g} (the radius is under half the chord)")
+        k = (max(r * r - n2 / 4, 0.0) / n2) ** 0.5
         sign = 1 if motion == 3.0 else -1
         return ((za + zb) / 2 - sign * k * dx, (xa + xb) / 2 + sign * k * dz)
     if "I" not in w and "K" not in w:
-        raise RuleError(f"G70 Q{name}: either I or K must be present for an arc")
+        raise RuleError(f"{name}: G7X error: either I or K must be present for an arc")
     i, k = w.get("I", 0.0), w.get("K", 0.0)
     if runner.tr.state.arc_incremental:
         return (a[0] + k, a[1] + i)
     return (k, i)
-
-
-def _check(path) -> None:
-    """rs274's rule: turn the profile a quarter if a segment is not monotonic, flip it so Z and X
-    fall from its start to its end, then every segment must be monotonic."""
-    z = [(p[1], p[2], p[3], p[0]) for p in path]
-    if not all(_monotonic(seg) for seg in z):
-        z = [_turn(seg) for seg in z]
-    dx = z[0][1][1] - z[-1][1][1]
-    dz = z[0][1][0] - z[-1][1][0]
-    if dx > 0:
-        z = [_flip(seg, 1) for seg in z]
-    if dz < 0:
-        z = [_flip(seg, 0) for seg in z]
-    if not all(_monotonic(seg) for seg in z[1:]):     # the approach to the profile may climb
-        raise RuleError("G7X error: Not monotonic (each segment of the profile must move Z one "
-                        "way and X one way)")
-
-
-def _turn(seg):
-    a, b, c, kind = seg
-    t = lambda p: None if p is None else (p[1], -p[0])  # noqa: E731   -i * (z + i x)
-    return t(a), t(b), t(c), kind
-
-
-def _flip(seg, axis: int):
-    a, b, c, kind = seg
-    f = lambda p: None if p is None else tuple(-u if n == axis else u for n, u in enumerate(p))  # noqa: E731
-    return f(a), f(b), f(c), (kind if kind == "line" else 5 - kind)
-
-
-def _monotonic(seg) -> bool:
-    a, b, c, kind = seg
-    if kind == "line":
-        return b[0] - a[0] <= 1e-3
-    entry, leave, dz = a[1] - c[1], b[1] - c[1], b[0] - a[0]
-    if kind == 3:
-        return entry >= -1e-3 and leave >= -1e-3 and dz <= -1e-3
-    return entry <= 1e-3 and leave <= 1e-3 and dz <= -1e-3

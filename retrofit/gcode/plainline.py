@@ -5,7 +5,8 @@ Most lines of a CAM program are ``G1 X.. Y.. Z..`` or ``X.. Y.. Z..`` (the lexer
 FMOV / PFDR / PMOV, the very steps of ``Translator.run`` for a plain block (``_plain``,
 ``_motion``, ``ModalState.target``, ``rapid`` / ``feed_line``, ``put``), without building a
 ``Block``. It answers None, having changed nothing, for any line or state it does not cover
-(another letter, a word twice, a value out of range, cutter compensation, G91 offsets pending,
+(another letter, a rotary axis, a word twice, a value out of range, cutter compensation,
+G91 offsets pending,
 G96, G93, G95, G61, a thread chain, no motion mode yet): the full translator then runs the line
 and words any refusal. The golden tests against rs274 hold both to one meaning.
 """
@@ -35,9 +36,9 @@ def run_plain(tr, words: list, line: int, file: str):
     for letter, value in words:
         if not -MAX_VALUE <= value <= MAX_VALUE:
             return None
-        if letter in names and letter not in axes:
+        if letter in names and letter not in axes and letter not in s.rotary:
             axes[letter] = value
-        elif letter == "F" and feed is None and 0.0 <= value <= 1.0e6:
+        elif letter == "F" and feed is None and value >= 0.0:
             feed = value
         elif letter == "G" and motion is None and value in _G:
             motion = _G[value]
@@ -49,7 +50,7 @@ def run_plain(tr, words: list, line: int, file: str):
     tr._line, tr._file = line, file
     scale = MM_PER_INCH if s.inch else 1.0
     if feed is not None:
-        s.feed_mm_min = round(feed * scale, DECIMALS) + 0.0
+        tr._feed_word(feed)                      # capped at the machine's fastest, as the full way
     if motion is not None:
         s.motion, s.motion_given, s.cycle_start, s.nurbs = motion, True, None, None
     if not axes:

@@ -9,7 +9,8 @@ that order, each at most once, single spaces), works out every target as
 appends the FMOV / PFDR / PMOV with each line's number. It takes nothing (0 lines) when the state
 is not plain (``plainline``'s conditions), under G91, or when any line of the run would need a
 word the full translator says (a value out of range, a target outside the limits, a feed of 0):
-the lines then run one by one and the refusal comes from there, with its line.
+the lines then run one by one and the refusal comes from there, with its line. A rotary axis
+or a feed above the machine's fastest (lowered, with a warning) is left to them too.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import numpy as np
 
 from ..commands import FMov, PFdr, PMov
 from .blocks import MAX_VALUE
+from .feedcap import ceiling_mm_min
 from .state import MM_PER_INCH, clean_mm_list
 from .validate import _limits
 
@@ -49,10 +51,10 @@ def take_run(tr, lines, pc: int, file: str) -> int:
             if text:
                 table[i, j] = float(text)
     axes = [_AXES[j] for j in range(3) if not np.isnan(table[:, 1 + j]).all()]
-    if any(a not in names for a in axes) or not (np.abs(np.nan_to_num(table)) <= MAX_VALUE).all():
+    if any(a not in names or a in s.rotary for a in axes) or not (np.abs(np.nan_to_num(table)) <= MAX_VALUE).all():
         return 0
     feeds = table[:, 4]
-    if ((feeds < 0.0) | (feeds > 1.0e6)).any():
+    if (feeds < 0.0).any():
         return 0
     modes = _filled(table[:, 0], -1.0 if s.motion is None else float(s.motion))
     if not np.isin(modes, (0.0, 1.0)).all():
@@ -62,6 +64,8 @@ def take_run(tr, lines, pc: int, file: str) -> int:
     feed_mm = feeds.copy()
     if given.any():
         feed_mm[given] = clean_mm_list(feeds[given] * scale)
+        if (feed_mm[given] > ceiling_mm_min(tr.machine)).any():
+            return 0                                  # lowered, with a warning: line by line
     feed_mm = _filled(feed_mm, s.feed_mm_min)
     ends = {n: np.full(k, s.position[n]) for n in names}
     moving = np.zeros(k, np.bool_)

@@ -69,7 +69,7 @@ class Interpreter:
         self.params = translator.state.params
         self.search_path = [Path(p) for p in search_path]
         self.sources: dict[str, Source] = {}
-        self.messages: list[tuple[str, int, str, str]] = []
+        self.messages: list[tuple[str, int, str, str]] = translator.messages
         self.steps = 0
         #: called now and then with the share of the main program's lines run (a progress bar)
         self.on_progress = None
@@ -156,7 +156,7 @@ class Interpreter:
             done = run_plain(self.tr, line.words, line.number, src.file)
             if done is not None:
                 return done
-            if ("G", 70.0) not in line.words:
+            if not lathecycles.is_cycle(line.words):
                 return self.tr.run(make_block(line.number, line.words, self.machine), src.file)
         for kind, text in line.messages:
             self.messages.append((src.file, line.number, kind, self._substitute(text)))
@@ -170,8 +170,8 @@ class Interpreter:
                 self.params.write(ref, value)
         if not words:
             return False
-        if ("G", 70.0) in words:
-            return lathecycles.run_g70(self, src, line, words)
+        if lathecycles.is_cycle(words):
+            return lathecycles.run_cycle(self, src, line, words)
         return self.tr.run(make_block(line.number, words, self.machine), src.file)
 
     def _ref(self, target):
@@ -302,7 +302,7 @@ def _read_text(path: Path) -> str:
 
 def compile_program(text: str, machine: Machine, file: str = "<string>",
                     start_mm: dict | None = None, *, tool_table=None, spindle_tool: int = 0,
-                    search_path=(), probe=None, on_progress=None) -> Program:
+                    search_path=(), probe=None, on_progress=None, dialect: str | None = None) -> Program:
     """Translate G-code ``text`` for ``machine`` into retrofit commands.
 
     The whole program is run through the interpreter before anything is returned: on the first
@@ -313,7 +313,8 @@ def compile_program(text: str, machine: Machine, file: str = "<string>",
     ``spindle_tool`` the tool in the spindle; ``search_path`` the folders where ``o<name> call``
     finds ``name.ngc``; ``probe`` makes G38 probing moves on the machine
     (:mod:`retrofit.gcode.probing`); ``on_progress(share)`` is called now and then with the
-    share (0..1) of the work done, for a progress bar.
+    share (0..1) of the work done, for a progress bar; ``dialect`` "fanuc" reads a Fanuc/Haas
+    lathe program (:mod:`retrofit.gcode.fanuc_lathe`; default: the machine file's ``dialect``).
 
     >>> from retrofit.config import load_machine
     >>> prog = compile_program("G0 X10 Z2\\nG1 Z-5 F100", load_machine("chivu-lathe"))
@@ -323,8 +324,17 @@ def compile_program(text: str, machine: Machine, file: str = "<string>",
     interpreter = start_interpreter(machine, file, start_mm, tool_table, spindle_tool, search_path, probe)
     interpreter.on_progress = on_progress
     translator = interpreter.tr
+    dialect = dialect or machine.dialect
+    if dialect not in ("rs274", "fanuc"):
+        raise GcodeError(f"unknown dialect {dialect!r}; known: rs274, fanuc", file)
     with gcode_errors(file):
-        interpreter.run(scan(Source(file, LazyLines(text))))
+        if dialect == "fanuc":
+            from .fanuc_lathe import run_fanuc
+            run_fanuc(text, translator, file, interpreter.messages)
+            lines = []
+        else:
+            lines = LazyLines(text)
+        interpreter.run(scan(Source(file, lines)))
         translator.finish()
     return Program(translator.commands, translator.lines, file, translator.files,
                    interpreter.messages)
@@ -354,7 +364,8 @@ def gcode_errors(file: str):
 
 
 def load_program(path: str | Path, machine: Machine | str, *, tool_table=None,
-                 spindle_tool: int = 0, search_path=(), probe=None) -> Program:
+                 spindle_tool: int = 0, search_path=(), probe=None,
+                 dialect: str | None = None) -> Program:
     """Read and compile a G-code file (``.ngc``); ``machine`` is a Machine or a machine name.
 
     Errors name the file by its name, e.g. ``prog.ngc:12: ...``. Subroutine files are looked
@@ -366,4 +377,4 @@ def load_program(path: str | Path, machine: Machine | str, *, tool_table=None,
     text = _read_text(path)
     return compile_program(text, machine, file=path.name, tool_table=tool_table,
                            spindle_tool=spindle_tool,
-                           search_path=[path.parent, *search_path], probe=probe)
+                           search_path=[path.parent, *search_path], probe=probe, dialect=dialect)

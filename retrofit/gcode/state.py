@@ -16,6 +16,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from ..config import Machine
+from ..rotary import shorter_way
 from .params import CS_SELECT, CS_STEP, G54_BASE, G92_BASE, Parameters
 
 MM_PER_INCH = 25.4
@@ -89,6 +90,8 @@ class ModalState:
     exact_stop: bool = False            # G61/G61.1 (True) or G64
     per_rev: bool = False               # G95: F in mm per spindle revolution
     css: tuple | None = None            # G96: (surface speed m/min, rpm ceiling); None: G97
+    rotary: frozenset = frozenset()     # axes in degrees (A, B, C): no inch, no diameter
+    wrapped: frozenset = frozenset()    # rotary axes whose G90 moves take the shorter way
 
     @classmethod
     def start(cls, machine: Machine, start_mm: Mapping[str, float] | None = None) -> "ModalState":
@@ -102,7 +105,9 @@ class ModalState:
                                  f"{machine.name} (axes: {', '.join(machine.axis_names)})")
             position[key] = clean_mm(float(value))
         return cls(position=position, plane=default_plane(machine),
-                   feed_mm_min=machine.motion.default_feed_mm_min)
+                   feed_mm_min=machine.motion.default_feed_mm_min,
+                   rotary=frozenset(a.name for a in machine.axes if a.rotary),
+                   wrapped=frozenset(a.name for a in machine.axes if a.wrap))
 
     def to_mm(self, value: float) -> float:
         """A length in program units (inch under G20) in mm."""
@@ -131,7 +136,10 @@ class ModalState:
         return self.position[axis] - self.offset(axis) if axis in self.position else 0.0
 
     def word_mm(self, axis: str, value: float) -> float:
-        """An axis word in mm: inches under G20, a diameter halved under G7 (X only)."""
+        """An axis word in mm: inches under G20, a diameter halved under G7 (X only); a rotary
+        axis's word is degrees."""
+        if axis in self.rotary:
+            return value
         mm = value * MM_PER_INCH if self.inch else value
         return mm / 2.0 if self.diameter and axis == "X" else mm
 
@@ -143,9 +151,11 @@ class ModalState:
             end[name] = clean_mm(end[name] + delta)
         scale = MM_PER_INCH if self.inch else 1.0
         for name, value in axes.items():
-            mm = value * scale
+            mm = value if name in self.rotary else value * scale
             if self.diameter and name == "X":
                 mm /= 2.0
+            if name in self.wrapped and not (self.incremental or machine_coords):
+                mm = shorter_way(end[name], mm + self.offset(name)) - self.offset(name)
             if machine_coords:
                 end[name] = round(mm, DECIMALS) + 0.0
             elif self.incremental:

@@ -5,20 +5,24 @@ of consecutive G33 blocks form one synchronised chain (a tapered thread, a fusee
 becomes ``ISTP``, ``PFDR F<K>``, ``PMOV ...`` and ends with ``CSTP`` at the next other motion.
 
 ``G76 P- Z- I- J- K- <R- Q- H- E- L->`` is LinuxCNC's threading cycle, started from the *drive
-line* (the current X) at the start of the thread (the current Z):
+line* (the current X) at the start of the thread (the current Z), cut pass by pass as LinuxCNC's
+``rs274`` cuts it (tests/test_gcode_g76.py compares every move):
 
 * ``P`` pitch (mm/rev), ``Z`` the end of the thread;
 * ``I`` the thread's peak from the drive line (negative: an external thread, positive: internal);
-* ``J`` the first cut's depth beyond the peak, ``K`` the full depth;
+* ``J`` the first cut's depth beyond the peak, ``K`` the full depth (``K > J``); under G7
+  (diameter mode) ``I``, ``J`` and ``K`` are diameters, halved like X;
 * ``R`` depth degression (pass ``n`` cuts to ``J n^(1/R)``; 1 constant depth, 2 constant area);
-* ``Q`` compound angle (deg): each shallower pass is set back along Z by ``(K - depth) tan Q``;
+* ``Q`` compound angle (deg): the infeed follows the flank, each pass starts ``(depth - |I|)
+  tan Q`` further along Z and ends ``(K - depth + |I|) tan Q`` short of ``Z``;
 * ``H`` spring passes at full depth after the full-depth pass;
 * ``E`` taper length along Z and ``L`` which ends taper (0 none, 1 entry, 2 exit, 3 both).
 
-Each pass: rapid along the drive line to its start, rapid in to its depth (or, with an entry
-taper, a synchronised move in over ``E``), the synchronised cut, then a rapid out (or a
-synchronised exit taper). Every pass synchronises on the spindle's index, so all passes cut one
-helix. A synchronised move needs a *lead-in* to reach thread speed from rest (``v^2 / 2a``); the
+Each pass: rapid to its start, out at the drive line plus the depth still to cut; rapid in to
+its depth (or, with an entry taper, a synchronised move in by ``|I|`` and one down the taper over
+``E``), the synchronised cut, a synchronised exit taper if asked, and a rapid out to the drive
+line plus the depth still to cut. Every pass synchronises on the spindle's index, so all passes
+cut one helix. A synchronised move needs a *lead-in* to reach thread speed from rest (``v^2 / 2a``); the
 tool is on the helix from the end of the lead-in on, so the cycle must start at least that far
 from the work. Programs whose thread speed or lead-in the machine cannot give are refused here,
 before any motion, with the figures.
@@ -37,14 +41,17 @@ from .validate import RuleError, check_soft_limits
 MAX_PASSES = 1000
 
 
-def pass_depths(first: float, full: float, degression: float, spring: int) -> list[float]:
-    """Depth of every pass of a G76: ``J n^(1/R)`` while below ``K``, then ``K``, then springs.
+def pass_depths(first: float, full: float, degression: float, spring: int,
+                peak: float = 0.0) -> list[float]:
+    """Depth of every pass of a G76 beyond the peak: ``J n^(1/R)`` while below ``K``, then ``K``,
+    then springs. The comparison is made from the drive line (``peak`` + depth), as LinuxCNC
+    makes it, so a pass that lands on ``K`` counts the same way.
 
     >>> [round(d, 3) for d in pass_depths(0.2, 0.6, 2.0, 1)]
     [0.2, 0.283, 0.346, 0.4, 0.447, 0.49, 0.529, 0.566, 0.6, 0.6]
     """
     depths, n, depth = [], 1, first
-    while depth < full - 1e-12:
+    while peak + depth < peak + full:
         depths.append(depth)
         n += 1
         depth = first * n ** (1.0 / degression)
@@ -134,7 +141,8 @@ def g33(tr, block, end: dict) -> None:
 
 
 def _words(tr, block) -> dict:
-    """G76's words in mm (and R, Q, H, L as numbers), checked one by one."""
+    """G76's words in mm, I J K as radii (halved under G7, as LinuxCNC reads them), and R, Q, H,
+    L as numbers, checked one by one."""
     if tr.state.plane != 18:
         raise RuleError(f"G76 needs the ZX plane (G18), not G{tr.state.plane}")
     if block.motion is not None:
@@ -148,29 +156,67 @@ def _words(tr, block) -> dict:
         raise RuleError(f"G76 needs P (pitch), Z (end), I (peak offset), J (first depth) and K "
                         f"(full depth); missing: {' '.join(missing)}")
     v, mm = block.values, tr.state.to_mm
-    w = {"P": mm(v["P"]), "I": mm(v["I"]), "J": mm(v["J"]), "K": mm(v["K"]), "E": mm(v.get("E", 0.0)),
+    across = 0.5 if tr.state.diameter else 1.0          # G7: I, J and K are diameters
+    w = {"P": mm(v["P"]), "I": mm(v["I"]) * across, "J": mm(v["J"]) * across,
+         "K": mm(v["K"]) * across, "E": mm(v.get("E", 0.0)),
          "R": v.get("R", 1.0), "Q": v.get("Q", 0.0), "H": v.get("H", 0.0), "L": v.get("L", 0.0),
          "Z": tr.state.target({"Z": block.axes["Z"]})["Z"]}
     for letter, rule in (("P", "the pitch must be > 0"), ("J", "the first depth must be > 0"),
                          ("K", "the full depth must be > 0")):
         if not w[letter] > 0.0:
             raise RuleError(f"{block.texts[letter]}: {rule}")
+    if not v["K"] > v["J"]:
+        raise RuleError(f"{block.texts['K']}: the full depth K must be greater than the first "
+                        f"depth J ({block.texts['J']})")
     if w["R"] < 1.0:
         raise RuleError(f"{block.texts['R']}: the depth degression must be >= 1.0 (R1 constant depth)")
     if w["I"] == 0.0:
         raise RuleError(f"{block.texts['I']}: the peak must be off the drive line (I < 0 external, "
                         f"I > 0 internal thread)")
-    if not (w["H"].is_integer() and w["L"].is_integer() and w["L"] <= 3):
-        raise RuleError("G76 H (spring passes) must be a whole number and L one of 0, 1, 2, 3")
-    if not w["Q"] < 90.0:
-        raise RuleError(f"{block.texts['Q']}: the compound angle must be below 90 deg")
+    if not (w["H"].is_integer() and w["H"] >= 0 and w["L"].is_integer() and 0 <= w["L"] <= 3):
+        raise RuleError("G76 H (spring passes) must be a whole number >= 0 and L one of 0, 1, 2, 3")
+    if not -90.0 < w["Q"] < 90.0:
+        raise RuleError(f"{block.texts['Q']}: the compound angle must be within -90..90 deg")
+    if w["Q"] == -1.0:
+        raise RuleError(f"{block.texts['Q']}: LinuxCNC reads Q-1 as no compound angle (Q0); write "
+                        f"Q0, or the angle you mean")
     length = abs(w["Z"] - tr.state.position["Z"])
     if length == 0.0:
         raise RuleError("G76: Z is where the cycle starts; the thread needs a length")
-    if w["E"] > length / 2.0:
-        raise RuleError(f"{block.texts['E']}: the taper is longer than half the drive line "
-                        f"({length:.3f} mm)")
+    if not 0.0 <= w["E"] <= length / 2.0:
+        raise RuleError(f"{block.texts['E']}: the taper must be >= 0 and at most half the drive "
+                        f"line ({length:.3f} mm)")
+    # depths from the drive line counted in the program's units, as LinuxCNC counts the passes
+    peak = abs(v["I"]) * across
+    w["depths"] = [mm(peak + d) for d in pass_depths(v["J"] * across, v["K"] * across, w["R"],
+                                                     int(w["H"]), peak)]
     return w
+
+
+def _pass_moves(w: dict, x_drive: float, z_start: float, depth: float, lean: float) -> list:
+    """One pass ``depth`` from the drive line (peak offset included), as LinuxCNC cuts it:
+    [(kind, x, z, lead)] with kind "rapid" or "sync". The pass starts ``lean (depth - |I|)`` along
+    Z (the compound infeed along the flank), ends ``lean (K - depth + |I|)`` short of Z, and goes
+    out to the drive line plus the depth still to cut."""
+    sign = 1.0 if w["I"] > 0.0 else -1.0                 # internal threads cut outward
+    peak, full = abs(w["I"]), w["K"]
+    toward = 1.0 if w["Z"] > z_start else -1.0
+    shift = (depth - peak) * lean * toward
+    zs, ze = z_start + shift, w["Z"] - (full - (depth - peak)) * lean * toward
+    back, cut, flank = (x_drive + sign * (depth - peak - full), x_drive + sign * depth,
+                        x_drive + sign * (depth - full))
+    taper = w["E"] if int(w["L"]) else 0.0
+    steep = w["P"] * math.hypot(taper, full) / taper if taper else w["P"]
+    moves = [("rapid", back, zs, None)]
+    if taper and int(w["L"]) & 1:
+        moves += [("sync", flank, zs, steep), ("sync", cut, zs + taper * toward, steep)]
+    else:
+        moves.append(("rapid", cut, zs, None))
+    if taper and int(w["L"]) & 2:
+        moves += [("sync", cut, ze - taper * toward, w["P"]), ("sync", flank, ze, steep)]
+    else:
+        moves.append(("sync", cut, ze, w["P"]))
+    return moves + [("rapid", back, ze, None)]
 
 
 def g76(tr, block) -> None:
@@ -178,37 +224,28 @@ def g76(tr, block) -> None:
     w = _words(tr, block)
     spindle_turning(tr, "G76")
     leave(tr)
-    names = tr.machine.axis_names
     here = dict(tr.state.position)
-    x_drive, z_start, z_end = here["X"], here["Z"], w["Z"]
-    toward = 1.0 if z_end > z_start else -1.0
-    inward = -1.0 if w["I"] < 0.0 else 1.0
-    taper = w["E"] if w["L"] else 0.0
-    entry, exit_ = int(w["L"]) in (1, 3), int(w["L"]) in (2, 3)
-    slope = math.tan(math.radians(w["Q"]))
     point = lambda x, z: {**here, "X": clean_mm(x), "Z": clean_mm(z)}  # noqa: E731
-    for depth in pass_depths(w["J"], w["K"], w["R"], int(w["H"])):
-        shift = (depth - w["K"]) * slope * toward
-        zs, ze = z_start + shift, z_end + shift
-        x_cut = x_drive + w["I"] + inward * depth
-        for p in (point(x_cut, zs), point(x_cut, ze), point(x_drive, zs)):
-            check_soft_limits(tr.machine, p, " (G76 pass)")
-        tr._emit(FMov(tr._axes(point(x_drive, zs))))
-        path = [point(x_drive, zs)] if entry else [point(x_cut, zs)]
-        if not entry:
-            tr._emit(FMov(tr._axes(point(x_cut, zs))))
-        if entry:
-            path.append(point(x_cut, zs + taper * toward))
-        path.append(point(x_cut, ze - taper * toward if exit_ else ze))
-        if exit_:
-            path.append(point(x_drive, ze))
-        segments = [(a, b) for a, b in zip(path, path[1:]) if a != b]
-        for k, (a, b) in enumerate(segments):
-            per_rev = clean_mm(w["P"] * math.dist([a[n] for n in names], [b[n] for n in names])
-                               / abs(b["Z"] - a["Z"]))
-            check_synchronised(tr, "G76", a, b, per_rev, first=k == 0)
-            _synchronised(tr, a, b, per_rev)
+    lean = math.tan(math.radians(w["Q"]))
+    passes = [_pass_moves(w, here["X"], here["Z"], depth, lean) for depth in w["depths"]]
+    for moves in passes:
+        for _kind, x, z, _lead in moves:
+            check_soft_limits(tr.machine, point(x, z), " (G76 pass)")
+    at = here
+    for moves in passes:
+        first = True
+        for kind, x, z, lead in moves:
+            end = point(x, z)
+            if kind == "rapid":
+                leave(tr)
+                tr._emit(FMov(tr._axes(end)))
+            else:
+                check_synchronised(tr, "G76", at, end, lead, first=first)
+                _synchronised(tr, at, end, lead)
+                first = False
+            at = end
         leave(tr)
-        if not exit_:
-            tr._emit(FMov(tr._axes(point(x_drive, ze))))
-    tr.state.position = point(x_drive, z_end)
+    final = point(here["X"], w["Z"])
+    if final != at:
+        tr._emit(FMov(tr._axes(final)))
+    tr.state.position = final

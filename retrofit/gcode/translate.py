@@ -19,7 +19,7 @@ import math
 from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, ZMov
 from ..config import Machine
 from ..motion.arcs import arc_columns, arc_extent
-from . import coords, cycles, iowords, modalsave, pathcontrol, polar, probing, radiuscomp, spindle, splines, tools
+from . import coords, cycles, feedcap, iowords, modalsave, pathcontrol, polar, probing, radiuscomp, spindle, splines, tapping, tools
 from .arcwords import arc_center, chord_moves, plane_axes
 from .blocks import Block
 from .errors import RuleError
@@ -58,6 +58,7 @@ class Translator:
         self.spindle_tool = state.tool          # in the spindle at the start (M66 plans from it)
         self.saved_states: dict[int, tuple] = {}   # call level -> (M70/M73 state, restore on return)
         self.streaming = False            # read ahead in batches: the commands so far are not kept
+        self.messages: list[tuple[str, int, str, str]] = []   # (file, line, kind, text)
 
     def run(self, block: Block, file: str = "") -> bool:
         """Translate one block; True when it ends the program (M2, M30)."""
@@ -139,9 +140,13 @@ class Translator:
 
     # -- words acting before the motion ------------------------------------------------------
     def _feed_word(self, value: float) -> None:
-        if value < 0.0 or value > MAX_FEED_MM_MIN:
+        if value < 0.0 or (value > MAX_FEED_MM_MIN and (self.state.inverse_time or self.state.per_rev)):
             raise RuleError(f"F{value:g}: a feed is from 0 to {MAX_FEED_MM_MIN:g}")
-        self.state.feed_mm_min = value if self.state.inverse_time else clean_mm(self.state.to_mm(value))
+        if self.state.inverse_time:
+            self.state.feed_mm_min = value
+            return
+        feed = clean_mm(self.state.to_mm(value))
+        self.state.feed_mm_min = feed if self.state.per_rev else feedcap.capped(self, feed, value)
 
     def _spindle(self, block: Block) -> None:
         s = self.state
@@ -235,6 +240,9 @@ class Translator:
             cycles.run(self, block, mode)
             return
         end = self.state.target(block.axes, machine_coords)
+        if mode == 33.1:
+            tapping.g33_1(self, block, end)
+            return
         if mode == 33:
             self._needs_encoder("G33")
             g33(self, block, end)

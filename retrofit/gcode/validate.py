@@ -110,9 +110,9 @@ def check_word_use(block, mode) -> None:
     spline = mode in (5, 5.1) and block.motion == mode
     nurbs = mode == 5.2 and nonmodal not in AXIS_NONMODAL
     uses = {
-        "I": arc or g76 or spline or (cycle and mode == 87),
+        "I": arc or g76 or spline or (cycle and mode == 87) or (mode == 33.1 and moving),
         "J": arc or g76 or spline or (cycle and mode == 87),
-        "K": arc or g76 or (mode == 33 and moving) or (cycle and mode == 87),
+        "K": arc or g76 or (mode in (33, 33.1) and moving) or (cycle and mode == 87),
         "R": arc or cycle or g76 or nonmodal == 10,
         "P": nonmodal in (4, 10) or arc or g76 or (cycle and mode in (74, 82, 84, 86, 88, 89))
         or g.get("path control") == 64 or (spline and mode == 5) or nurbs
@@ -137,8 +137,8 @@ def check_word_use(block, mode) -> None:
         raise RuleError("G92 with no axis words (G92 X0 sets the current X to 0)")
 
 
-_USED_BY = {"I": "G2/G3 arcs, G5, G5.1, G76, G87", "J": "G2/G3 arcs, G5, G5.1, G76, G87",
-            "K": "G2/G3 arcs, G33, G76, G87", "R": "G2/G3 arcs, canned cycles, G10, G76",
+_USED_BY = {"I": "G2/G3 arcs, G5, G5.1, G33.1, G76, G87", "J": "G2/G3 arcs, G5, G5.1, G76, G87",
+            "K": "G2/G3 arcs, G33, G33.1, G76, G87", "R": "G2/G3 arcs, canned cycles, G10, G76",
             "P": "G4, G10, G2/G3 turns, G5, G5.2, G74, G82, G84, G86, G88, G89, G64, G76, M50-M53, M62-M66",
             "Q": "G5, G73, G83, G64, G76, M61, M66",
             "L": "G10, canned cycles, G5.2, G76, G41.1/G42.1, M66",

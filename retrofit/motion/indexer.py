@@ -53,6 +53,21 @@ def lead_in_mm(feed_mm_rev: float, rpm: float, accel_mm_s2: float) -> float:
     return v * v / (2.0 * accel_mm_s2)
 
 
+#: share of the drive's reversing rate (``reverse_rpm_s``) the controller plans a spindle's stop
+#: with, at the ends of a rigid tap (the rest takes up the load's wander)
+PLAN_SHARE = 0.8
+
+
+def stopping_revs(rpm: float, reverse_rpm_s: float) -> float:
+    """Revolutions a spindle turns while the controller brings it to rest from ``rpm``.
+
+    >>> stopping_revs(600.0, 3000.0)     # 10 rev/s, slowing at 0.8 x 50 rev/s^2
+    1.25
+    """
+    revs_s, decel = rpm / 60.0, PLAN_SHARE * reverse_rpm_s / 60.0
+    return revs_s * revs_s / (2.0 * decel)
+
+
 def lead_in_counts(steps_per_rev: Fraction, counts_per_rev: int, rpm: float,
                    accel_steps_s2: float) -> int:
     """``L``: counts the lead-in takes on each side of the reference index (0: none needed).

@@ -38,7 +38,7 @@ import time
 from dataclasses import dataclass
 from typing import Iterable
 
-from ..commands import Command, FMov, Init, PMov, Prob, Pstn, Rdps, Rdst, Stop, ZMov
+from ..commands import CStp, Command, FMov, Init, IStp, PMov, Prob, Pstn, Rdps, Rdst, Spin, Stop, ZMov
 from ..errors import LinkError, OutputError
 from ..frames import PortFrames
 from ..link.codec import HEARTBEAT_MS
@@ -106,10 +106,11 @@ class SerialOutput(Output):
         Returns the ``remote`` part of the report; raises OutputError naming the command that
         failed, or the status flags that stopped the program.
         """
+        program = ([Init()] if self.opts["init"] else []) + list(commands)
+        refuse_rigid_tap(self.url.text, program)
         if self.link is None:
             self.open()
         started = time.monotonic()
-        program = ([Init()] if self.opts["init"] else []) + list(commands)
         try:
             start = None if self.opts["init"] else dict(self.link.request(Rdps()).steps)
             sent = [self.link.submit(cmd, urgent=False) for cmd in program]
@@ -184,6 +185,29 @@ class SerialOutput(Output):
             self.link.close()
             self.link = None
         super().close()
+
+
+#: why a controller on the link cannot run a rigid tap
+RIGID_TAP_REASON = ("reverses the spindle inside a synchronised (ISTP) chain, a rigid tap (G33.1); the "
+                    "firmware's indexer counts its encoder one way and cannot follow the spindle back; "
+                    "run rigid taps on sim://, or tap with G84/G74 and a floating holder")
+
+
+def reverses_in_chain(cmd, indexing: bool, direction: int) -> bool:
+    """Whether ``cmd`` reverses a spindle turning ``direction`` inside an ISTP chain."""
+    return isinstance(cmd, Spin) and indexing and direction != 0 and cmd.direction == -direction
+
+
+def refuse_rigid_tap(url: str, program) -> None:
+    """OutputError, before a byte is sent, for a spindle reversed between ISTP moves (G33.1)."""
+    indexing, direction = False, 0
+    for k, cmd in enumerate(program):
+        if isinstance(cmd, (IStp, CStp)):
+            indexing = isinstance(cmd, IStp)
+        elif isinstance(cmd, Spin):
+            if reverses_in_chain(cmd, indexing, direction):
+                raise OutputError(f"{url}: command {k + 1} ({cmd}) {RIGID_TAP_REASON}")
+            direction = cmd.direction
 
 
 def end_steps(machine, program, start: dict[str, int] | None = None) -> dict[str, int | None]:

@@ -8,7 +8,10 @@ drawn from a seeded generator: every ``noise_interval_ms`` a new load factor in
 smoothly, the spindle's inertia sees to that).
 
 The encoder counts pulses whatever the direction (002's ICLK drives a counter input), and the
-index pulse comes each time the count passes a multiple of the counts per revolution.
+index pulse comes each time the count passes a multiple of the counts per revolution. A spindle
+that reverses on command (``reverse_rpm_s`` in ``[spindle]``) has a quadrature encoder instead:
+its count is the signed angle, going down while the spindle turns backwards (M4), and the index
+comes when the count crosses a multiple of the counts per revolution either way.
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ S_ANGLE, S_TICK, S_INDEX_COUNT, S_INDEX_TICK, S_DRAWN = 0, 1, 2, 3, 4
 # float state slots
 F_RPM, F_TARGET, F_KNOT0, F_KNOT1 = 0, 1, 2, 3
 # float parameter slots
-P_RAMP, P_TICK_S, P_COUNTS, P_INTERVAL = 0, 1, 2, 3
+P_RAMP, P_TICK_S, P_COUNTS, P_INTERVAL, P_SIGNED = 0, 1, 2, 3, 4
 
 
 @kernel
@@ -53,12 +56,16 @@ def spindle_step(si, sf, par, draws, tick):
         si[S_DRAWN] += 1
     load = sf[F_KNOT0] + (sf[F_KNOT1] - sf[F_KNOT0]) * phase / interval
     c = np.int64(par[P_COUNTS])
-    per_tick = abs(sf[F_RPM]) / 60.0 * c * par[P_TICK_S] * (1.0 + load)
+    speed = sf[F_RPM] if par[P_SIGNED] != 0.0 else abs(sf[F_RPM])
+    per_tick = speed / 60.0 * c * par[P_TICK_S] * (1.0 + load)
     before = si[S_ANGLE] >> FRACTION_BITS
     si[S_ANGLE] += np.int64(np.rint(per_tick * ONE_COUNT))
     after = si[S_ANGLE] >> FRACTION_BITS
     if after // c > before // c:
         si[S_INDEX_COUNT] = (after // c) * c
+        si[S_INDEX_TICK] = tick
+    elif after // c < before // c:
+        si[S_INDEX_COUNT] = (before // c) * c
         si[S_INDEX_TICK] = tick
     si[S_TICK] = tick
 
@@ -88,12 +95,13 @@ class SimSpindle:
 
     def __init__(self, settings, tick_us: float):
         self.counts_per_rev = settings.encoder_counts_per_rev
+        self.signed = settings.reverse_rpm_s is not None    # a quadrature encoder: the signed angle
         self.physics = settings.sim
         self.tick_s = tick_us * 1e-6
         self.rng = random.Random(self.physics.seed)
         self.interval = max(1, round(self.physics.noise_interval_ms * 1e-3 / self.tick_s))
         self.tick = -1                      # last tick simulated
-        self.angle = 0                      # 1/65536 counts travelled (never decreases)
+        self.angle = 0                      # 1/65536 counts (never decreases unless signed)
         self.rpm = 0.0                      # signed drive speed, before the load
         self.target_rpm = 0.0
         self.history = array("q")           # angle at the end of every tick
@@ -123,7 +131,7 @@ class SimSpindle:
         si = np.array([self.angle, self.tick, self.index_count, self.index_tick, 0], dtype=np.int64)
         sf = np.array([self.rpm, self.target_rpm, *self._knots], dtype=np.float64)
         par = np.array([self.physics.accel_rpm_s * self.tick_s, self.tick_s, self.counts_per_rev,
-                        self.interval], dtype=np.float64)
+                        self.interval, float(self.signed)], dtype=np.float64)
         return si, sf, par
 
     def set_state(self, si, sf, history) -> None:
@@ -157,13 +165,14 @@ class SimSpindle:
         delta = self.target_rpm - self.rpm
         self.rpm = self.target_rpm if abs(delta) <= ramp else self.rpm + (ramp if delta > 0 else -ramp)
         load = self._load(tick)
-        per_tick = abs(self.rpm) / 60.0 * self.counts_per_rev * self.tick_s * (1.0 + load)
+        speed = self.rpm if self.signed else abs(self.rpm)
+        per_tick = speed / 60.0 * self.counts_per_rev * self.tick_s * (1.0 + load)
         before = self.angle >> FRACTION_BITS
         self.angle += int(round(per_tick * ONE_COUNT))
         after = self.angle >> FRACTION_BITS
         c = self.counts_per_rev
-        if after // c > before // c:
-            self.index_count = (after // c) * c
+        if after // c != before // c:
+            self.index_count = max(after // c, before // c) * c
             self.index_tick = tick
         self.history.append(self.angle)
         self.tick = tick

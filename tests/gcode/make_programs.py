@@ -13,9 +13,11 @@ from pathlib import Path
 
 try:
     from comp_programs import compensation, refusals
+    from lathe_programs import lathe_cycles
     from modal_programs import polar, saved_state, tool_number
 except ImportError:               # imported as tests.gcode.make_programs
     from .comp_programs import compensation, refusals
+    from .lathe_programs import lathe_cycles
     from .modal_programs import polar, saved_state, tool_number
 
 OUT = Path(__file__).resolve().parent / "programs"
@@ -259,7 +261,7 @@ def main() -> None:
             old.unlink()
     programs = {**arcs(), **offsets(), **cycles(), **splines(), **language(), **compensation(),
                 **refusals(), **tool_number(), **polar(),
-                **saved_state()}
+                **saved_state(), **lathe_cycles()}
     for name, text in programs.items():
         (OUT / f"{name}.ngc").write_text(text)
     print(f"{len(programs)} programs written to {OUT}")

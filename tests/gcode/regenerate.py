@@ -1,7 +1,7 @@
 """Regenerate the golden files: LinuxCNC's own interpreter (``rs274``) run on every corpus program.
 
 Usage: ``python3 tests/gcode/regenerate.py [name ...]`` (needs ``/usr/bin/rs274``, Debian's linuxcnc-uspace).
-For each ``programs/*.ngc`` and ``linuxcnc/*.ngc`` it writes ``golden/<folder>/<name>.canon``:
+For each ``programs/*.ngc``, ``linuxcnc/*.ngc`` and ``tapping/*.ngc`` it writes ``golden/<folder>/<name>.canon``:
 a first line ``# rs274 exit <code>: <error or ok>`` and then rs274's canonical calls as printed
 (``STRAIGHT_TRAVERSE(...)``, ``ARC_FEED(...)``, offsets, units). The tool table is ``tool.tbl``.
 The golden files are committed, so the differential test runs where LinuxCNC is not installed. rs274 without a configuration
@@ -18,7 +18,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 RS274 = "/usr/bin/rs274"
-FOLDERS = ("programs", "linuxcnc")
+FOLDERS = ("programs", "linuxcnc", "g76", "tapping")
 
 
 def inch_tool_table() -> Path:

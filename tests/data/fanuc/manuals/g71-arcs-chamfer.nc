@@ -1,0 +1,24 @@
+%
+O9007 (G71 AND G70 WITH A CHAMFER, TWO ARCS AND A TAPER)
+(figures of a published teaching example: cycle start A X46 Z3, 1.5 mm a side,)
+(retract 1 mm, allowances 0.4 mm on X and 0.1 mm on Z)
+N10 G54 G00 X80. Z80.
+N20 M03 S400
+N30 G01 X46. Z3. F0.2
+N35 G71 U1.5 R1.
+N40 G71 P50 Q130 U0.4 W0.1 F0.3
+N50 G00 X0.
+N60 G01 X10. Z-2.
+N70 Z-20.
+N80 G02 U10. W-5. R5.
+N90 G01 W-10.
+N100 G03 U14. W-7. R7.
+N110 G01 Z-52.
+N120 U10. W-10.
+N130 W-20.
+N135 G70 P50 Q130
+N140 X50.
+N150 G00 X80. Z80.
+N160 M05
+N170 M30
+%
