@@ -7,7 +7,7 @@ milliseconds for a long file; 12 bytes a line), and
 lexes a line when it is read (:func:`retrofit.gcode.lexer.lex_text_line`); the last lines read
 are kept, so a loop does not lex its body again each time round. It is a sequence of the same
 lines :func:`~retrofit.gcode.lexer.lex_lines` gives, except that a line holding only a comment
-or spaces reads as None (nothing to run) where ``lex_lines`` leaves it out.
+or spaces reads as a line without words (nothing to run) where ``lex_lines`` leaves it out.
 
 ``candidates()`` gives the lines that may hold an O-word or an M98 / M99 (an ``O`` or an ``M``
 somewhere on them): :func:`retrofit.gcode.ocode.scan` pairs O-words by reading only those.
@@ -91,7 +91,7 @@ class LazyLines:
     def __getitem__(self, index):
         if isinstance(index, slice):
             return [line for line in (self._lex(i) for i in range(*index.indices(len(self))))
-                    if line is not None]
+                    if not blank(line)]
         if index < 0:
             index += len(self)
         if not 0 <= index < len(self):
@@ -106,16 +106,22 @@ class LazyLines:
             text = self.text[self.starts[index]:self.stops[index]]
         else:
             text = self.data[self.starts[index]:self.stops[index]].decode("utf-8")
-        return lex_text_line(self.numbers[index], text)
+        line = lex_text_line(self.numbers[index], text)
+        return Line(self.numbers[index], plain=True) if line is None else line
 
-    def first(self) -> Line | None:
-        """The first line that holds something (None for a program of comments only)."""
-        return next((line for line in self if line is not None), None)
+    def first(self) -> tuple[int, Line] | None:
+        """(index, line) of the first line that holds something (None for a program of comments
+        only)."""
+        return next(((i, line) for i, line in enumerate(self) if not blank(line)), None)
 
     def candidates(self):
         """(index, line) of the lines that may hold an O-word, M98 or M99, in order."""
         for i in self._candidates:
             if i < len(self):
-                line = self._lex(i)
-                if line is not None:
-                    yield i, line
+                yield i, self._lex(i)
+
+
+def blank(line: Line) -> bool:
+    """Whether ``line`` holds nothing to run (only a comment or spaces)."""
+    return not (line.words or line.assigns or line.oword or line.messages or line.dollar
+                or line.percent or line.error)

@@ -84,13 +84,14 @@ class Interpreter:
         translator's commands so far are then complete)."""
         src, pc, calls, repeats = main, 0, [], {}
         most = len(main.lines) + MAX_STEPS
-        first = main.lines.first() if hasattr(main.lines, "first") else (main.lines or [None])[0]
-        closing_percent = first is not None and first.percent
+        first = main.lines.first() if hasattr(main.lines, "first") else \
+            ((0, main.lines[0]) if main.lines else None)
+        closing_percent = first is not None and first[1].percent
         if closing_percent:
-            pc = 1 + next(i for i, line in enumerate(main.lines) if line is not None)
+            pc = first[0] + 1
         while pc < len(src.lines):
             line = src.lines[pc]
-            if line is None:                     # a comment or spaces only: nothing runs
+            if line is None or (line.plain and not line.words):     # a comment or spaces only
                 pc += 1
                 continue
             if line.plain and self.steps + RUN_LINES <= most and hasattr(src.lines, "text"):
