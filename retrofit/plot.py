@@ -314,10 +314,15 @@ def _inset(ax, segments, log: RunLog, carriage: np.ndarray, h: int, v: int, wors
     ax.indicate_inset_zoom(ins, edgecolor="0.2")
 
 
-def carriage_path(sim: SimMachine) -> np.ndarray:
-    """Carriage positions (mm) of every axis at every tick where any axis stepped."""
+def carriage_path(sim: SimMachine, points: int | None = None) -> np.ndarray:
+    """Carriage positions (mm) of every axis at every tick where any axis stepped (with ``points``:
+    at every n-th of those ticks, n chosen to give about that many)."""
     names = sim.machine.axis_names
-    ticks = np.unique(np.concatenate([np.asarray(sim.traces[n].ticks, np.int64) for n in names] + [[0]]))
+    ticks = np.concatenate([np.asarray(sim.traces[n].ticks, np.int64) for n in names] + [[0]])
+    ticks.sort()
+    ticks = ticks[np.concatenate(([True], ticks[1:] != ticks[:-1]))]       # each tick once
+    if points:
+        ticks = ticks[::max(1, len(ticks) // points)]
     cols = []
     for i, name in enumerate(names):
         trace = sim.traces[name]

@@ -49,13 +49,18 @@ def run_report(run) -> dict:
 
 def magazine_violations(run) -> list:
     """What the magazine model saw the machine do wrong (collisions, a tool dropped...)."""
-    if "atc" not in run.machine.parts:
+    return magazine_check(run.machine, run.log.start_steps, run.expanded.start_tool, run.sim)
+
+
+def magazine_check(machine, start_steps, start_tool: int, sim) -> list:
+    """The magazine model's violations of a run on ``machine`` (none without a changer): the one
+    check of ``retrofit run`` and the console, replayed on what the simulated machine did."""
+    if "atc" not in machine.parts:
         return []
     from .atc.magazine import MagazineModel, MagazineState
-    machine = run.machine
-    start = {a.name: a.to_mm(s) for a, s in zip(machine.axes, run.log.start_steps or [0] * len(machine.axes))}
-    model = MagazineModel(machine, MagazineState.loaded(machine, run.expanded.start_tool), start)
-    model.replay(run.sim, 0)
+    start = {a.name: a.to_mm(s) for a, s in zip(machine.axes, start_steps or [0] * len(machine.axes))}
+    model = MagazineModel(machine, MagazineState.loaded(machine, start_tool), start)
+    model.replay(sim, 0)
     return list(model.violations)
 
 

@@ -1,5 +1,6 @@
 """The console served to tests as the operator meets it: a real uvicorn server on a free port, its
-token, and an HTTP client that can set any header (Host, Origin, Content-Type) as an attacker can."""
+token, and an HTTP client that can set any header (Host, Origin, Content-Type) as an attacker can;
+and the page driven in a real headless Chromium (one setup for every browser test)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,9 @@ import secrets
 import socket
 import threading
 import time
+from pathlib import Path
+
+import pytest
 
 #: a long cut at F150 (16 s of machine time) between two rapids
 LONG_MOVE = "G21 G90\nG0 X5 Z1\nG1 Z-39 F150\nG0 X10\nG0 Z5\nM30\n"
@@ -98,3 +102,82 @@ class Served:
         self.server.should_exit = True
         self.thread.join(20)
         self.console.close()
+
+
+# -- the console and the reports in a real headless Chromium (Debian's, driven by Selenium) ------------
+CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
+#: the mark of every browser test module: skipped where Chromium or its driver is missing
+needs_chromium = pytest.mark.skipif(not (Path(CHROMIUM).exists() and Path(CHROMEDRIVER).exists()),
+                                    reason="needs Debian's chromium and chromium-driver")
+
+
+def chromium(user_dir: Path, width: int = 1500, height: int = 1100):
+    """Headless Chromium with a fresh profile and its network log on."""
+    from selenium import webdriver
+    from selenium.webdriver.chrome.options import Options
+    from selenium.webdriver.chrome.service import Service
+    opts = Options()
+    opts.binary_location = CHROMIUM
+    for arg in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                "--disable-component-update", "--disable-sync", "--no-first-run",
+                f"--window-size={width},{height}", f"--user-data-dir={user_dir}"):
+        opts.add_argument(arg)
+    opts.set_capability("goog:loggingPrefs", {"performance": "ALL"})
+    return webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory):
+    """One headless Chromium for the tests of a module."""
+    driver = chromium(tmp_path_factory.mktemp("chromium-profile"))
+    driver.set_script_timeout(120)
+    yield driver
+    driver.quit()
+
+
+def wait_for(driver, script: str, timeout: float = 60.0):
+    """Poll ``script`` in the page until it returns something true; that value."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        value = driver.execute_script(script)
+        if value:
+            return value
+        time.sleep(0.05)
+    seen = driver.execute_script("return [document.getElementById('state')?.textContent, "
+                                 "document.getElementById('line')?.textContent, "
+                                 "document.getElementById('time')?.textContent, "
+                                 "document.getElementById('message')?.textContent]")
+    raise AssertionError(f"page never satisfied: {script}; state, line, time, message: {seen}")
+
+
+def console_page(driver, machine: str = "chivu-lathe") -> Served:
+    """A console of ``machine`` served and open in ``driver``, the operator holding control."""
+    from retrofit.config import load_machine
+    from retrofit.console.server import Console
+    served = Served(Console(load_machine(machine)))
+    driver.get(served.url)
+    wait_for(driver, "return document.getElementById('example').options.length > 0 && "
+                     "document.body.dataset.control === 'yours'")
+    return served
+
+
+def open_text(driver, name: str, text: str) -> None:
+    """Open a program as the file picker would hand it over."""
+    driver.execute_script("return openProgram({name: arguments[0], text: arguments[1]})", name, text)
+    wait_for(driver, f"return document.getElementById('program-name').textContent === {name!r}")
+
+
+def run(driver, speed: str) -> None:
+    """Press Run at ``speed`` (0: as fast as it goes); returns once the run has begun or ended."""
+    driver.execute_script(f"document.getElementById('speed').value = '{speed}'")
+    before = driver.execute_script("return document.getElementById('time').textContent")
+    driver.find_element("id", "run").click()
+    wait_for(driver, "return ['running', 'held'].includes(document.getElementById('state').textContent) "
+                     f"|| document.getElementById('time').textContent !== {before!r}")
+
+
+def polls_later(driver, count: int, timeout: float = 120.0) -> None:
+    """Return once the page has taken ``count`` more answers to its state polls (one every 100 ms:
+    20 of them are 2 s of the page's own time, however slow the machine running the test)."""
+    start = driver.execute_script("return +document.body.dataset.polls || 0")
+    wait_for(driver, f"return (+document.body.dataset.polls || 0) >= {start + count}", timeout)

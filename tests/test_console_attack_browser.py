@@ -9,15 +9,12 @@ import functools
 import http.server
 import logging
 import threading
-from pathlib import Path
 
 import pytest
 
-from console_kit import DIALOGS, LONG_MOVE, Served, free_port
-from test_console_browser import CHROMEDRIVER, CHROMIUM, chromium
+from console_kit import DIALOGS, LONG_MOVE, Served, browser, free_port, needs_chromium  # noqa: F401 (browser)
 
-pytestmark = pytest.mark.skipif(not (Path(CHROMIUM).exists() and Path(CHROMEDRIVER).exists()),
-                                reason="needs Debian's chromium and chromium-driver")
+pytestmark = [needs_chromium, pytest.mark.slow]
 
 ATTACKER = """<!DOCTYPE html><html><body><iframe name="sink" id="sink"></iframe><script>
 function formPost(url, body) {          // a plain form: text/plain, "name=value", shaped as JSON
@@ -62,14 +59,6 @@ def attacker_site(tmp_path_factory):
     threading.Thread(target=httpd.serve_forever, daemon=True).start()
     yield f"http://localhost:{httpd.server_address[1]}/index.html"
     httpd.shutdown()
-
-
-@pytest.fixture(scope="module")
-def browser(tmp_path_factory):
-    driver = chromium(tmp_path_factory.mktemp("attacked-profile"))
-    driver.set_script_timeout(120)
-    yield driver
-    driver.quit()
 
 
 @pytest.fixture

@@ -12,44 +12,17 @@ from pathlib import Path
 
 import pytest
 
-from console_kit import DIALOGS, LONG_MOVE, Served
+from console_kit import (DIALOGS, LONG_MOVE, Served, browser, console_page, needs_chromium,  # noqa: F401
+                         open_text, run, wait_for)
 from retrofit.config import load_machine
 from retrofit.runprogram import resolve_program
 
-CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
-pytestmark = pytest.mark.skipif(not (Path(CHROMIUM).exists() and Path(CHROMEDRIVER).exists()),
-                                reason="needs Debian's chromium and chromium-driver")
-
-def chromium(user_dir: Path):
-    """Headless Chromium with a fresh profile and its network log on."""
-    from selenium import webdriver
-    from selenium.webdriver.chrome.options import Options
-    from selenium.webdriver.chrome.service import Service
-    opts = Options()
-    opts.binary_location = CHROMIUM
-    for arg in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                "--disable-component-update", "--disable-sync", "--no-first-run", "--window-size=1500,1100",
-                f"--user-data-dir={user_dir}"):
-        opts.add_argument(arg)
-    opts.set_capability("goog:loggingPrefs", {"performance": "ALL"})
-    return webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
-
-
-@pytest.fixture(scope="module")
-def browser(tmp_path_factory):
-    driver = chromium(tmp_path_factory.mktemp("chromium-profile"))
-    driver.set_script_timeout(60)
-    yield driver
-    driver.quit()
+pytestmark = needs_chromium
 
 
 @pytest.fixture(scope="module")
 def console(browser):
-    from retrofit.console.server import Console
-    served = Served(Console(load_machine("chivu-lathe")))
-    browser.get(served.url)
-    wait_for(browser, "return document.getElementById('example').options.length > 0 && "
-                      "document.body.dataset.control === 'yours'")
+    served = console_page(browser)
     assert "token" not in browser.current_url                # the page took it out of the address bar
     yield served.console
     served.close()
@@ -60,37 +33,8 @@ def shots(tmp_path_factory):
     return tmp_path_factory.mktemp("console-screenshots")
 
 
-def wait_for(driver, script: str, timeout: float = 60.0):
-    """Poll ``script`` in the page until it returns something true; that value."""
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        value = driver.execute_script(script)
-        if value:
-            return value
-        time.sleep(0.05)
-    seen = driver.execute_script("return [document.getElementById('state')?.textContent, "
-                                 "document.getElementById('line')?.textContent, "
-                                 "document.getElementById('time')?.textContent, "
-                                 "document.getElementById('message')?.textContent]")
-    raise AssertionError(f"page never satisfied: {script}; state, line, time, message: {seen}")
-
-
 def state(driver) -> str:
     return driver.execute_script("return document.getElementById('state').textContent")
-
-
-def open_text(driver, name: str, text: str) -> None:
-    """Open a program as the file picker would hand it over."""
-    driver.execute_script("return openProgram({name: arguments[0], text: arguments[1]})", name, text)
-    wait_for(driver, f"return document.getElementById('program-name').textContent === {name!r}")
-
-
-def run(driver, speed: str) -> None:
-    driver.execute_script(f"document.getElementById('speed').value = '{speed}'")
-    before = driver.execute_script("return document.getElementById('time').textContent")
-    driver.find_element("id", "run").click()
-    wait_for(driver, "return ['running', 'held'].includes(document.getElementById('state').textContent) "
-                     f"|| document.getElementById('time').textContent !== {before!r}")
 
 
 def set_slider(driver, name: str, pct: int) -> None:
@@ -104,6 +48,7 @@ def rs274_counts(path: Path) -> dict:
     return {k: len(re.findall(rf"\b{k}\(", out)) for k in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "ARC_FEED")}
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(shutil.which("rs274") is None, reason="needs LinuxCNC's rs274")
 def test_preview_draws_the_programs_cuts_and_rapids(browser, console, shots):
     browser.execute_script("document.getElementById('example').value = 'lathe-profile.ngc'")
@@ -139,6 +84,7 @@ def test_run_on_sim_brings_the_dro_to_the_programs_end(browser, console, shots):
     browser.save_screenshot(str(shots / "2-run-done.png"))
 
 
+@pytest.mark.slow
 def test_feed_override_halves_the_feed_of_the_move_running(browser, console, shots):
     open_text(browser, "long-move.ngc", LONG_MOVE)
     run(browser, "5")
@@ -160,6 +106,7 @@ def test_feed_override_halves_the_feed_of_the_move_running(browser, console, sho
     set_slider(browser, "feed", 100)
 
 
+@pytest.mark.slow
 def test_stop_ends_the_pulses_within_a_tick(browser, console, shots):
     open_text(browser, "long-move.ngc", LONG_MOVE)
     run(browser, "5")
@@ -175,6 +122,7 @@ def test_stop_ends_the_pulses_within_a_tick(browser, console, shots):
     browser.save_screenshot(str(shots / "4-stopped.png"))
 
 
+@pytest.mark.slow
 def test_manual_tool_change_and_pause_dialogs_hold_the_run_until_answered(browser, console, shots):
     program = "FMOV X5 Z1\nTOOL T2\nPMOV Z-3\nPAUS M0\nFMOV X8 Z2\n"
     open_text(browser, "tool-change.cmds", program)
@@ -196,6 +144,7 @@ def test_manual_tool_change_and_pause_dialogs_hold_the_run_until_answered(browse
     assert dro == ["8.000", "2.000"]
 
 
+@pytest.mark.slow
 def test_jog_and_mdi_move_the_machine_after_a_run(browser, console):
     browser.execute_script("document.getElementById('jog-axis').value = 'X';"
                            "document.getElementById('jog-step').value = '1'")
@@ -261,6 +210,7 @@ def axis_steps_mid(log) -> int:
     return int(log.frames.ticks[len(log.frames) // 2])
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(shutil.which("rs274") is None, reason="needs LinuxCNC's rs274")
 def test_a_mill_program_is_previewed_in_3d_inside_its_work_envelope(browser, tmp_path):
     from retrofit.console.server import Console
@@ -302,6 +252,7 @@ def count_null_traverses(path: Path) -> int:
     return null
 
 
+@pytest.mark.slow
 def test_a_second_tab_watches_and_takes_control_only_when_asked(browser):
     """Two tabs on one console: the second shows who holds control and cannot act; its STOP says
     it takes control, and does; the first tab then watches."""
@@ -342,6 +293,7 @@ def test_a_second_tab_watches_and_takes_control_only_when_asked(browser):
         served.close()
 
 
+@pytest.mark.slow
 def test_an_error_in_the_run_is_shown_and_stop_still_answers(browser):
     from retrofit.console.server import Console
     served = Served(Console(load_machine("chivu-lathe")))

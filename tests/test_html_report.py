@@ -10,9 +10,9 @@ import sys
 import pytest
 
 from retrofit.config import load_machine
-from test_console_browser import CHROMEDRIVER, CHROMIUM, chromium, wait_for  # noqa: F401  (skip marks)
+from console_kit import chromium, needs_chromium, wait_for
 
-pytestmark = pytest.mark.skipif(not __import__("os").path.exists(CHROMEDRIVER), reason="needs chromium-driver")
+pytestmark = needs_chromium
 
 
 @pytest.fixture(scope="module")
@@ -56,6 +56,7 @@ def test_report_opens_offline_without_a_network_request(report_page):
     assert title == "lathe-profile.ngc on the chivu-lathe, backlash compensation on"
 
 
+@pytest.mark.slow
 def test_pulse_view_zooms_to_single_pulses_of_the_machines_width(report_page):
     driver, folder = report_page
     lathe = load_machine("chivu-lathe")
@@ -86,3 +87,32 @@ def test_pulse_view_zooms_to_single_pulses_of_the_machines_width(report_page):
         assert set(w) <= {axis.pulse_high_ticks}, (name, w)
     zooms = driver.execute_script("return window.retrofitZoomMs")
     assert zooms[-1]["view"] == "pulses"
+
+
+@pytest.mark.slow
+def test_a_zoomed_timeline_is_computed_from_every_step(report_page):
+    """Zoomed in, the report's timeline is not the kept (downsampled) trace but every step, as the
+    console's server computes it: the position at each tick shown is the run's, to the step."""
+    import numpy as np
+
+    from retrofit.console.views import axis_steps, mean_rate
+    from test_html_report_size import run_frames
+    driver, folder = report_page
+    lathe = load_machine("chivu-lathe")
+    end = json.loads((folder / "run.json").read_text())["ticks"]
+    t0 = end // 3
+    driver.execute_script("return window.retrofitViews.zoom('timeline', arguments[0], arguments[1])", t0, t0 + 40_000)
+    wait_for(driver, f"return document.getElementById('timeline').dataset.window === '{t0}:{t0 + 40000}'")
+    drawn = driver.execute_script("""
+        const d = document.getElementById('timeline').data, tr = (n, ax) => d.find(t => t.name === n && t.yaxis === ax);
+        return {t: tr('Z', 'y').x, z: tr('Z', 'y').y, v: tr('Z', 'y2').y,
+                title: document.getElementById('timeline').layout.yaxis2.title.text}""")
+    assert len(drawn["t"]) > 1000                             # the kept trace has a few dozen points here
+    ticks = np.round(np.asarray(drawn["t"]) / lathe.tick_s).astype(np.int64)
+    z = axis_steps(run_frames("lathe-profile.ngc", lathe), lathe)[lathe.axis_names.index("Z")]
+    per_mm = lathe.axis("Z").steps_per_mm
+    assert np.array_equal(np.round(np.asarray(drawn["z"]) * per_mm).astype(np.int64), z.at(ticks))
+    half = max(int(0.05 / lathe.tick_s / 2), int(ticks[1] - ticks[0]))
+    speed = mean_rate(z, ticks, half) * 60.0 / (per_mm * lathe.tick_s)
+    assert np.allclose(drawn["v"], speed, atol=1e-6)
+    assert drawn["title"] == "velocity [mm/min], mean over 50 ms"

@@ -6,5 +6,5 @@ with the operator's actions and the measured feeds; ``server``: the state behind
 run at a time, STOP in every state); ``api``: the Starlette app and its JSON API; ``guard``: the
 token, Host and Origin checks and who holds control; ``schema``: the request bodies' schemas;
 ``programs``: the folder programs are opened from; ``report_html``: the self-contained HTML
-report; ``static/``: the page and its scripts.
+report, ``packing`` its packed store; ``static/``: the page and its scripts.
 """

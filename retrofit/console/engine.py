@@ -72,7 +72,7 @@ class SteeredRun:
         self.state = "ready"
         self.error: str | None = None
         self._halted = threading.Event()      # set once stopped or in error
-        self.tool = tool
+        self.tool = self.start_tool = tool
         self._changes = deque(changes)         # the changer's changes not yet reached
         self.on_done = on_done
         self._actions: deque = deque()

@@ -1,5 +1,6 @@
-"""The report of a console run: the run report of docs/report.md, plus what the operator did and
-the feed each move really ran at (measured from the step pulses, split where the operator acted)."""
+"""The report of a console run: the run report of docs/report.md (with the changer's magazine
+checked as ``retrofit run`` checks it), plus what the operator did and the feed each move really
+ran at (measured from the step pulses, split where the operator acted)."""
 
 from __future__ import annotations
 
@@ -18,7 +19,10 @@ def console_report(run) -> dict:
     """``build_report`` of a :class:`~retrofit.console.engine.SteeredRun`, with ``events`` and ``moves``."""
     from ..report import build_report
     log = run.ctl.run_log()
+    from ..runreport import magazine_check
     report = build_report(log, run.sim)
+    found = [v.as_dict() for v in magazine_check(run.machine, log.start_steps, run.start_tool, run.sim)]
+    report["violations"] = sorted(report["violations"] + found, key=lambda v: (v["tick"], v["axis"], v["kind"]))
     report["events"] = list(run.events)
     report["moves"] = moves(run, log.frames)
     for v in report["violations"]:

@@ -69,9 +69,11 @@ class Console:
         program = self.tools.compile(text, name, tool)
         self._opened_tool = tool
         from .tools import clamped_feeds
+        said = [f"{file or program.file}:{number}: {words}"             # as retrofit run warns
+                for file, number, kind, words in getattr(program, "messages", ()) if kind == "WARNING"]
         listing = {"name": program.file, "listing": text.splitlines(),
                    "preview": preview(program, self.machine, text),
-                   "warnings": clamped_feeds(program, self.machine, self._default_feed())}
+                   "warnings": said + clamped_feeds(program, self.machine, self._default_feed())}
         self.program, self.source, self.listing = program, text, listing
         return listing
 

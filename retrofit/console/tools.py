@@ -28,6 +28,7 @@ class SpindleTools:
     def __init__(self, machine: Machine, urls: list[str], machine_arg: str | None = None):
         from ..atc.state import spindle_store
         self.machine = machine
+        self.urls = list(urls)
         self.table_path, self.store = spindle_store(machine, machine_arg or machine_words(machine),
                                                     ["sim://", *urls])
         self._known, self._marked = 0, False   # the tool the record says; a change marked under way
@@ -38,14 +39,21 @@ class SpindleTools:
 
     def compile(self, text: str, name: str, spindle_tool: int, **options):
         """``text`` compiled for the machine with its tool table and the tool in the spindle
-        (a ``.cmds`` file: a command list, see :func:`retrofit.console.server.command_list`)."""
+        (a ``.cmds`` file: a command list, see :func:`retrofit.console.server.command_list`). A
+        program run from the machine's zero probes (G38) on the simulated machine, as in ``retrofit
+        run``, and is refused on a console that drives a real machine."""
         from ..gcode.program import compile_program
+        from ..runprogram import refuse_real_probing, sim_prober
         from ..tooltable import ToolTable
         if name.endswith(".cmds"):
             from .server import command_list
             return command_list(text, name)
-        return compile_program(text, self.machine, name, tool_table=ToolTable.load(self.table_path),
-                               spindle_tool=spindle_tool, **options)
+        prober = None if "start_mm" in options else sim_prober(self.machine, spindle_tool)
+        program = compile_program(text, self.machine, name, tool_table=ToolTable.load(self.table_path),
+                                  spindle_tool=spindle_tool, probe=prober, **options)
+        if prober is not None and prober.moves:
+            refuse_real_probing(self.urls, name)
+        return program
 
     def expand(self, program, spindle_tool: int):
         """The program's tool changes by the changer (its pauses and manual changes kept as

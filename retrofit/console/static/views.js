@@ -58,7 +58,7 @@ RV.drawPreview = function (div, pv, title, opts) {
       return [Math.max(lo, mn - m), Math.min(hi, mx + m)];
     };
     div.dataset.position = "";
-    Plotly.newPlot(div, traces, {title: {text: title || "", font: {size: 14}}, margin: {t: 40, l: 60, r: 10, b: 50},
+    Plotly.newPlot(div, traces, {title: {text: title || "", font: {size: 14}, x: 0.01, xanchor: "left"}, margin: {t: 40, l: 60, r: 10, b: 50},
       xaxis: {title: {text: RV.axisTitle(ah)}, range: span(xs.concat(pv.stock ? pv.stock.z : []), ah.min, ah.max)},
       yaxis: {title: {text: RV.axisTitle(av)}, scaleanchor: "x", range: span(ys, av.min, av.max)},
       legend: {orientation: "h", y: -0.2}}, {responsive: true, displaylogo: false});
@@ -84,7 +84,7 @@ RV.drawPreview = function (div, pv, title, opts) {
     const framed = RV.frame(pv.segments), scene = Object.assign({aspectmode: "data"}, framed);
     ["xaxis", "yaxis", "zaxis"].forEach((a, i) => { scene[a] = Object.assign(t(i), framed[a]); });
     div.dataset.position = "";
-    Plotly.newPlot(div, traces, {title: {text: title || "", font: {size: 14}}, margin: {t: 40, l: 0, r: 0, b: 0},
+    Plotly.newPlot(div, traces, {title: {text: title || "", font: {size: 14}, x: 0.01, xanchor: "left"}, margin: {t: 40, l: 0, r: 0, b: 0},
       scene: scene, legend: {orientation: "h"}}, {responsive: true, displaylogo: false});
   }
   return {rapids: pv.rapids, cuts: pv.cuts};
@@ -205,10 +205,10 @@ RV.attachRunViews = function (timelineDiv, pulsesDiv, source, endTick, tickS, vi
     if (kind === "timeline") {
       const fig = RV.timelineFigure(await source.timeline(t0, t1), violations, tickS);
       fig.layout.xaxis.range = [t0 * tickS, t1 * tickS];
-      await Plotly.react(div, fig.data, fig.layout, {displaylogo: false});
+      await Plotly.react(div, fig.data, fig.layout, {displaylogo: false, responsive: true});
     } else {
       const fig = RV.pulsesFigure(await source.pulses(t0, t1));
-      await Plotly.react(div, fig.data, fig.layout, {displaylogo: false});
+      await Plotly.react(div, fig.data, fig.layout, {displaylogo: false, responsive: true});
     }
     const ms = performance.now() - start;
     window.retrofitZoomMs.push({view: kind, ms: ms, t0: t0, t1: t1});
@@ -239,6 +239,9 @@ RV.localSource = function (run) {
   const bisect = (a, x) => { let lo = 0, hi = a.length; while (lo < hi) { const m = (lo + hi) >> 1; if (a[m] <= x) lo = m + 1; else hi = m; } return lo; };
   return {
     timeline: async (t0, t1) => {               // each trace's points in the window (min/max kept)
+      if (run.steps && (run.frames.shown === run.frames.total || t1 <= run.frames.ticks[run.frames.shown - 1]) &&
+          RV.keptIn(run, t0, t1) < run.window_points)
+        return RV.fullTimeline(run, t0, t1);    // zoomed in where the port frames are held: every step
       const out = {axes: {}, window_s: run.window_s}, a = t0 * run.tick_s, b = t1 * run.tick_s;
       for (const [name, ax] of Object.entries(run.timeline)) {
         out.axes[name] = {};
@@ -269,52 +272,6 @@ RV.localSource = function (run) {
       return out;
     },
   };
-};
-
-// The report's packed arrays (base64 of gzip of little-endian numbers, see report_html.packed)
-// as typed arrays; DecompressionStream is the browser's own gzip.
-RV.unpack = async function (b64, Type) {
-  const bin = atob(b64), bytes = new Uint8Array(bin.length);
-  for (let i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
-  const stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream("gzip"));
-  const planes = new Uint8Array(await new Response(stream).arrayBuffer());
-  const size = Type.BYTES_PER_ELEMENT, n = planes.length / size, out = new Uint8Array(planes.length);
-  for (let b = 0; b < size; b++) for (let i = 0; i < n; i++) out[i * size + b] = planes[b * n + i];
-  return new Type(out.buffer);
-};
-
-RV.unpackRun = async function (run) {
-  const mm = await RV.unpack(run.backplot.mm, Float32Array), n = run.backplot.axes, rows = [];
-  for (let i = 0; i + n <= mm.length; i += n) {            // rows as the console's state sends them
-    const at = Array.from(mm.subarray(i, i + n));
-    rows.push([0].concat(at, at));
-  }
-  run.backplot = rows;
-  const f = run.frames, deltas = await RV.unpack(f.ticks, Uint32Array);
-  const ticks = new Float64Array(deltas.length);
-  for (let i = 0, t = 0; i < deltas.length; i++) { t += deltas[i]; ticks[i] = t; }
-  f.ticks = ticks;
-  f.values = await RV.unpack(f.values, Uint8Array);
-  const tl = run.timeline, grid = await RV.unpack(tl.ticks, Uint32Array), t = new Float64Array(grid.length);
-  for (let i = 0, k = 0; i < grid.length; i++) { k += grid[i]; t[i] = k * run.tick_s; }
-  run.timeline = {};
-  run.window_s = tl.window_s;
-  for (const [name, ax] of Object.entries(tl.axes)) {
-    run.timeline[name] = {};
-    for (const [k, s] of Object.entries(ax)) {
-      const keep = await RV.unpack(s.i, Uint32Array);
-      run.timeline[name][k] = {t: Float64Array.from(keep, i => t[i]), y: await RV.unpack(s.y, Float32Array)};
-    }
-  }
-  const sg = run.preview.segments;
-  if (sg && sg.count !== undefined) {
-    const cut = await RV.unpack(sg.cut, Uint8Array), line = await RV.unpack(sg.line, Uint32Array);
-    const mm = await RV.unpack(sg.mm, Float32Array), n = sg.axes, round = (v) => Math.round(v * 1e4) / 1e4;
-    run.preview.segments = Array.from(cut, (c, i) => ({kind: c ? "cut" : "rapid", line: line[i] || null,
-      start: Array.from(mm.subarray(2 * n * i, 2 * n * i + n), round),
-      end: Array.from(mm.subarray(2 * n * i + n, 2 * n * (i + 1)), round)}));
-  }
-  return run;
 };
 
 // A source that asks the console's server (with the headers the page sets in RV.headers: its token).

@@ -1,0 +1,83 @@
+"""The console and ``retrofit run`` share one run: the same program on the same machine ends at the
+same carriage positions after the same steps and machine time, with the same violations at the
+same lines (the changer's magazine checked in both), the same tool changes, and probing (G38) on
+the simulated machine in both."""
+
+from __future__ import annotations
+
+import time
+from types import SimpleNamespace
+
+import pytest
+
+from retrofit.config import load_machine
+from retrofit.console.server import Console
+from retrofit.progress import silent
+from retrofit.runprogram import STAGE_WEIGHTS, read_program, run_program
+
+#: the spindle drives into the magazine where no pocket stands (the carousel at home)
+INTO_THE_MAGAZINE = "G21 G90\nG0 X23 Y28 Z-45\nG1 Y44 F800\nG0 Y10\nM30\n"
+#: a change to T3 by the carousel, then a cut
+CHANGE = "G21 G90\nG0 X10 Y10 Z-5\nT3\nG1 X20 Y5 Z-10 F300\nM30\n"
+#: the tool's length measured on the setter (G38.2), then a move to the measured height
+PROBE = "G21 G90\nG0 Z-18\nG0 X8 Y8\nG38.2 Z-45 F60\nG0 Z[#5063 + 2]\nM30\n"
+
+
+def by_cli(text: str, name: str, machine, tool: int) -> dict:
+    opts = SimpleNamespace(backlash_comp=True, reference=False, controller=False, urls=["sim://"],
+                           keep_frames=True, keep_commands=True, before_outputs=None)
+    from retrofit.tooltable import ToolTable
+    from retrofit.console.tools import SpindleTools
+    table = ToolTable.load(SpindleTools(machine, []).table_path)
+    return run_program(text, name, machine, opts, silent(STAGE_WEIGHTS), tool_table=table,
+                       spindle_tool=tool).report
+
+
+def by_console(text: str, name: str, machine) -> tuple[dict, int]:
+    console = Console(machine)
+    try:
+        tool = console.tools.tool()
+        console.open(name=name, text=text)
+        console.start(0)
+        end = time.monotonic() + 120
+        while console.state()["state"] not in ("done", "error") and time.monotonic() < end:
+            time.sleep(0.05)
+        assert console.state()["state"] == "done", console.state()
+        return console.report(), tool
+    finally:
+        console.close()
+
+
+def seen(report: dict) -> dict:
+    return {"axes": {k: (v["carriage_mm"], v["steps"]) for k, v in report["axes"].items()},
+            "ticks": report["ticks"], "violations": [(v["kind"], v["axis"], v["line"]) for v in report["violations"]]}
+
+
+#: the two runs part at the carousel's homing (ZMOV E): the console's run, on the 002 controller,
+#: searches the switch and moves E 2660 steps in all; retrofit run's planner moves it straight to
+#: zero (1984 steps) -- the machine times differ by 0.4 s
+ZMOV_PARTS = pytest.mark.xfail(strict=True, reason="ZMOV E: the controller searches the switch, the planner does not")
+
+
+@pytest.mark.parametrize("program,machine", [pytest.param("lathe-profile.ngc", "chivu-lathe", marks=pytest.mark.slow), (INTO_THE_MAGAZINE, "tul-mill"),
+                                             pytest.param(CHANGE, "tul-mill", marks=[ZMOV_PARTS, pytest.mark.slow]),
+                                             (PROBE, "tul-mill")],
+                         ids=["lathe-profile", "into-the-magazine", "carousel-change", "g38-probe"])
+def test_the_console_runs_what_retrofit_run_runs(program, machine, tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path))     # a spindle record of this test's own
+    m = load_machine(machine)
+    if program is PROBE:                                     # T1 in the spindle: it breaks the beam
+        from retrofit.console.tools import SpindleTools
+        SpindleTools(m, []).store.save(1)
+    text, name = read_program(program) if program.endswith(".ngc") else (program, "job.ngc")
+    console, tool = by_console(text, name, m)
+    cli = by_cli(text, name, m, tool)
+    assert seen(console) == seen(cli)
+    if program is INTO_THE_MAGAZINE:
+        assert seen(console)["violations"] == [("pocket_misaligned", "ATC", 3)]
+    if program is PROBE:
+        assert console["axes"]["Z"]["carriage_mm"] == pytest.approx(-52.0 + 20.0 + 2.0, abs=0.011)   # T1 is 20 mm
+    if program is CHANGE:
+        changes = [e["text"] for e in console["events"] if e["kind"] == "tool change"]
+        assert changes == [f"tool change T{tool} -> T3 by the changer (condition 1)"] == \
+            [c["says"] for c in cli["tool"]["changes"]]
