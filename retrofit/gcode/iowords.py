@@ -31,7 +31,7 @@ def run(tr, block) -> None:
     code = block.m.get("io")
     if code is None:
         return
-    if tr.streaming:
+    if getattr(tr, "streaming", False):          # read ahead: the commands so far are not kept
         raise NeedsWholeProgram(f"M{code}")
     io = tr.machine.parts.get("io")
     if code == 66:

@@ -57,7 +57,6 @@ class Translator:
         self.comp = radiuscomp.RadiusComp()     # G40/G41/G42
         self.spindle_tool = state.tool          # in the spindle at the start (M66 plans from it)
         self.saved_states: dict[int, tuple] = {}   # call level -> (M70/M73 state, restore on return)
-        self.streaming = False            # read ahead in batches: the commands so far are not kept
         self.messages: list[tuple[str, int, str, str]] = []   # (file, line, kind, text)
 
     def run(self, block: Block, file: str = "") -> bool:
