@@ -120,3 +120,27 @@ def test_retrofit_run_reads_ahead_and_gives_the_whole_programs_report_and_vcd(tm
     assert isinstance(whole, Run) and whole.plan is not None
     assert ahead["axes"] == json.loads(json.dumps(whole.report["axes"]))
     assert ahead["ticks"] == whole.report["ticks"]
+
+
+def test_a_program_timing_an_output_on_the_moves_so_far_is_read_whole():
+    """M64 is timed on the program so far: a run that would read ahead reads it whole, and its
+    digital output is switched where the whole-program run switches it."""
+    from pathlib import Path
+    from types import SimpleNamespace
+    from retrofit.progress import silent
+    from retrofit.runprogram import STAGE_WEIGHTS, run_program
+    machine = load_machine(Path(__file__).parent / "gcode" / "rs274-mill.toml")
+    text = "G21 G90 G1 F600\n" + "".join(f"X{i % 9 + 1} Y{i % 4 + 1}\n" for i in range(3000)) + \
+        "M64 P1\nG1 X20\nM2\n"
+    runs = []
+    for keep in (False, True):
+        opts = SimpleNamespace(backlash_comp=True, reference=False, controller=False, urls=["sim://"],
+                               keep_frames=False, keep_commands=keep)
+        runs.append(run_program(text, "io.ngc", machine, opts, silent(STAGE_WEIGHTS)))
+    ahead, whole = runs
+    from retrofit.runstream import reads_ahead
+    assert reads_ahead(machine, SimpleNamespace(reference=False, controller=False, keep_frames=False,
+                                                keep_commands=False), ["sim://"])   # it started so
+    assert ahead.plan is not None and ahead.line_of is None          # and read it whole
+    assert ahead.io is not None and ahead.io == whole.io
+    assert ahead.report["axes"] == whole.report["axes"]
