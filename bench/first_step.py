@@ -29,18 +29,21 @@ from stream_shapes import env_for, usage  # noqa: E402
 CHILD = """import json, sys, time
 import retrofit.motion.stream as stream
 first = []
-plain = stream.stream_frames
-def watched(*args, **kwargs):
-    gen = plain(*args, **kwargs)
-    while True:
-        try:
-            chunk = next(gen)
-        except StopIteration as stop:
-            return stop.value
-        if not first and len(chunk.ticks) > 1:
-            first.append(time.process_time())
-        yield chunk
-stream.stream_frames = watched
+def watching(plain):
+    def watched(*args, **kwargs):
+        gen = plain(*args, **kwargs)
+        while True:
+            try:
+                chunk = next(gen)
+            except StopIteration as stop:
+                return stop.value
+            if not first and len(chunk.ticks) > 1:
+                first.append(time.process_time())
+            yield chunk
+    return watched
+for name in ("stream_frames", "stream_blocks"):        # a plan whole, or handed on block by block
+    if hasattr(stream, name):
+        setattr(stream, name, watching(getattr(stream, name)))
 from retrofit.cli import main
 code = main(sys.argv[2:])
 json.dump({"first_step_cpu": first[0] if first else None}, open(sys.argv[1], "w"))

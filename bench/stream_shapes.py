@@ -10,7 +10,9 @@ of ``--repeat`` runs with the contenders alternated:
   ``+T1 M6``: with a pause in the middle (a manual tool change on this machine, nothing waits
   on ``sim://``);
 * ``raster``: the engraver cuts a raster: a Z plunge, passes along X 150 mm apart by 0.05 mm in
-  Y, a Z retract (about 1e7 and 3e7 steps).
+  Y, a Z retract (about 1e7 and 3e7 steps);
+* ``tiny2e6``: two million lines of 0.05 mm G1 moves on Klipper's machine (``bench/first_step.py``);
+* ``cam1e6``: a million-line CAM program (``bench/gcode_speed.py``) on its mill.
 
 Columns: this code; ``--previous DIR`` another checkout of retrofit (its ``XDG_CACHE_HOME`` by
 ``--previous-cache``, for its own ahead-of-time kernels); Klipper's whole batch process on the
@@ -35,6 +37,10 @@ sys.path.insert(0, str(HERE))
 from square_circle import KLIPPER_CFG, LAUNCHER, chord_mm, klipper_gcode, machine, machine_file, workload_gcode  # noqa: E402
 
 
+#: the CAM program's machine (bench/gcode_speed.py's): a mill without a tool changer
+CAM_MACHINE = HERE.parent / "tests" / "gcode" / "rs274-mill.toml"
+
+
 def sc_program(n: int, extra: str = "") -> str:
     """Klipper's shape, N times, with ``extra`` ("Z", "M0" or "T1 M6") added."""
     text = workload_gcode(n)
@@ -55,6 +61,18 @@ def raster_program(passes: int) -> str:
     return "\n".join(lines + ["G0 Z0", "M2"]) + "\n"
 
 
+def tiny_program(lines: int) -> str:
+    """``lines`` lines of 0.05 mm G1 moves (``first_step.tiny_moves``), for Klipper's machine too."""
+    from first_step import tiny_moves
+    return tiny_moves(lines).replace("G21 G90 G17 F3000", "G21 G90 G17\nF3000")
+
+
+def cam_lines(lines: int) -> str:
+    """A CAM program of ``lines`` lines (``gcode_speed.cam_program``)."""
+    from gcode_speed import cam_program
+    return cam_program(lines)
+
+
 WORKLOADS = {
     "sc500": ("sc", lambda: sc_program(500)),
     "sc500+Z": ("sc", lambda: sc_program(500, "Z")),
@@ -62,6 +80,8 @@ WORKLOADS = {
     "sc500+T1M6": ("sc", lambda: sc_program(500, "T1 M6")),
     "raster1e7": ("engraver", lambda: raster_program(833)),
     "raster3e7": ("engraver", lambda: raster_program(2500)),
+    "tiny2e6": ("sc", lambda: tiny_program(2_000_000)),
+    "cam1e6": ("cam", lambda: cam_lines(1_000_000)),
 }
 
 
@@ -129,7 +149,8 @@ def main() -> None:
     programs = {}
     for name in args.only:
         kind, make = WORKLOADS[name]
-        programs[name] = (folder / f"{name}.ngc", sc_machine if kind == "sc" else "engraver", kind)
+        machine_arg = {"sc": sc_machine, "cam": str(CAM_MACHINE)}.get(kind, "engraver")
+        programs[name] = (folder / f"{name}.ngc", machine_arg, kind)
         programs[name][0].write_text(make())
     arc = chord_mm(machine())
     for env in sides.values():                                   # caches warm before timing

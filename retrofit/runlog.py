@@ -28,15 +28,19 @@ class WaypointTable(Sequence):
     """Waypoints held as columns (a streamed run's): ``steps`` [n, axes], ``loaded`` and
     ``reached`` [n] ticks (-1: not reached). Reads as a list of :class:`Waypoint`."""
 
-    def __init__(self, n_axes: int):
+    def __init__(self, n_axes: int, keep_all: bool = True):
         self._parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         self._n_axes = n_axes
+        self.keep_all = keep_all                    # False: only the last waypoint (the report's)
         self._joined = None
         self.worst_mm: np.ndarray | None = None     # per axis, when settled as the run went
 
     def add(self, steps: np.ndarray, loaded: np.ndarray, reached: np.ndarray) -> None:
         """Waypoints of the next moves, in order."""
-        self._parts.append((steps, loaded, reached))
+        if not self.keep_all and len(loaded):
+            self._parts = [(steps[-1:], loaded[-1:], reached[-1:])]
+        elif self.keep_all:
+            self._parts.append((steps, loaded, reached))
         self._joined = None
 
     def columns(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

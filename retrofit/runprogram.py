@@ -6,6 +6,8 @@ replaced (:mod:`retrofit.atc.front`: the changer's sequences, or pauses for manu
 the commands are planned and executed by the fast path (or by the tick-by-tick 002 controller
 for threads and homing); the port frames go to the outputs; the report joins what the controller
 did with what the simulated machine did, every violation with its time and program line.
+A run on ``sim://`` and ``vcd://`` that can is read ahead instead, a window at a time from the
+first line (:mod:`retrofit.runstream`).
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ class Run:
     how: str = ""
     command_count: int = 0
     io: dict | None = None          # DOUT changes and WAITs (retrofit.digital.io_report)
+    line_of: object = None          # tick -> program line, for a run read ahead (retrofit.runstream)
 
 
 def read_program(name: str, stdin=None) -> tuple[str, str]:
@@ -83,6 +86,16 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
     from .atc.front import expand_host_commands
     from .gcode import compile_program
     run = Run(machine, name)
+    from .runstream import ReadWhole, reads_ahead, run_read_ahead
+    if reads_ahead(machine, opts, opts.urls):
+        try:         # 1-4 a window at a time, from the first line (retrofit.runstream)
+            run_read_ahead(run, text, opts, progress, tool_table, spindle_tool)
+            print_warnings(run.program.messages)
+            from .runreport import run_report
+            run.report = run_report(run)
+            return run
+        except ReadWhole:
+            run = Run(machine, name)
     # 1. program: G-code -> commands (G38 probing moves made as the program is read: on the
     #    controller at the far end of the link when the run drives one, else on the simulated
     #    machine); TOOL and PAUS -> the changer's sequences and pauses
@@ -92,9 +105,7 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
                                       spindle_tool=spindle_tool, probe=prober,
                                       dialect=getattr(opts, "dialect", None),
                                       on_progress=lambda done: progress.fraction("compile", done))
-        for file, number, kind, text in run.program.messages:
-            if kind == "WARNING":                  # e.g. a feed lowered to the machine's fastest
-                print(f"{file}:{number}: warning: {text}", file=sys.stderr)
+        print_warnings(run.program.messages)
         opened = prober.handoff() if hasattr(prober, "handoff") and prober.moves else None
         if prober is not None and prober.moves and opened is None:
             refuse_real_probing(opts.urls, name)
@@ -142,6 +153,13 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
     for part in run.report.get("remote") or []:
         part["clamped"] = clamped
     return run
+
+
+def print_warnings(messages) -> None:
+    """The program's WARNING messages (e.g. a feed lowered to the machine's fastest) on stderr."""
+    for file, number, kind, text in messages:
+        if kind == "WARNING":
+            print(f"{file}:{number}: warning: {text}", file=sys.stderr)
 
 
 def refuse_io_on_controller(expanded, reason: str) -> None:
@@ -309,16 +327,17 @@ def can_stream(run: Run, opts) -> bool:
             and all(OutputURL.parse(u).scheme in STREAM_SCHEMES for u in opts.urls))
 
 
-def stream_outputs(run: Run, urls: list[str], progress):
+def stream_outputs(run: Run, urls: list[str], progress, blocks=None):
     """The plan's frames to every output as they are made (each file complete or absent); the
-    simulated machine. ``run.log`` becomes the streamed log: waypoints and steps, no frames."""
+    simulated machine. ``run.log`` becomes the streamed log: waypoints and steps, no frames.
+    ``blocks``: (machine, iterator of plan blocks) for a run read ahead, in place of ``run.plan``."""
     from contextlib import ExitStack
     from .outputs.deliver import deliver_plan
     from .runner import staged_url
     with ExitStack() as files:
         staged = [staged_url(url, files) for url in urls]
         run.log, sim = deliver_plan(run.plan, staged, lambda done: progress.fraction("outputs", done),
-                                    window_steps=STREAM_WINDOW_STEPS)
+                                    window_steps=STREAM_WINDOW_STEPS, blocks=blocks)
     run.report["remote"] = []
     return sim
 

@@ -66,6 +66,8 @@ def magazine_check(machine, start_steps, start_tool: int, sim) -> list:
 
 def _line_finder(run):
     """tick -> the program line of the move under way then (None when not known)."""
+    if getattr(run, "line_of", None) is not None:         # a run read ahead keeps its own
+        return run.line_of
     plan, lines = run.plan, run.expanded.lines
     if plan is None or not len(plan.arrays()):
         return lambda tick: None

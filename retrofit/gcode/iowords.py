@@ -18,7 +18,7 @@ from __future__ import annotations
 from ..commands import Dout, Wait
 from ..errors import RetrofitError
 from ..iopins import WAIT_MODES, wait_outcome
-from .errors import RuleError
+from .errors import NeedsWholeProgram, RuleError
 
 #: where M66 leaves its result
 RESULT = 5399
@@ -31,6 +31,8 @@ def run(tr, block) -> None:
     code = block.m.get("io")
     if code is None:
         return
+    if getattr(tr, "streaming", False):          # read ahead: the commands so far are not kept
+        raise NeedsWholeProgram(f"M{code}")
     io = tr.machine.parts.get("io")
     if code == 66:
         _wait(tr, block, io)

@@ -71,20 +71,24 @@ def lex_lines(text: str) -> list[Line]:
     """Every line of ``text`` that holds something; a line that cannot be read carries its
     error, raised only if the program reaches it (as LinuxCNC reads a line when it runs it)."""
     lines = []
-    plain, findall = _PLAIN_LINE.fullmatch, _PLAIN.findall
     for number, raw in enumerate(split_lines(text), start=1):
-        match = plain(raw)
-        if match:
-            code = "".join(match.group(1).split()).upper()
-            lines.append(Line(number, [(a, float(b)) for a, b in findall(code)], plain=True))
-            continue
-        try:
-            line = lex_line(number, raw)
-        except RuleError as exc:
-            line = Line(number, error=str(exc))
+        line = lex_text_line(number, raw)
         if line is not None:
             lines.append(line)
     return lines
+
+
+def lex_text_line(number: int, raw: str, plain=_PLAIN_LINE.fullmatch, findall=_PLAIN.findall) -> Line | None:
+    """One line as :func:`lex_lines` reads it: None when it holds nothing, a line carrying its
+    error when it cannot be read."""
+    match = plain(raw)
+    if match:
+        code = "".join(match.group(1).split()).upper()
+        return Line(number, [(a, float(b)) for a, b in findall(code)], plain=True)
+    try:
+        return lex_line(number, raw)
+    except RuleError as exc:
+        return Line(number, error=str(exc))
 
 
 def lex_line(number: int, raw: str) -> Line | None:

@@ -51,7 +51,8 @@ def _err(line: Line, text: str) -> RuleError:
 def scan(source: Source) -> Source:
     """Pair the O-words of ``source``; raise RuleError (with ``.line``) on a broken structure."""
     stack: list[tuple[str, str, int]] = []        # (KEYWORD, name, index)
-    for i, line in enumerate(source.lines):
+    items = source.lines.candidates() if hasattr(source.lines, "candidates") else enumerate(source.lines)
+    for i, line in items:
         if line.oword is None:
             if any(letter == "M" and value in (98.0, 99.0) for letter, value in line.words):
                 source.fanuc.add(i)

@@ -9,6 +9,7 @@ with ``%``, or at the end of the file.
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -19,9 +20,12 @@ from .blocks import make_block
 from .dialect import run_dollar
 from .errors import RuleError
 from .expressions import evaluate
+from .lazylines import LazyLines
 from .lexer import lex_lines
 from . import fanuc, lathecycles, modalsave
 from .ocode import Source, scan
+from .plainline import run_plain
+from .plainrun import RUN_LINES, take_run
 from .state import ModalState
 from .translate import Translator
 
@@ -72,13 +76,33 @@ class Interpreter:
 
     def run(self, main: Source) -> None:
         """Run ``main`` from its first line; RuleErrors carry ``.file`` and ``.line``."""
+        for _ in self.lines_run(main):
+            pass
+
+    def lines_run(self, main: Source):
+        """:meth:`run` one line at a time: a generator that yields after each line (the
+        translator's commands so far are then complete)."""
         src, pc, calls, repeats = main, 0, [], {}
         most = len(main.lines) + MAX_STEPS
-        closing_percent = bool(main.lines) and main.lines[0].percent
+        first = main.lines.first() if hasattr(main.lines, "first") else \
+            ((0, main.lines[0]) if main.lines else None)
+        closing_percent = first is not None and first[1].percent
         if closing_percent:
-            pc = 1
+            pc = first[0] + 1
         while pc < len(src.lines):
             line = src.lines[pc]
+            if line is None or (line.plain and not line.words):     # a comment or spaces only
+                pc += 1
+                continue
+            if line.plain and self.steps + RUN_LINES <= most and hasattr(src.lines, "text"):
+                taken = take_run(self.tr, src.lines, pc, src.file)      # a run of plain CAM lines
+                if taken:
+                    self.steps += taken
+                    pc += taken
+                    if self.on_progress is not None and src is main and self.steps & 4095 < taken:
+                        self.on_progress(pc / len(main.lines))
+                    yield
+                    continue
             self.steps += 1
             if not self.steps & 4095 and self.on_progress is not None and src is main:
                 self.on_progress(pc / len(main.lines))
@@ -101,6 +125,7 @@ class Interpreter:
                     if nxt is None:
                         return
                     src, pc = nxt
+                    yield
                     continue
                 if self._line(src, line):
                     return
@@ -109,6 +134,7 @@ class Interpreter:
                     exc.file, exc.line = src.file, line.number
                 raise
             pc += 1
+            yield
 
     def _value(self, tree) -> float:
         return tree if type(tree) is float else evaluate(tree, self._read, self.params.exists)
@@ -127,8 +153,12 @@ class Interpreter:
 
     def _line(self, src: Source, line) -> bool:
         """One line of words; True when it ends the program."""
-        if line.plain and not lathecycles.is_cycle(line.words):
-            return self.tr.run(make_block(line.number, line.words, self.machine), src.file)
+        if line.plain:
+            done = run_plain(self.tr, line.words, line.number, src.file)
+            if done is not None:
+                return done
+            if not lathecycles.is_cycle(line.words):
+                return self.tr.run(make_block(line.number, line.words, self.machine), src.file)
         for kind, text in line.messages:
             self.messages.append((src.file, line.number, kind, self._substitute(text)))
         if line.dollar is not None:
@@ -271,10 +301,6 @@ def _read_text(path: Path) -> str:
         raise GcodeError(f"cannot read the file ({exc.strerror})", str(path)) from None
 
 
-#: the share of compiling spent reading the text into lines (measured on a long CAM program)
-LEX_SHARE = 0.45
-
-
 def compile_program(text: str, machine: Machine, file: str = "<string>",
                     start_mm: dict | None = None, *, tool_table=None, spindle_tool: int = 0,
                     search_path=(), probe=None, on_progress=None, dialect: str | None = None) -> Program:
@@ -296,36 +322,46 @@ def compile_program(text: str, machine: Machine, file: str = "<string>",
     >>> [str(c) for c in prog.commands]
     ['FMOV X10 Z2', 'PFDR F100', 'PMOV X10 Z-5']
     """
+    interpreter = start_interpreter(machine, file, start_mm, tool_table, spindle_tool, search_path, probe)
+    interpreter.on_progress = on_progress
+    translator = interpreter.tr
+    dialect = dialect or machine.dialect
+    if dialect not in ("rs274", "fanuc"):
+        raise GcodeError(f"unknown dialect {dialect!r}; known: rs274, fanuc", file)
+    with gcode_errors(file):
+        if dialect == "fanuc":
+            from .fanuc_lathe import run_fanuc
+            run_fanuc(text, translator, file, interpreter.messages)
+            lines = []
+        else:
+            lines = LazyLines(text)
+        interpreter.run(scan(Source(file, lines)))
+        translator.finish()
+    return Program(translator.commands, translator.lines, file, translator.files,
+                   interpreter.messages)
+
+
+def start_interpreter(machine: Machine, file: str, start_mm=None, tool_table=None, spindle_tool: int = 0,
+                      search_path=(), probe=None) -> Interpreter:
+    """An interpreter at the start of a program (see :func:`compile_program` for the arguments)."""
     try:
         state = ModalState.start(machine, start_mm)
     except ValueError as exc:
         raise GcodeError(str(exc), file) from None
     state.tool = int(spindle_tool)
     state.params.write(5400, float(spindle_tool))
-    translator = Translator(machine, state, tool_table, probe)
-    interpreter = Interpreter(machine, translator, search_path)
-    if on_progress is not None:                    # reading the lines is about 45 % of the work
-        interpreter.on_progress = lambda run: on_progress(LEX_SHARE + (1.0 - LEX_SHARE) * run)
-    dialect = dialect or machine.dialect
-    if dialect not in ("rs274", "fanuc"):
-        raise GcodeError(f"unknown dialect {dialect!r}; known: rs274, fanuc", file)
+    return Interpreter(machine, Translator(machine, state, tool_table, probe), search_path)
+
+
+@contextmanager
+def gcode_errors(file: str):
+    """A broken rule inside as a GcodeError naming its file and line."""
     try:
-        if dialect == "fanuc":
-            from .fanuc_lathe import run_fanuc
-            run_fanuc(text, translator, file, interpreter.messages)
-            lines = []
-        else:
-            lines = lex_lines(text)
-        if on_progress is not None:
-            on_progress(LEX_SHARE)
-        interpreter.run(scan(Source(file, lines)))
-        translator.finish()
+        yield
     except RuleError as exc:
         raise GcodeError(str(exc), getattr(exc, "file", file), getattr(exc, "line", None)) from None
     except RecursionError:
         raise GcodeError("an expression nests too deeply", file) from None
-    return Program(translator.commands, translator.lines, file, translator.files,
-                   interpreter.messages)
 
 
 def load_program(path: str | Path, machine: Machine | str, *, tool_table=None,

@@ -142,15 +142,16 @@ def _exit_speed(i, entry, length, last, junction, lengths, v_max, a_max, accel_s
 
 @kernel
 def _speeds(units, lengths, v_max, a_max, stop_before, depth, deviation_mm, accel_scale, use_axes,
-            axis_accel, axis_step, entries, exits):
-    """Junctions, turning moves' acceleration cut (``a_max`` in place), then the two passes."""
+            axis_accel, axis_step, first, entry, entries, exits):
+    """Junctions, turning moves' acceleration cut (``a_max`` in place), then the two passes, from
+    move ``first`` entered at ``entry`` (the moves before it are planned already: only their
+    junction into ``first`` counts)."""
     n = lengths.shape[0]
     junction = np.zeros(n + 1)
     _junctions(units, lengths, v_max, a_max, stop_before, deviation_mm, use_axes, axis_accel, axis_step,
                junction)
     _cut_turning(units, junction, a_max)
-    entry = 0.0
-    for i in range(n):
+    for i in range(first, n):
         exit_ = _exit_speed(i, entry, lengths[i], min(n, i + depth), junction, lengths, v_max, a_max,
                             accel_scale)
         entries[i] = entry
@@ -225,11 +226,13 @@ def plan_speeds(moves: list[Kinematics], depth: int, deviation_mm: float, accel_
 
 
 def speeds_of(units, lengths, v_max, a_max, stop_before, depth: int, deviation_mm: float, accel_scale: float = 1.0,
-              axis_accel: np.ndarray | None = None, axis_step: np.ndarray | None = None):
+              axis_accel: np.ndarray | None = None, axis_step: np.ndarray | None = None,
+              first: int = 0, entry: float = 0.0):
     """:func:`plan_speeds` on columns (``units`` [moves, axes], the rest [moves]): the (entries,
-    exits) arrays; ``a_max`` is cut in place for turning moves."""
+    exits) arrays; ``a_max`` is cut in place for turning moves. ``first`` / ``entry``: the
+    moves before ``first`` are planned already and ``first`` is entered at ``entry`` mm/s."""
     use_axes, accel, step = _axis_limits(units.shape[1], axis_accel, axis_step)
     entries, exits = np.zeros(len(lengths)), np.zeros(len(lengths))
     _speeds(units, lengths, v_max, a_max, stop_before, int(depth), float(deviation_mm), float(accel_scale),
-            use_axes, accel, step, entries, exits)
+            use_axes, accel, step, int(first), float(entry), entries, exits)
     return entries, exits

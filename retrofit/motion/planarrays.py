@@ -116,15 +116,13 @@ def _kinematics_into(start, end, spm, v_axis, a_axis, feed, unit):
 
 
 @kernel
-def _walk(kinds, words, scalar, spm, lo, hi, v_axis, a_axis, clearance, start, rapid, feed, limit,
+def _walk(kinds, words, scalar, spm, lo, hi, v_axis, a_axis, clearance, walker, feeds, limit,
           starts, ends, targets, units, lengths, v_max, a_max, stop_before, dwells, index):
-    """The walker of ``planner._Walker`` over the command table; returns (segments, refused
-    command or -1)."""
+    """The walker of ``planner._Walker`` over the command table, continued from its state
+    (``walker`` rows: position, motor, offset, last direction; ``feeds``: rapid, feed), which it
+    updates; returns (segments, refused command or -1)."""
     n_axes = spm.shape[0]
-    position = start.copy()
-    motor = start.copy()
-    offset = np.zeros(n_axes, np.int64)
-    last_dir = np.full(n_axes, -1, np.int64)
+    position, motor, offset, last_dir = walker[0], walker[1], walker[2], walker[3]
     target = np.zeros(n_axes, np.int64)
     s = 0
     for c in range(kinds.shape[0]):
@@ -133,9 +131,9 @@ def _walk(kinds, words, scalar, spm, lo, hi, v_axis, a_axis, clearance, start, r
             if not scalar[c] > 0:
                 return s, c
             if kind == K_FFDR:
-                rapid = scalar[c]
+                feeds[0] = scalar[c]
             else:
-                feed = scalar[c]
+                feeds[1] = scalar[c]
         elif kind == K_PSTN:
             for i in range(n_axes):
                 if not np.isnan(words[c, i]):
@@ -161,7 +159,7 @@ def _walk(kinds, words, scalar, spm, lo, hi, v_axis, a_axis, clearance, start, r
                 ends[s, i] = target[i] + (clearance[i] if last_dir[i] > 0 else 0)
                 if not -limit <= ends[s, i] <= limit:
                     return s, c
-            speed = (feed if kind == K_PMOV else rapid) / 60.0
+            speed = (feeds[1] if kind == K_PMOV else feeds[0]) / 60.0
             lengths[s], v_max[s], a_max[s] = _kinematics_into(motor, ends[s], spm, v_axis, a_axis, speed, units[s])
             starts[s, :] = motor
             targets[s, :] = target
@@ -173,9 +171,9 @@ def _walk(kinds, words, scalar, spm, lo, hi, v_axis, a_axis, clearance, start, r
 
 
 @kernel
-def _profiles(lengths, entries, exits, v_max, a_max, dwells, profiles, has_profile, t0s):
-    """Trapezoid rows and start times of every segment; returns the program's end time."""
-    t = 0.0
+def _profiles(lengths, entries, exits, v_max, a_max, dwells, profiles, has_profile, t0s, t_start):
+    """Trapezoid rows and start times of every segment from ``t_start``; returns the end time."""
+    t = t_start
     for m in range(lengths.shape[0]):
         t0s[m] = t
         if lengths[m] > 0.0:
@@ -187,36 +185,100 @@ def _profiles(lengths, entries, exits, v_max, a_max, dwells, profiles, has_profi
     return t
 
 
+@dataclass
+class Segments:
+    """The walker's straight segments and dwells as columns (what the look-ahead reads)."""
+
+    starts: np.ndarray
+    ends: np.ndarray
+    targets: np.ndarray
+    units: np.ndarray
+    lengths: np.ndarray
+    v_max: np.ndarray
+    a_max: np.ndarray
+    stop_before: np.ndarray
+    dwells: np.ndarray
+    index: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.lengths)
+
+    @classmethod
+    def empty(cls, n: int, n_axes: int) -> "Segments":
+        return cls(*(np.zeros((n, n_axes), np.int64) for _ in range(3)), np.zeros((n, n_axes)),
+                   *(np.zeros(n) for _ in range(3)), np.zeros(n, np.bool_), np.zeros(n), np.zeros(n, np.int64))
+
+    def rows(self, lo: int, hi: int | None = None) -> "Segments":
+        return Segments(*(getattr(self, f)[lo:hi] for f in self.__dataclass_fields__))
+
+    @staticmethod
+    def joined(parts: list["Segments"]) -> "Segments":
+        return Segments(*(np.concatenate([getattr(p, f) for p in parts]) for f in Segments.__dataclass_fields__))
+
+
+class ArrayWalker:
+    """``planner._Walker`` over command tables, batch after batch: the walker's state (position,
+    motor, offset, last direction; rapid and feed) is carried from one batch to the next."""
+
+    def __init__(self, machine, backlash_comp: bool, start: tuple[int, ...]):
+        axes = machine.axes
+        self.machine = machine
+        self.spm = np.array([a.steps_per_mm for a in axes])
+        self.lo = np.array([a.min_steps for a in axes], np.int64)
+        self.hi = np.array([a.max_steps for a in axes], np.int64)
+        self.v_axis = np.array([a.max_velocity_mm_s for a in axes])
+        self.a_axis = np.array([a.max_accel_mm_s2 for a in axes])
+        self.clearance = np.array([a.backlash_steps if backlash_comp else 0 for a in axes], np.int64)
+        self.walker = np.array([start, start, [0] * len(axes), [-1] * len(axes)], np.int64)
+        self.feeds = np.array([machine.motion.rapid_feed_mm_min, machine.motion.default_feed_mm_min], np.float64)
+        self.commands_before = 0
+
+    def segments(self, commands) -> Segments | None:
+        """The segments of the next batch of ``commands`` (``index`` counts from the program's
+        start), or None when the table cannot hold them or the walker would refuse one."""
+        table = encode(commands, self.machine)
+        if table is None:
+            return None
+        kinds, words, scalar = table
+        n = int(np.count_nonzero((kinds == K_FMOV) | (kinds == K_PMOV) | (kinds == K_ZMOV) | (kinds == K_DELY)))
+        seg = Segments.empty(n, len(self.spm))
+        count, refused = _walk(kinds, words, scalar, self.spm, self.lo, self.hi, self.v_axis, self.a_axis,
+                               self.clearance, self.walker, self.feeds, STEP_SPACE_LIMIT, seg.starts, seg.ends,
+                               seg.targets, seg.units, seg.lengths, seg.v_max, seg.a_max, seg.stop_before,
+                               seg.dwells, seg.index)
+        if refused >= 0:
+            return None
+        seg.index += self.commands_before
+        self.commands_before += len(commands)
+        return seg
+
+
 def plan_arrays(commands, machine, backlash_comp: bool, start: tuple[int, ...]):
     """(PlanArrays, end time) of ``commands``, or None when the walker must word a refusal
     or the profile is not a trapezoid."""
     if machine.motion.profile != "trapezoid":
         return None
-    table = encode(commands, machine)
-    if table is None:
-        return None
     compiled(len(commands) * 100)
-    kinds, words, scalar = table
-    axes, n_axes = machine.axes, len(machine.axes)
-    spm = np.array([a.steps_per_mm for a in axes])
-    n = int(np.count_nonzero((kinds == K_FMOV) | (kinds == K_PMOV) | (kinds == K_ZMOV) | (kinds == K_DELY)))
-    starts, ends, targets = (np.zeros((n, n_axes), np.int64) for _ in range(3))
-    units = np.zeros((n, n_axes))
-    lengths, v_max, a_max, dwells = (np.zeros(n) for _ in range(4))
-    stop_before, index = np.zeros(n, np.bool_), np.zeros(n, np.int64)
-    count, refused = _walk(kinds, words, scalar, spm, np.array([a.min_steps for a in axes], np.int64),
-                           np.array([a.max_steps for a in axes], np.int64),
-                           np.array([a.max_velocity_mm_s for a in axes]), np.array([a.max_accel_mm_s2 for a in axes]),
-                           np.array([a.backlash_steps if backlash_comp else 0 for a in axes], np.int64),
-                           np.array(start, np.int64), float(machine.motion.rapid_feed_mm_min),
-                           float(machine.motion.default_feed_mm_min), STEP_SPACE_LIMIT,
-                           starts, ends, targets, units, lengths, v_max, a_max, stop_before, dwells, index)
-    if refused >= 0:
+    seg = ArrayWalker(machine, backlash_comp, start).segments(commands)
+    if seg is None:
         return None
-    settings = machine.motion
-    entries, exits = speeds_of(units, lengths, v_max, a_max, stop_before, settings.lookahead,
-                               settings.junction_deviation_mm, 1.0, np.array([a.max_accel_mm_s2 for a in axes]),
-                               np.array([a.step_mm for a in axes]))
+    return profiled(seg, machine, 0, 0.0, 0.0, len(seg))[:2]
+
+
+def profiled(seg: Segments, machine, first: int, entry: float, t_start: float, upto: int):
+    """(PlanArrays, end time, exit speed) of segments ``first..upto-1`` of ``seg``, the first entered at
+    ``entry`` mm/s and started at ``t_start``; ``seg``'s rows before ``first`` are moves already
+    planned (the junction into ``first``), its rows from ``upto`` moves seen ahead."""
+    settings, axes = machine.motion, machine.axes
+    a_max = seg.a_max.copy()                  # cut for turning moves by the look-ahead
+    entries, exits = speeds_of(seg.units, seg.lengths, seg.v_max, a_max, seg.stop_before,
+                               settings.lookahead, settings.junction_deviation_mm, 1.0,
+                               np.array([a.max_accel_mm_s2 for a in axes]), np.array([a.step_mm for a in axes]),
+                               first=first, entry=entry)
+    part = seg.rows(first, upto)
+    n = upto - first
     profiles, has_profile, t0s = np.zeros((n, P_WIDTH)), np.zeros(n, np.bool_), np.zeros(n)
-    end_s = _profiles(lengths, entries, exits, v_max, a_max, dwells, profiles, has_profile, t0s)
-    return PlanArrays(starts, ends, targets, t0s, profiles, has_profile, dwells, index), float(end_s)
+    end_s = _profiles(part.lengths, entries[first:upto], exits[first:upto], part.v_max, a_max[first:upto],
+                      part.dwells, profiles, has_profile, t0s, float(t_start))
+    return (PlanArrays(part.starts, part.ends, part.targets, t0s, profiles, has_profile, part.dwells, part.index),
+            float(end_s), float(exits[upto - 1]) if upto > first else entry)

@@ -27,11 +27,13 @@ from ._jit import compiled, kernel
 from .bitmerge import merge_pending
 from .execute import tick_of
 from .fast import _bresenham_requests, _dda_requests, plan_steps
+from .columns import Columns
 from .planner import Plan
-from .profile import P_T1, P_T2, P_TC
-from .stepshape import fresh_state, lag_of, shape_steps, window_seen
+from .stepshape import fresh_state, lag_of, shape_steps
 
 _BIG = np.int64(1) << 62
+#: the first window holds this share of ``window_steps`` (the run reads that much before its first step)
+FIRST_WINDOW_SHARE = 32
 
 
 @dataclass
@@ -85,47 +87,7 @@ def keep_freed_memory() -> None:
         pass
 
 
-class _Columns:
-    """What the stream reads of every move, as arrays: the plan's columns, steps per move, the
-    tick each move is loaded, enters the look-ahead window and ends, and the next move stepping
-    each axis."""
-
-    def __init__(self, plan: Plan, rate: float):
-        a = self.arrays = plan.arrays()
-        self.sizes = np.abs(a.ends - a.starts).sum(axis=1) * a.has_profile
-        self.cumulative = np.cumsum(self.sizes)
-        self.loaded = np.floor(a.t0s * rate + 0.5).astype(np.int64)           # execute.tick_of
-        p = a.profiles
-        durations = np.where(a.has_profile, p[:, P_T1] + p[:, P_TC] + p[:, P_T2], a.dwells)
-        self.ends = np.floor((a.t0s + durations) * rate + 0.5).astype(np.int64)
-        n, n_axes = a.starts.shape
-        self.seen = window_seen(self.loaded, plan.machine.motion.lookahead)
-        self.next_move = np.empty((n + 1, n_axes), np.int64)
-        self.next_dir = np.empty((n + 1, n_axes), np.int8)
-        _next_moves(a.starts, a.ends, a.has_profile, self.next_move, self.next_dir)
-
-    def window_end(self, lo: int, window_steps: int) -> int:
-        """End of the window of moves from ``lo``: as many as fit ``window_steps``, at least one."""
-        base = int(self.cumulative[lo - 1]) if lo else 0
-        return max(int(np.searchsorted(self.cumulative, base + window_steps, side="right")), lo + 1)
-
-
-@kernel
-def _next_moves(starts, ends, has_profile, moves, dirs):
-    """For each move boundary b (0..n) and axis: (index, direction) of the first move at or
-    after b that steps the axis (index n and direction 0 when there is none)."""
-    n, n_axes = starts.shape
-    for a in range(n_axes):
-        moves[n, a], dirs[n, a] = n, 0
-    for m in range(n - 1, -1, -1):
-        for a in range(n_axes):
-            moves[m, a], dirs[m, a] = moves[m + 1, a], dirs[m + 1, a]
-            if has_profile[m] and ends[m, a] != starts[m, a]:
-                moves[m, a] = m
-                dirs[m, a] = 1 if ends[m, a] > starts[m, a] else -1
-
-
-def _window_requests(plan: Plan, cols: _Columns, lo: int, hi: int, rate: float):
+def _window_requests(machine, cols: Columns, lo: int, hi: int, rate: float):
     """Step requests (wanted ticks, dirs) per axis of moves lo..hi-1 and each move's counts."""
     a = cols.arrays
     n_axes, n_moves = a.starts.shape[1], hi - lo
@@ -135,7 +97,7 @@ def _window_requests(plan: Plan, cols: _Columns, lo: int, hi: int, rate: float):
     ticks = np.empty((n_axes, width), dtype=np.int64)
     dirs = np.empty((n_axes, width), dtype=np.int8)
     counts = np.empty((n_moves, n_axes), dtype=np.int64)
-    requests = _dda_requests if plan.machine.motion.interpolator == "dda" else _bresenham_requests
+    requests = _dda_requests if machine.motion.interpolator == "dda" else _bresenham_requests
     requests(starts, ends, a.profiles[lo:hi], a.t0s[lo:hi], has_profile, rate, ticks, dirs, counts)
     return [ticks[k, :int(totals[k])] for k in range(n_axes)], [dirs[k, :int(totals[k])] for k in range(n_axes)], counts
 
@@ -172,7 +134,7 @@ class _StepGen:
             window_rises.append(rises)
         return window_rises, last
 
-    def turn_ahead(self, cols: "_Columns", hi: int) -> None:
+    def turn_ahead(self, cols: Columns, hi: int) -> None:
         """Turn now each direction the next move from ``hi`` reverses: no step of the axis comes
         before it, so its tick is known (``stepshape.shape_steps``'s rule) and the frames before
         that move need not wait for its window."""
@@ -204,37 +166,68 @@ def stream_frames(plan: Plan, window_steps: int = 1 << 20,
     known; ``progress`` the fraction of moves done. The generator's return value
     (``StopIteration.value``) is a :class:`StreamStats`.
     """
-    machine = plan.machine
-    n_moves = len(plan.arrays())
-    keep_freed_memory()
-    rate = 1e6 / machine.tick_us
+    rate = 1e6 / plan.machine.tick_us
     if not compiled(plan_steps(plan)):           # a small run: one chunk by NumPy, no compiler to load
         return (yield from _whole_run(plan, on_waypoints, progress))
-    cols, gen = _Columns(plan, rate), _StepGen(machine)
+    return (yield from stream_columns(Columns.of_plan(plan, rate), window_steps, on_waypoints, progress))
+
+
+def stream_blocks(machine, start_steps, blocks, window_steps: int = 1 << 20,
+                  on_waypoints=None, progress=None) -> Iterator[PortFrames]:
+    """:func:`stream_frames` of a plan handed on block by block (``blocks``: (PlanArrays, None)
+    until the last, (PlanArrays, end time) for the last): the same frames, while only the moves
+    of the window being made and those the planner has handed on beyond it are held."""
+    rate = 1e6 / machine.tick_us
+    cols = Columns.rolling(machine, rate, blocks)
+    cols.more(0, _first(window_steps))
+    if cols.final and not compiled(int(cols.steps_from(0))):     # small: one chunk by NumPy
+        plan = Plan(machine, tuple(start_steps), end_s=cols.end_s, arrays=cols.arrays)
+        return (yield from _whole_run(plan, on_waypoints, progress))
+    return (yield from stream_columns(cols, window_steps, on_waypoints, progress))
+
+
+def _first(window_steps: int) -> int:
+    """Steps of the first window: a share of the others, so the first step leaves early."""
+    return max(window_steps // FIRST_WINDOW_SHARE, 1)
+
+
+def stream_columns(cols: Columns, window_steps: int, on_waypoints, progress) -> Iterator[PortFrames]:
+    """The frames of the moves of ``cols`` (whole or rolling), window by window."""
+    machine = cols.machine
+    keep_freed_memory()
+    rate = cols.rate
+    gen = _StepGen(machine)
     stats = StreamStats(np.zeros(len(machine.axes), np.int64))
-    end = tick_of(plan.end_s, rate)
-    lo, chunk_end = 0, 0
+    end = -1
+    lo, chunk_end, first = 0, 0, True
     while True:
-        hi = cols.window_end(lo, window_steps) if n_moves else 0
-        wanted, dirs, counts = _window_requests(plan, cols, lo, hi, rate) if n_moves else ([], [], None)
+        size = _first(window_steps) if first else window_steps
+        lo = cols.more(lo, size)
+        n_moves = len(cols)
+        hi = cols.window_end(lo, size) if n_moves else 0
+        last_window = cols.final and hi >= n_moves
+        if last_window:
+            end = max(end, tick_of(cols.end_s, rate))
+        wanted, dirs, counts = _window_requests(machine, cols, lo, hi, rate) if hi > lo else ([], [], None)
         window_rises, last = gen.shape(wanted, dirs, counts, cols.seen[lo:hi])
         end = max(end, last)
         stats.steps += [len(r) for r in window_rises]
         if on_waypoints is not None and hi > lo:
             on_waypoints(cols.arrays.targets[lo:hi], cols.loaded[lo:hi],
                          _reached(counts, window_rises, cols.ends[lo:hi]))
-        stats.lag = max(stats.lag, _settle_lag(gen.pending, final=hi >= n_moves))
+        stats.lag = max(stats.lag, _settle_lag(gen.pending, final=last_window))
         limit = _BIG
-        if hi < n_moves:      # no later event, and no later waypoint, comes before the limit
+        if not last_window:      # no later event, and no later waypoint, comes before the limit
             gen.turn_ahead(cols, hi)
             limit = min(_limit(gen.state, cols, hi, gen.period, machine), int(cols.loaded[hi]))
-        chunk = gen.frames(limit, first=lo == 0)
-        chunk_end = max(chunk_end, limit) if hi < n_moves else max(end, 0) + 1
+        chunk = gen.frames(limit, first=first)
+        first = False
+        chunk_end = max(chunk_end, limit) if not last_window else max(end, 0) + 1
         yield PortFrames(chunk.ticks, chunk.values, chunk_end)
         if progress is not None:
             progress(hi / n_moves if n_moves else 1.0)
         lo = hi
-        if lo >= n_moves:
+        if last_window:
             break
     stats.end_tick = max(end, 0) + 1
     return stats
@@ -299,12 +292,15 @@ def _settle_lag(pending: _Axes, final: bool) -> int:
     return lag
 
 
-def _limit(shape_state, cols: _Columns, hi: int, period, machine) -> int:
+def _limit(shape_state, cols: Columns, hi: int, period, machine) -> int:
     """The earliest tick any event of the windows from move ``hi`` on can have (see the module doc;
-    the direction each axis needs next is already turned, ``_StepGen.turn_ahead``)."""
+    the direction each axis needs next is already turned, ``_StepGen.turn_ahead``; an axis whose
+    next move is not planned yet waits for it to enter the look-ahead window)."""
     limit = _BIG
     for a in range(len(machine.axes)):
         if cols.next_dir[hi, a] == 0:
+            if not cols.final:
+                limit = min(limit, cols.horizon_seen)
             continue
         _, last_rise, _, done = (int(v) for v in shape_state[a])
         first = last_rise + 1 if done > 0 else 1

@@ -25,34 +25,40 @@ AROUND_VIOLATION_TICKS = 200
 
 
 def deliver_plan(plan, urls: list[str], progress: Callable[[float], None] | None = None,
-                 window_steps: int = 1 << 18):
+                 window_steps: int = 1 << 18, blocks=None):
     """Stream ``plan``'s frames to every output in ``urls``; return (run log, simulated machine).
 
     The run log holds the waypoints, steps and following error but no frames (its ``frames`` is
     empty, with the run's ``end_tick``); ``progress`` gets the fraction of moves done.
+    ``blocks``: (machine, iterator of (PlanArrays, end time or None)), a plan handed on block by
+    block from the start position, in place of ``plan`` (``motion.stream.stream_blocks``).
     """
-    from ..motion.stream import stream_frames
+    from ..motion.stream import stream_blocks, stream_frames
     from ..sim import SimMachine
-    machine = plan.machine
+    machine = plan.machine if blocks is None else blocks[0]
+    start_steps = plan.start_steps if blocks is None else (0,) * len(machine.axes)
     trace = {"trace_limit": TRACE_POINTS, "trace_around": AROUND_VIOLATION_TICKS}
     outputs = [open_output(url, machine) for url in urls]
     sims = [out for out in outputs if isinstance(out, SimOutput)]
     for out in sims:
-        out.start_steps, out.trace_options = plan.start_steps, trace
-    log = RunLog(machine, PortFrames([], [], 0), start_steps=plan.start_steps)
+        out.start_steps, out.trace_options = start_steps, trace
+    log = RunLog(machine, PortFrames([], [], 0), start_steps=start_steps)
     try:
         for out in outputs:
             out.open()
-        sim = sims[0].sim if sims else SimMachine(machine, plan.start_steps, **trace)
+        sim = sims[0].sim if sims else SimMachine(machine, start_steps, **trace)
+        for s in [sim] + [out.sim for out in sims]:
+            s.keep_watched = blocks is None       # read ahead: nothing plots the run afterwards
         feeds = [out.write for out in outputs] + ([] if sims else [sim.feed])
-        table = log.waypoints = WaypointTable(len(machine.axes))
+        table = log.waypoints = WaypointTable(len(machine.axes), keep_all=blocks is None)
         watched, errors = [], _WorstError(machine)
 
         def waypoints(steps, loaded, reached) -> None:
             table.add(steps, loaded, reached)
             watched.append(reached)
             errors.add(steps, reached)
-        gen = stream_frames(plan, window_steps, on_waypoints=waypoints, progress=progress)
+        gen = (stream_frames(plan, window_steps, on_waypoints=waypoints, progress=progress) if blocks is None
+               else stream_blocks(machine, start_steps, blocks[1], window_steps, on_waypoints=waypoints))
         while True:
             try:
                 chunk = next(gen)

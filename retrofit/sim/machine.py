@@ -34,6 +34,7 @@ class SimMachine:
         self.trace_around = trace_around
         self._watch = np.zeros(0, np.int64)
         self._watched: list[tuple[np.ndarray, np.ndarray]] = []     # (ticks, [tick, axis, motor/carriage])
+        self.keep_watched = True          # False: only the last chunk's watched states (nothing plots them)
         start = start_steps or (0,) * len(machine.axes)
         self.drivers = [DriverInput(a) for a in machine.axes]
         self.motor_steps = list(start)
@@ -100,7 +101,7 @@ class SimMachine:
 
     def _keep_watch(self, watch, out) -> None:
         self._last_watch = (watch, out)
-        if len(watch):
+        if len(watch) and self.keep_watched:
             self._watched.append((watch, out))
 
     def carriages_at(self, ticks: np.ndarray) -> np.ndarray:
