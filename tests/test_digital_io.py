@@ -156,7 +156,7 @@ def test_m66_rising_edge_already_past_times_out(tmp_path):
     ("G0 X1\nM66 E0 L0\n", ["io.ngc:2", "analog"]),
     ("G0 X1\nM66 P0 L3\n", ["io.ngc:2", "timeout"]),
     ("G0 X1\nM67 E0 Q1\n", ["io.ngc:2", "M67", "analog outputs"]),
-    ("G0 X1\nG71 Q100 D1\n", ["io.ngc:2", "G71", "not supported"]),
+    ("G0 X1\nG71 Q100 D1\n", ["io.ngc:2", "G71 Q100", "no o100 sub"]),
 ])
 def test_refusals_name_the_line_and_the_rule(tmp_path, text, words):
     with pytest.raises(GcodeError) as exc:
