@@ -31,6 +31,8 @@ SKIPPED = {
     r"^retrofit send\b": "needs a running CAM link server",
     r"^retrofit mcu\b": "talks to a microcontroller board",
     r"^make flash\b": "programs a microcontroller board",
+    r"\bPROGRAM\b": "PROGRAM stands for the reader's own program",
+    r"^retrofit fpga build\b": "builds a bitstream (half a minute); tests/test_fpga_build.py runs it in the slow stage",
 }
 
 _FENCE = re.compile(r"^(?P<indent>\s*)```(?P<lang>[\w+-]*)\s*$")
