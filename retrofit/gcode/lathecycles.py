@@ -19,7 +19,7 @@ ALLOWED = set("GQXZDEPF")
 
 def run_g70(runner, src, line, words: list[tuple[str, float]]) -> bool:
     """One G70 block (``words`` evaluated); the moves go through the translator as G0/G1/G2/G3."""
-    tr, s = runner.tr, runner.tr.state
+    s = runner.tr.state
     v = dict(words)
     extra = sorted({k for k, _ in words} - ALLOWED)
     if extra or sum(1 for k, _ in words if k == "G") != 1:
