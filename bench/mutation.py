@@ -6,6 +6,7 @@ working tree is never touched. A mutant that survives the tests of ``--before`` 
 the files named there) is tried again with the whole set, which gives both figures in one run.
 
     python3 bench/mutation.py [--per-package 8] [--seed 1] [--before tests/test_x.py ...]
+    python3 bench/mutation.py --packages gcode --focus retrofit/gcode/params.py:28 ...   # given lines
 
 Prints one line per mutant and a table per package; docs/testing.md holds the figures measured.
 """
@@ -27,10 +28,13 @@ from cosmic_ray.work_item import TestOutcome, WorkerOutcome
 
 ROOT = Path(__file__).resolve().parent.parent
 TESTS = {
-    "motion": ["tests/test_bresenham.py", "tests/test_dda.py", "tests/test_profile.py", "tests/test_stepgen.py"],
+    "motion": ["tests/test_bresenham.py", "tests/test_dda.py", "tests/test_profile.py", "tests/test_stepgen.py",
+               "tests/test_arcs.py", "tests/test_plan_arrays.py", "tests/test_stream.py",
+               "tests/test_fast_equals_reference.py"],
     "gcode": ["tests/test_gcode.py", "tests/test_gcode_modal.py", "tests/test_spindle_modes.py",
               "tests/test_mutation_survivors.py"],
-    "controller": ["tests/test_controller_pipeline.py", "tests/test_mutation_survivors.py"],
+    "controller": ["tests/test_controller_pipeline.py", "tests/test_controller_equivalence.py",
+                   "tests/test_controller_kernels.py", "tests/test_mutation_survivors.py"],
     "link": ["tests/test_link.py", "tests/test_link_hardening.py"],
     "backlash": ["tests/test_backlash.py", "tests/test_backlash_units.py"],
 }
@@ -50,9 +54,13 @@ def copy_tree(dest: Path) -> None:
             shutil.copy2(src, dest / name)
 
 
-def mutants(package: str, count: int, rng: random.Random) -> list:
+def mutants(package: str, count: int, rng: random.Random, focus: list[str]) -> list:
+    """A seeded sample of the package's mutants; with ``focus`` (``path:line``), every mutant on
+    those lines of the package instead."""
     paths = sorted(p for p in (Path("retrofit") / package).rglob("*.py") if p.name not in EXCLUDED)
     items = list(_all_work_items(paths, {}))
+    if focus:
+        return [m for m in items if f"{m.mutations[0].module_path}:{m.mutations[0].start_pos[0]}" in focus]
     return rng.sample(items, min(count, len(items)))
 
 
@@ -76,6 +84,7 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--packages", default=",".join(TESTS), help="comma-separated, default all five")
     ap.add_argument("--before", nargs="*", default=[], help="test files left out of the 'before' figure")
+    ap.add_argument("--focus", nargs="*", default=[], help="every mutant on these lines (path:line) instead")
     args = ap.parse_args()
     rng = random.Random(args.seed)
     table = []
@@ -88,7 +97,7 @@ def main() -> int:
             after = TESTS[package]
             before = [t for t in after if t not in args.before]
             counts = {"before": 0, "after": 0, "valid": 0}
-            for m in mutants(package, args.per_package, rng):
+            for m in mutants(package, args.per_package, rng, args.focus):
                 where = f"{m.mutations[0].module_path}:{m.mutations[0].start_pos[0]} {m.mutations[0].operator_name}"
                 first = outcome(m.mutations[0], before) if before else "survived"
                 second = first if first != "survived" or before == after else outcome(m.mutations[0], after)
