@@ -134,7 +134,7 @@ def stage_rows(marks: list[dict]) -> list[tuple[str, float]]:
     med = lambda f: statistics.median(f(m) for m in marks)           # noqa: E731
     rows, prev = [], None
     for key, label in STAGES:
-        rows.append((label, med(lambda m: m[key] - (m[prev] if prev else 0.0))))
+        rows.append((label, med(lambda m: m[key] - (m[prev] if prev else 0.0))))  # noqa: B023 (called here)
         prev = key
     work = med(lambda m: m["second"] - m["first"])
     loads = med(lambda m: m["loads"])

@@ -10,6 +10,8 @@
  * The immediate commands (STOP, RDPS, RDST), INIT and the feed overrides FFDR and MFDR never
  * enter the queue (commands.c). */
 #include "interp.h"
+#include "opcodes.h"
+#include "queue.h"
 #include "io.h"
 #include "link.h"
 #include "planner.h"

@@ -3,7 +3,7 @@
 #define INTERP_H
 
 #include <stdint.h>
-#include "commands.h"
+#include "command.h"
 
 void interp_init(void);            /* INIT: defaults, empty queue, position 0, ready */
 void interp_stop(void);            /* STOP: abrupt stop, queue cleared */

@@ -92,7 +92,7 @@ class TcpServerPort:
             self.listener = socket.create_server((host, port))
         except OSError as exc:
             raise LinkError(f"retrofit mcu --listen {host}:{port}: cannot listen there "
-                            f"({exc.strerror or exc}); expected a free HOST:PORT (port 0 picks one)")
+                            f"({exc.strerror or exc}); expected a free HOST:PORT (port 0 picks one)") from None
         self.address = self.listener.getsockname()[:2]
         self.client: socket.socket | None = None
         self.timeout: float | None = IDLE_WAIT_S

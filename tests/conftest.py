@@ -1,4 +1,5 @@
-"""Shared test set-up: headless plots, deterministic hypothesis profiles."""
+"""Shared test set-up: headless plots, hypothesis profiles (deterministic in the main stage; fresh
+examples under a printed seed in the slow stage: HYPOTHESIS_PROFILE=fresh, --hypothesis-seed=N)."""
 
 import os
 
@@ -9,10 +10,24 @@ from hypothesis import HealthCheck, settings  # noqa: E402
 settings.register_profile("ci", deadline=None, derandomize=True,
                           suppress_health_check=[HealthCheck.too_slow])
 settings.register_profile("dev", deadline=None, suppress_health_check=[HealthCheck.too_slow])
+settings.register_profile("fresh", deadline=None, derandomize=False, database=None,
+                          suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 
 import pytest  # noqa: E402
+
+
+def pytest_report_header(config):
+    """The profile, and the seed that draws this run's examples again."""
+    profile = settings.get_current_profile_name()
+    seed = config.getoption("hypothesis_seed", None)
+    if profile != "fresh":
+        return f"hypothesis: profile {profile} (the same examples every run)"
+    if seed is None:
+        return "hypothesis: profile fresh, no seed given: examples cannot be drawn again (give --hypothesis-seed)"
+    return (f"hypothesis: profile fresh, seed {seed}; again: HYPOTHESIS_PROFILE=fresh python3 -m pytest "
+            f"-m slow --hypothesis-seed={seed}")
 
 
 @pytest.fixture(autouse=True)

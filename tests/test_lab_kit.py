@@ -137,8 +137,8 @@ def _code(line: str) -> str:
     return line.split("  #")[0].strip() if not line.strip().startswith("#") else ""
 
 
-# lab 02's checks.py drives the student's counters with its own copy of timer_ticks' loop, so the
-# exported checks show the answer to that TODO; strict, so the mark must go when the checks change
+# a lab listed here fails the export check as expected (strict: the mark must go once the lab's
+# exported files stop showing solution code); none does today
 LEAKS: dict[str, str] = {}          # a lab whose exported files show solution code: name -> where
 EXPORT_CASES = [pytest.param(lab, id=lab.path.name, marks=[pytest.mark.xfail(reason=LEAKS[lab.path.name], strict=True)]
                              if lab.path.name in LEAKS else []) for lab in LABS]

@@ -158,13 +158,13 @@ def test_an_output_that_cannot_be_written_is_one_line_exit_2(tmp_path, where, wh
 
 
 def test_disk_full_is_one_line_and_leaves_nothing(tmp_path):
-    prog = write(tmp_path, "p.ngc", "G0 X5 Z-3\nM2\n")
+    write(tmp_path, "p.ngc", "G0 X5 Z-3\nM2\n")
     if not __import__("os").path.exists("/dev/full"):
         pytest.skip("no /dev/full")
     from retrofit.atomic import staged
     from retrofit.errors import OutputError
     with pytest.raises(OutputError, match=r"r.json: cannot write the file: disk full"):
-        with staged(tmp_path / "r.json") as tmp:
+        with staged(tmp_path / "r.json"):
             with open("/dev/full", "w") as full:
                 full.write("x" * 100000)
                 full.flush()

@@ -166,7 +166,6 @@ def test_decimated_trace_is_bounded_and_watched_ticks_stay_exact():
 
 def test_an_axis_idle_for_whole_chunks_holds_exactly_as_step_by_step():
     machine = replace(CHIVU, axes=tuple(replace(a, invert_dir=True) for a in CHIVU.axes))
-    pins = PinMap(machine)
     frames = random_frames(machine, 5, 3000)
     half = len(frames) // 2
     values = frames.values.copy()

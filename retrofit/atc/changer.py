@@ -91,7 +91,7 @@ class ToolChanger:
                                       f"but the record says T{self.spindle_tool}; compile it again")
             executor.run(_with_offsets(executor, offsets) + list(commands[done:mark.start]))
             piece = _with_offsets(executor, mark.offsets_mm) + list(commands[mark.start:mark.end])
-            self._recorded(mark.current, mark.new, lambda: executor.run(piece))
+            self._recorded(mark.current, mark.new, lambda: executor.run(piece))  # noqa: B023 (called at once)
             done, offsets = mark.end, mark.offsets_mm
         executor.run(_with_offsets(executor, offsets) + list(commands[done:]))
 

@@ -1,9 +1,9 @@
 """The CAM side's trajectory table: a tool path becomes one row per loop period (1 ms).
 
 As the paper's add-in does, the whole plan is made before sending: each straight segment gets a
-trapezoidal speed profile (accelerate, cruise, decelerate) at the axes' limits; at a junction the
-speed is kept as high as the corner allows (``[motion] junction_deviation_mm``, the rule of grbl's
-planner), found by a backward and a forward pass over the path. The profile is then sampled every
+trapezoidal speed profile (accelerate, cruise, decelerate) at the axes' limits; the speeds at the
+junctions are the main planner's (retrofit.motion.lookahead: ``[motion] junction_deviation_mm``,
+backward and forward passes over the whole path). The profile is then sampled every
 loop period into rows: per axis, the feedrate (-255..255, 255 = the axis's max velocity) and the
 position in pulses.
 """
@@ -18,6 +18,8 @@ import numpy as np
 
 from ..config import Machine
 from ..errors import MotionError
+from ..motion import lookahead
+from ..motion.lookahead import Kinematics
 from .protocol import FEED_LIMIT, ROW_AXES, Row
 
 #: plan at most this fraction of an axis's max velocity: the loop needs room above the feed-forward
@@ -75,26 +77,15 @@ def segments(machine: Machine, start_mm: Sequence[float],
 
 
 def plan_speeds(machine: Machine, segs: list[Segment]) -> None:
-    """Entry and exit speeds: corners from the junction deviation, then backward and forward passes."""
-    deviation = machine.motion.junction_deviation_mm
-    for prev, nxt in zip(segs, segs[1:]):
-        sin_half = math.sqrt(max(0.0, 0.5 * (1.0 + float(np.dot(prev.unit, nxt.unit)))))
-        limit = min(prev.v_max, nxt.v_max)
-        if sin_half < 1.0 - 1e-9:
-            accel = min(prev.accel, nxt.accel)
-            limit = min(limit, math.sqrt(accel * deviation * sin_half / (1.0 - sin_half)))
-        prev.v_exit = nxt.v_entry = limit
-    if segs:
-        segs[0].v_entry = segs[-1].v_exit = 0.0
-    for i in range(len(segs) - 1, -1, -1):          # backward: able to slow down in time
-        s = segs[i]
-        s.v_entry = min(s.v_entry, math.sqrt(s.v_exit ** 2 + 2 * s.accel * s.length))
-        if i:
-            segs[i - 1].v_exit = s.v_entry
-    for i, s in enumerate(segs):                   # forward: able to speed up in time
-        s.v_exit = min(s.v_exit, math.sqrt(s.v_entry ** 2 + 2 * s.accel * s.length))
-        if i + 1 < len(segs):
-            segs[i + 1].v_entry = s.v_exit
+    """Entry and exit speeds by the main planner's look-ahead (:func:`retrofit.motion.lookahead.plan_speeds`):
+    the same junction rule, passes and acceleration cut at turning corners as a G-code program's, over
+    the whole path; a segment's acceleration is the one the planner leaves it."""
+    moves = [Kinematics(s.length, s.unit, s.v_max, s.accel) for s in segs]
+    speeds = lookahead.plan_speeds(moves, max(len(segs), 1), machine.motion.junction_deviation_mm,
+                                   axis_accel=np.array([a.max_accel_mm_s2 for a in machine.axes]),
+                                   axis_step=np.array([a.step_mm for a in machine.axes]))
+    for seg, move, (entry, exit_) in zip(segs, moves, speeds):
+        seg.v_entry, seg.v_exit, seg.accel = entry, exit_, move.a_max_mm_s2
 
 
 def _pieces(seg: Segment) -> list[tuple[float, float, float, float]]:

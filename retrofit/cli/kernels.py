@@ -38,6 +38,7 @@ def cmd_kernels(args) -> int:
     from ..motion._aot_build import build
     print("running the shipped examples with Numba's kernels, then compiling (a minute or two)",
           file=sys.stderr, flush=True)
-    folder = build(progress=lambda says: print(says, file=sys.stderr, flush=True))
+    from . import main
+    folder = build(main, progress=lambda says: print(says, file=sys.stderr, flush=True))
     print(f"kernels compiled ahead of time: {folder}")
     return 0

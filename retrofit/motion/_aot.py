@@ -19,6 +19,7 @@ import hashlib
 import importlib.machinery
 import importlib.util
 import json
+import os
 import platform
 import sys
 from pathlib import Path
@@ -30,9 +31,14 @@ TABLE = "table.json"
 _SCALARS = {bool: "bool", int: "int64", float: "float64"}
 
 
+def cache_dir() -> Path:
+    """retrofit's folder of built things: $XDG_CACHE_HOME/retrofit (~/.cache/retrofit)."""
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "retrofit"
+
+
 def folder() -> Path:
     """Where this Python, NumPy and Numba keep their ahead-of-time kernels."""
-    from ..outputs.pacer_build import cache_dir
     numba = importlib.util.find_spec("numba")
     version = Path(numba.origin).with_name("_version.py").read_bytes() if numba and numba.origin else b""
     digest = hashlib.sha256(sys.version.encode() + np.__version__.encode() + version).hexdigest()[:16]

@@ -39,9 +39,9 @@ def kernel_modules() -> list[str]:
     return names
 
 
-def warm_up(folder: Path) -> None:
-    """The shipped runs, with the just-in-time kernels, whatever their size."""
-    from ..cli import main
+def warm_up(folder: Path, main) -> None:
+    """The shipped runs, with the just-in-time kernels, whatever their size; ``main`` is the
+    command line's (``retrofit.cli.main``), handed down so motion imports nothing above it."""
     for i, (program, machine, extra) in enumerate(WARM_UP):
         argv = ["run", program, "--machine", machine, "--output", "sim://", "--output",
                 f"vcd://{folder / f'w{i}.vcd'}", "--tool-table", str(folder / f"t{i}.tbl"),
@@ -59,14 +59,15 @@ def signatures(dispatcher) -> list:
     return list(dict.fromkeys(list(dispatcher.signatures) + held))
 
 
-def build(progress=print) -> Path:
-    """Compile every kernel for every argument type known; the module's folder."""
+def build(main, progress=print) -> Path:
+    """Compile every kernel for every argument type known, after the warm-up runs of ``main``
+    (``retrofit.cli.main``); the module's folder."""
     os.environ["RETROFIT_NO_AOT"] = "1"          # this process runs Numba's own kernels
     for name in kernel_modules():
         importlib.import_module(name)
     _jit.to_jit()
     with tempfile.TemporaryDirectory() as scratch:
-        warm_up(Path(scratch))
+        warm_up(Path(scratch), main)
         progress("warm-up runs done; compiling the kernels ahead of time")
         return _compile(Path(scratch))
 

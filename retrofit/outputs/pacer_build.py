@@ -18,17 +18,14 @@ import subprocess
 import tempfile
 from pathlib import Path
 
+from ..motion._aot import cache_dir
+
 SOURCE = Path(__file__).with_name("pacer_c.c")
 _loaded: dict[str, ctypes.CDLL] = {}
 
 
 class BuildError(Exception):
     """The compiled writer could not be built or loaded (the message says why)."""
-
-
-def cache_dir() -> Path:
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "retrofit"
 
 
 def compiler() -> str:

@@ -116,8 +116,9 @@ class RawLink:
         assert isinstance(reply, Position), reply
         return dict(reply.steps)
 
-    def wait_idle(self, timeout_s: float = 30.0, poll_s: float = 0.02) -> Status:
-        """RDST until nothing moves, dwells or waits in the queue."""
+    def wait_idle(self, timeout_s: float = 120.0, poll_s: float = 0.02) -> Status:
+        """RDST until nothing moves, dwells or waits in the queue (a ceiling, not a pace: a device
+        on a busy host runs its machine slower than the clock on the wall)."""
         end = time.monotonic() + timeout_s
         while True:
             st = self.status()
@@ -126,7 +127,7 @@ class RawLink:
             assert time.monotonic() < end, f"still busy after {timeout_s} s: {st}"
             time.sleep(poll_s)
 
-    def send_until_accepted(self, cmd: Command | str, timeout_s: float = 30.0) -> Reply:
+    def send_until_accepted(self, cmd: Command | str, timeout_s: float = 120.0) -> Reply:
         """Send, and resend after BUSY, as a host does; the first answer that is not BUSY."""
         end = time.monotonic() + timeout_s
         while True:
