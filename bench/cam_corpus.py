@@ -29,12 +29,12 @@ import tempfile
 from collections import Counter
 from pathlib import Path
 
-from retrofit.config import load_machine
+from gcode_corpus import reason  # bench/ is the script's folder: the same reasons, by count
+
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
-from retrofit.tooltable import ToolTable
-
-from gcode_corpus import reason  # bench/ is the script's folder: the same reasons, by count
+from retrofit.machine.config import load_machine
+from retrofit.machine.tooltable import ToolTable
 
 ROOT = Path(__file__).resolve().parent.parent
 SUFFIXES = {".nc", ".ngc", ".gcode", ".gc", ".tap", ".cnc", ".g"}

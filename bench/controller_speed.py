@@ -17,9 +17,9 @@ import time
 from dataclasses import replace
 
 from retrofit.commands import ZMov
-from retrofit.config import load_machine
 from retrofit.controller import Controller
 from retrofit.gcode import compile_program
+from retrofit.machine.config import load_machine
 from retrofit.motion._jit import compiled
 from retrofit.sim import SimMachine
 

@@ -1,6 +1,6 @@
 """Measure the step and encoder rates the firmware keeps, in simavr, and write firmware/limits.toml.
 
-The host plans every firmware run within these figures (retrofit/firmware_limits.py), so they are
+The host plans every firmware run within these figures (retrofit/firmware/limits.py), so they are
 measured here and never typed by hand. For each case the rate climbs in steps of ``--step``
 until a run is not clean; the last clean rate is recorded with the margin applied.
 
@@ -36,9 +36,9 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 from firmware_steprate import MACHINE, frames  # noqa: E402
 
-from retrofit import firmware_limits as fl  # noqa: E402
-from retrofit import firmware_sim as fs  # noqa: E402
-from retrofit.config import load_machine  # noqa: E402
+from retrofit.firmware import limits as fl  # noqa: E402
+from retrofit.firmware import sim as fs  # noqa: E402
+from retrofit.machine.config import load_machine  # noqa: E402
 
 S = fs.F_CPU
 #: the cases measured: name -> the step count of each moving axis per 1000 base steps

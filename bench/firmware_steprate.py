@@ -42,12 +42,12 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from retrofit import firmware_runs as fr  # noqa: E402
-from retrofit import firmware_sim as fs  # noqa: E402
 from retrofit.commands import parse_command  # noqa: E402
-from retrofit.config import load_machine  # noqa: E402
+from retrofit.firmware import runs as fr  # noqa: E402
+from retrofit.firmware import sim as fs  # noqa: E402
 from retrofit.link import IMMEDIATE, QUEUED, encode_command, encode_frame, seq_byte  # noqa: E402
 from retrofit.link.script import KEEPALIVE_S, ScriptedHost  # noqa: E402
+from retrofit.machine.config import load_machine  # noqa: E402
 
 MACHINE = ROOT / "bench" / "steprate.toml"
 S = fs.F_CPU
@@ -151,7 +151,7 @@ def thread(sources: dict[str, Path], tmp: Path) -> None:
 def circle() -> None:
     """The 474-segment circle through the link, its time beside the host plan's."""
     from retrofit.gcode import compile_program
-    from retrofit.runprogram import plan_compiled
+    from retrofit.run.program import plan_compiled
     machine = load_machine("tul-mill")
     text = "G21 G90 G17\nG0 X30 Y20\nG1 F1200\n" + "G2 X30 Y20 I-10 J0\n" * 3 + "M2\n"
     program = compile_program(text, machine, file="circle.ngc")

@@ -1,4 +1,4 @@
-"""The long random stress run of the firmware in simavr (retrofit.firmware_stress), per seed for
+"""The long random stress run of the firmware in simavr (retrofit.firmware.stress), per seed for
 at least the given simulated minutes: runs of ``--moves`` random moves (rates up to
 ``--top-rate`` on the base axis, 1-4 axes, random ratios, a full queue, RDST every 2-20 ms,
 garbage and dropped bytes) one after the other, each on a fresh board, until the AVR's time
@@ -18,9 +18,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from retrofit import firmware_sim as fs  # noqa: E402
-from retrofit import firmware_stress as st  # noqa: E402
-from retrofit.config import load_machine  # noqa: E402
+from retrofit.firmware import sim as fs  # noqa: E402
+from retrofit.firmware import stress as st  # noqa: E402
+from retrofit.machine.config import load_machine  # noqa: E402
 
 
 def main() -> int:

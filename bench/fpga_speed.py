@@ -20,14 +20,14 @@ from importlib import resources
 
 import numpy as np
 
-from retrofit.config import load_machine
 from retrofit.fpga.board import CLOCK_HZ
 from retrofit.fpga.host import compile_records
 from retrofit.fpga.record import pack
 from retrofit.fpga.simulate import first_difference, simulate
 from retrofit.gcode import compile_program
+from retrofit.machine.config import load_machine
 from retrofit.motion.fast import execute_fast
-from retrofit.runprogram import plan_compiled
+from retrofit.run.program import plan_compiled
 
 TICKS = 20_000
 

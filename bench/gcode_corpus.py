@@ -27,10 +27,10 @@ import re
 from collections import Counter
 from pathlib import Path
 
-from retrofit.config import load_machine
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
-from retrofit.tooltable import ToolTable
+from retrofit.machine.config import load_machine
+from retrofit.machine.tooltable import ToolTable
 
 ROOT = Path(__file__).resolve().parent.parent
 FOLDERS = (ROOT / "tests" / "gcode" / "linuxcnc", ROOT / "tests" / "gcode" / "corpus",
@@ -100,7 +100,7 @@ def main() -> None:
         language[on_wide or "ran"] += 1
         rows.append((path.relative_to(ROOT), name, on_shipped, on_wide))
     print(f"corpus: {len(files)} programs ({', '.join(str(f.relative_to(ROOT)) for f in FOLDERS)})")
-    for title, counts in ((f"on a shipped machine (chivu-lathe / grenoble-mill)", shipped),
+    for title, counts in (("on a shipped machine (chivu-lathe / grenoble-mill)", shipped),
                           ("on the wide test mill (language only; HAL feed 1000)", language)):
         print(f"\n{title}: {counts['ran']} of {len(files)} ran")
         for why, n in counts.most_common():

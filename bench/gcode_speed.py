@@ -31,9 +31,9 @@ import time
 import warnings
 from pathlib import Path
 
-from retrofit.config import load_machine
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
+from retrofit.machine.config import load_machine
 
 MACHINE = Path(__file__).resolve().parent.parent / "tests" / "gcode" / "rs274-mill.toml"
 _WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")

@@ -6,7 +6,7 @@
  * rule (the bytes of the lines not yet answered "ok" or "error" stay within its 128-byte receive
  * buffer; a line starting with '$' goes alone, as it writes the EEPROM). Every change of port D
  * (steps on PD2-PD4, directions on PD5-PD7) is written to LOG as "P CYCLE D VALUE" (hex), the
- * form retrofit/firmware_sim.py reads. Stops when every line is answered and port D has not
+ * form retrofit/firmware/sim.py reads. Stops when every line is answered and port D has not
  * changed for 100 ms of AVR time since then, or at MAX_CYCLES; prints every line grbl sent other
  * than "ok" and "end cycles=N ok=N error=N".
  */

@@ -36,12 +36,12 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from retrofit import firmware_sim as fs  # noqa: E402
 from retrofit.commands import parse_command  # noqa: E402
-from retrofit.config import load_machine  # noqa: E402
-from retrofit.firmware_lockstep import Lockstep  # noqa: E402
+from retrofit.firmware import sim as fs  # noqa: E402
+from retrofit.firmware.lockstep import Lockstep  # noqa: E402
 from retrofit.link.host import HostEndpoint  # noqa: E402
 from retrofit.link.replies import StatusFlags  # noqa: E402
+from retrofit.machine.config import load_machine  # noqa: E402
 
 GRBL_URL = "https://github.com/gnea/grbl.git"
 GRBL_COMMIT = "40eb439bf2afc4c6f3003836c396e183ba72c45b"          # tag v1.1h.20190825

@@ -12,14 +12,14 @@ import argparse
 import time
 
 from retrofit.commands import FMov, PFdr, PMov
-from retrofit.config import load_machine
 from retrofit.gcode import load_program
+from retrofit.machine.config import load_machine
 from retrofit.motion._jit import compiled
 from retrofit.motion.execute import execute_reference
 from retrofit.motion.fast import execute_fast, request_steps_fast
 from retrofit.motion.planner import plan_program
 from retrofit.motion.vectorised import execute_numpy, request_steps_numpy
-from retrofit.runprogram import resolve_program
+from retrofit.run.program import resolve_program
 from retrofit.sim import SimMachine
 
 

@@ -29,9 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
-from retrofit.config import load_machine
 from retrofit.demo import circle_targets
 from retrofit.errors import RetrofitError
+from retrofit.machine.config import load_machine
 from retrofit.motion.errorloop import PositionErrorLoop
 from retrofit.outputs import open_output
 from retrofit.outputs.pacer import LEAD_NS, Lateness, Pacer, repeat_frames

@@ -118,7 +118,7 @@ def machine_file(folder: Path) -> Path:
 
 
 def machine():
-    from retrofit.config import load_machine
+    from retrofit.machine.config import load_machine
     return load_machine(machine_file(Path(tempfile.mkdtemp())))
 
 
@@ -141,7 +141,7 @@ def stages(n: int, m, repeat: int = 1) -> dict:
     """CPU seconds of each stage on N repetitions (in this process; each the least of ``repeat``)."""
     from retrofit.gcode import load_program
     from retrofit.motion.fast import plan_steps
-    from retrofit.runprogram import plan_compiled
+    from retrofit.run.program import plan_compiled
     with tempfile.NamedTemporaryFile("w", suffix=".ngc", delete=False) as fh:
         fh.write(workload_gcode(n))
     t_compile, program = cpu(load_program, fh.name, m)

@@ -36,7 +36,7 @@ SPLIT = """import time
 marks = {"python": time.process_time()}
 import numpy
 marks["numpy"] = time.process_time()
-import retrofit.cli, retrofit.cli.run, retrofit.runprogram
+import retrofit.cli, retrofit.cli.run, retrofit.run.program
 marks["retrofit"] = time.process_time()
 from retrofit.motion._jit import compiled
 compiled()

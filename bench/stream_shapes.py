@@ -36,7 +36,6 @@ HERE = Path(__file__).parent
 sys.path.insert(0, str(HERE))
 from square_circle import KLIPPER_CFG, LAUNCHER, chord_mm, klipper_gcode, machine, machine_file, workload_gcode  # noqa: E402
 
-
 #: the CAM program's machine (bench/gcode_speed.py's): a mill without a tool changer
 CAM_MACHINE = HERE.parent / "tests" / "gcode" / "rs274-mill.toml"
 

@@ -12,14 +12,14 @@ from pathlib import Path
 
 import numpy as np
 
-from retrofit.config import load_machine
 from retrofit.fpga.host import compile_records
 from retrofit.fpga.simulate import simulate
 from retrofit.frames import PinMap
 from retrofit.gcode import compile_program
-from retrofit.labplot import pyplot, save_figure
+from retrofit.lab.plot import pyplot, save_figure
+from retrofit.machine.config import load_machine
 from retrofit.motion.fast import execute_fast
-from retrofit.runprogram import plan_compiled
+from retrofit.run.program import plan_compiled
 
 PROGRAM = "G21 G90\nG1 X0.1 Y0.05 F3000\nG1 X0.0 Y0.1\n"
 

@@ -8,7 +8,7 @@ from importlib import import_module
 
 __version__ = "0.1.0"
 
-_HOMES = {"Axis": "config", "Machine": "config", "list_machines": "config", "load_machine": "config",
+_HOMES = {"Axis": "machine.config", "Machine": "machine.config", "list_machines": "machine.config", "load_machine": "machine.config",
           "ConfigError": "errors", "GcodeError": "errors", "LinkError": "errors", "MotionError": "errors",
           "OutputError": "errors", "RetrofitError": "errors"}
 

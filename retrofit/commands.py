@@ -201,7 +201,7 @@ class Prob(_AxesCommand):
         return " ".join(words + [f"{n}{_num(v)}" for n, v in self.axes])
 
     @classmethod
-    def from_words(cls, words: list[str]) -> "Prob":
+    def from_words(cls, words: list[str]) -> Prob:
         """``["AWAY", "X1", "Z-40"]`` -> Prob; AWAY may come once, first."""
         away = words[:1] == ["AWAY"]
         rest = words[1:] if away else words
@@ -272,7 +272,7 @@ class Dout(Command):
         return DOUT_CODES[self.code][1]
 
     @classmethod
-    def from_values(cls, values: dict) -> "Dout":
+    def from_values(cls, values: dict) -> Dout:
         code, output = values["M"], values["P"]
         if code not in DOUT_CODES:
             raise CommandError(f"DOUT M{_num(code)}: the code is 62, 63, 64 or 65")
@@ -297,7 +297,7 @@ class Wait(Command):
         return f"{self.mnemonic} P{self.input} L{self.mode} Q{_num(self.timeout)}"
 
     @classmethod
-    def from_values(cls, values: dict) -> "Wait":
+    def from_values(cls, values: dict) -> Wait:
         number, mode, timeout = values["P"], values["L"], values["Q"]
         if not number.is_integer() or not 0 <= number < 64:
             raise CommandError(f"WAIT P{_num(number)}: the input is a whole number from 0 to 63")

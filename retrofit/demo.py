@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import math
-from typing import Iterator
+from collections.abc import Iterator
 
-from .config import Machine
+from .machine.config import Machine
 
 
 def circle_targets(machine: Machine, radius_mm: float = 15.0, points: int = 100) -> Iterator[tuple[int, ...]]:

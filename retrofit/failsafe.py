@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import signal
 import threading
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
-from typing import Iterable, Iterator
 
 #: the signals that end a run by raising into it (SIGINT raises KeyboardInterrupt)
 ENDING = (signal.SIGHUP, signal.SIGTERM)

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import Machine
+from .machine.config import Machine
 
 
 class PinMap:
@@ -80,7 +80,7 @@ class PortFrames:
         return int(self.values[max(i, 0)])
 
     @classmethod
-    def from_per_tick(cls, values) -> "PortFrames":
+    def from_per_tick(cls, values) -> PortFrames:
         """Run-length form of a byte-per-tick array."""
         values = np.asarray(values, dtype=np.uint8)
         if len(values) == 0:

@@ -7,8 +7,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .config import Machine
 from .frames import PortFrames
+from .machine.config import Machine
 
 
 @dataclass

@@ -31,6 +31,7 @@ class Served:
 
     def __init__(self, console, **app_options):
         import uvicorn
+
         from retrofit.console.api import create_app
         self.console = console
         self.token = secrets.token_urlsafe(16)
@@ -152,8 +153,8 @@ def wait_for(driver, script: str, timeout: float = 60.0):
 
 def console_page(driver, machine: str = "chivu-lathe") -> Served:
     """A console of ``machine`` served and open in ``driver``, the operator holding control."""
-    from retrofit.config import load_machine
     from retrofit.console.server import Console
+    from retrofit.machine.config import load_machine
     served = Served(Console(load_machine(machine)))
     driver.get(served.url)
     wait_for(driver, "return document.getElementById('example').options.length > 0 && "

@@ -6,7 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
 
 COARSE = replace(load_machine("engraver"), tick_us=20.0)
 

@@ -2,7 +2,7 @@
 
 from dataclasses import replace
 
-from retrofit.config import SimModel, load_machine
+from retrofit.machine.config import SimModel, load_machine
 from retrofit.motion.errorloop import PositionErrorLoop
 from retrofit.sim import SimMachine
 

@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from retrofit.config import load_machine
 from retrofit.gcode.state import clean_mm, clean_mm_list
+from retrofit.machine.config import load_machine
 from retrofit.motion.arcs import MAX_CHORD_ANGLE, arc_columns, arc_points, chord_angle, chord_length
 
 TOL = 0.002

@@ -9,7 +9,7 @@ from retrofit.atc.magazine import MagazineState
 from retrofit.atc.sequences import change_sequence
 from retrofit.atc.settings import atc_of
 from retrofit.commands import FMov, PFdr, PMov, ZMov
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
 from retrofit.motion.fast import execute_fast
 from retrofit.motion.planner import plan_program
 

@@ -58,7 +58,7 @@ def test_setter_and_mill(tmp_path, capsys):
     program = tmp_path / "job.ngc"
     program.write_text("G0 X10 Y10 Z-5\nT3\nG43\nG0 Z-20\nG1 X20 F300\nG49\nT0\nM30\n")
     # the measurements are in the LinuxCNC tool table: Z = length - reference length, D = diameter
-    from retrofit.tooltable import ToolTable
+    from retrofit.machine.tooltable import ToolTable
     tbl = ToolTable.load(tmp_path / "tul-mill.tbl")
     assert tbl[3].z_offset_mm == round(24.62 - 20.0, 9) and abs(tbl[3].diameter_mm - 6.0) <= 0.02
     assert tbl[8].z_offset_mm == round(10.25 - 20.0, 9)

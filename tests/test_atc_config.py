@@ -6,8 +6,8 @@ from importlib import resources
 import pytest
 
 from retrofit.atc.settings import atc_of, tools_of
-from retrofit.config import load_machine
 from retrofit.errors import ConfigError
+from retrofit.machine.config import load_machine
 
 MILL = load_machine("tul-mill")
 SOURCE = (resources.files("retrofit") / "machines" / "tul-mill.toml").read_text()

@@ -1,12 +1,13 @@
 """Any sequence of T commands: never a violation, and the requested tool ends in the spindle."""
 
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from retrofit.atc.cell import SimCell
 from retrofit.atc.magazine import MagazineState
 from retrofit.atc.sequences import change_sequence
 from retrofit.atc.settings import atc_of
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
 
 MILL = load_machine("tul-mill")
 ATC = atc_of(MILL)

@@ -6,8 +6,8 @@ from retrofit.atc.cell import SimCell
 from retrofit.atc.magazine import MagazineState
 from retrofit.atc.sequences import change_sequence, homing_steps
 from retrofit.atc.settings import atc_of
-from retrofit.config import load_machine
 from retrofit.errors import ToolChangeError
+from retrofit.machine.config import load_machine
 
 MILL = load_machine("tul-mill")
 ATC = atc_of(MILL)

@@ -10,8 +10,8 @@ from retrofit.atc.changer import ToolChanger
 from retrofit.atc.sequences import homing_steps
 from retrofit.atc.settings import atc_of
 from retrofit.atc.state import SpindleStore
-from retrofit.config import load_machine
 from retrofit.errors import ToolChangeError, ToolStateError
+from retrofit.machine.config import load_machine
 
 MILL = load_machine("tul-mill")
 ATC = atc_of(MILL)

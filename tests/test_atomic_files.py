@@ -95,8 +95,8 @@ def test_an_error_inside_leaves_no_file_and_no_temporary(tmp_path):
 
 
 def test_a_recording_opened_without_staging_is_not_written_through_a_link(tmp_path):
-    from retrofit.config import load_machine
     from retrofit.frames import PortFrames
+    from retrofit.machine.config import load_machine
     from retrofit.outputs import open_output
     victim = tmp_path / "victim.txt"
     victim.write_text("precious\n")

@@ -1,6 +1,7 @@
 """Backlash compensation against a simulated screw with a real dead band."""
 
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tests.helpers import lathe, run_targets
 

@@ -4,12 +4,12 @@ import doctest
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from retrofit.errors import MotionError
 from retrofit.motion import bresenham
-from retrofit.motion.bresenham import (STEP_SPACE_LIMIT, BresenhamExecutor, bresenham_cycles,
-                                       prepare_line)
+from retrofit.motion.bresenham import STEP_SPACE_LIMIT, BresenhamExecutor, bresenham_cycles, prepare_line
 
 
 @st.composite

@@ -6,8 +6,8 @@ from __future__ import annotations
 import pytest
 
 from retrofit.camlink.trajectory import plan_speeds, segments
-from retrofit.config import load_machine
 from retrofit.gcode import compile_program
+from retrofit.machine.config import load_machine
 from retrofit.motion.planner import plan_program
 from retrofit.motion.profile import P_V0, P_V1
 

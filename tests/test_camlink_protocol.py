@@ -6,12 +6,26 @@ import numpy as np
 import pytest
 
 from retrofit.camlink.job import path_job, program_job
-from retrofit.camlink.protocol import (Auto, EndOperation, Home, Jog, JogFeed, LineSplitter, Machining,
-                                       Operation, Row, Spindle, ToolChange, format_message, is_reply,
-                                       parse_message, parse_position)
+from retrofit.camlink.protocol import (
+    Auto,
+    EndOperation,
+    Home,
+    Jog,
+    JogFeed,
+    LineSplitter,
+    Machining,
+    Operation,
+    Row,
+    Spindle,
+    ToolChange,
+    format_message,
+    is_reply,
+    parse_message,
+    parse_position,
+)
 from retrofit.camlink.trajectory import arc_points, plan_rows
-from retrofit.config import load_machine
 from retrofit.errors import ConfigError, LinkError
+from retrofit.machine.config import load_machine
 
 MILL = load_machine("grenoble-mill")
 

@@ -12,12 +12,22 @@ import pytest
 
 from retrofit.camlink.client import CamClient, stream_job
 from retrofit.camlink.machine import CamMill
-from retrofit.camlink.protocol import (Auto, EndOperation, Home, Machining, Operation, Row, Spindle,
-                                       format_message, is_reply, parse_position)
+from retrofit.camlink.protocol import (
+    Auto,
+    EndOperation,
+    Home,
+    Machining,
+    Operation,
+    Row,
+    Spindle,
+    format_message,
+    is_reply,
+    parse_position,
+)
 from retrofit.camlink.server import CamLinkServer, parse_listen
 from retrofit.camlink.trajectory import arc_points, plan_rows
-from retrofit.config import load_machine
 from retrofit.errors import LinkError
+from retrofit.machine.config import load_machine
 
 MILL = load_machine("grenoble-mill")
 TOL = MILL.parts["servo"].in_position_pulses

@@ -2,12 +2,11 @@
 
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
-from retrofit.config import list_machines, load_machine, machines_dir
 from retrofit.errors import ConfigError
+from retrofit.machine.config import list_machines, load_machine, machines_dir
 
 LATHE_TEXT = (machines_dir() / "chivu-lathe.toml").read_text()
 

@@ -11,7 +11,6 @@ import logging
 import threading
 
 import pytest
-
 from console_kit import DIALOGS, LONG_MOVE, Served, browser, free_port, needs_chromium  # noqa: F401 (browser)
 
 pytestmark = [needs_chromium, pytest.mark.slow]
@@ -63,8 +62,8 @@ def attacker_site(tmp_path_factory):
 
 @pytest.fixture
 def served():
-    from retrofit.config import load_machine
     from retrofit.console.server import Console
+    from retrofit.machine.config import load_machine
     s = Served(Console(load_machine("chivu-lathe")))
     s.take_control()
     yield s

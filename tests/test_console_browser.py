@@ -7,15 +7,13 @@ from __future__ import annotations
 import re
 import shutil
 import subprocess
-import time
 from pathlib import Path
 
 import pytest
+from console_kit import DIALOGS, LONG_MOVE, Served, browser, console_page, needs_chromium, open_text, run, wait_for  # noqa: F401
 
-from console_kit import (DIALOGS, LONG_MOVE, Served, browser, console_page, needs_chromium,  # noqa: F401
-                         open_text, run, wait_for)
-from retrofit.config import load_machine
-from retrofit.runprogram import resolve_program
+from retrofit.machine.config import load_machine
+from retrofit.run.program import resolve_program
 
 pytestmark = needs_chromium
 
@@ -160,7 +158,7 @@ def test_jog_and_mdi_move_the_machine_after_a_run(browser, console):
 def ten_million_step_run(machine):
     """Back and forth across the lathe's travel at rapid feed until 10 M steps are taken (fast path)."""
     from retrofit.gcode.program import compile_program
-    from retrofit.runprogram import execute, plan_compiled
+    from retrofit.run.program import execute, plan_compiled
     passes = 810
     text = "G21 G90\n" + "".join(f"G0 X{30 if i % 2 else -30} Z{-190 if i % 2 == 0 else 10}\n" for i in range(passes))
     _, plan = plan_compiled(compile_program(text, machine, "ten-million.ngc"), machine)

@@ -6,11 +6,11 @@ from __future__ import annotations
 
 import pytest
 
-from retrofit.config import load_machine
 from retrofit.console.engine import SteeredRun
 from retrofit.console.runreport import console_report
 from retrofit.console.server import Console, command_list
 from retrofit.gcode.program import compile_program
+from retrofit.machine.config import load_machine
 
 LONG_MOVE = "G21 G90\nG0 X5 Z1\nG1 Z-29 F150\nG0 X10\nG0 Z5\n"
 
@@ -103,8 +103,9 @@ def test_hold_stands_the_axes_still_and_resume_finishes_the_program(lathe):
 
 
 def test_resume_after_hold_comes_back_at_the_programmed_feed_without_a_burst(lathe):
-    from retrofit.console.views import axis_steps
     import numpy as np
+
+    from retrofit.console.views import axis_steps
     run = steered(lathe, LONG_MOVE)
     into_the_cut(run, 2.0)
     run.act("hold")
@@ -151,7 +152,7 @@ def test_a_vcd_output_gets_the_runs_port_frames(lathe, tmp_path):
     signals = VCDVCD(str(vcd)).signals
     z_step = next(s for s in signals if "z" in s.lower() and "step" in s.lower())
     rises = [t for t, v in VCDVCD(str(vcd))[z_step].tv if v == "1"]
-    from retrofit.runprogram import execute, plan_compiled        # the planner's fast path: the same steps
+    from retrofit.run.program import execute, plan_compiled  # the planner's fast path: the same steps
     fast = execute(plan_compiled(compile_program("G0 X2 Z1\nG1 Z-1 F300\n", lathe, "short.ngc"), lathe)[1])
     assert len(rises) == con.report()["axes"]["Z"]["steps"] == fast.steps_emitted["Z"] >= 150
     assert frames.end_tick == con.report()["ticks"]

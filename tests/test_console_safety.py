@@ -8,10 +8,10 @@ import os
 import threading
 
 import pytest
-
 from console_kit import DIALOGS, LONG_MOVE, Served
-from retrofit.config import load_machine
+
 from retrofit.console.server import Console
+from retrofit.machine.config import load_machine
 
 
 @pytest.fixture(scope="module")

@@ -10,10 +10,10 @@ from types import SimpleNamespace
 
 import pytest
 
-from retrofit.config import load_machine
 from retrofit.console.server import Console
-from retrofit.progress import silent
-from retrofit.runprogram import STAGE_WEIGHTS, read_program, run_program
+from retrofit.machine.config import load_machine
+from retrofit.run.program import STAGE_WEIGHTS, read_program, run_program
+from retrofit.run.progress import silent
 
 #: the spindle drives into the magazine where no pocket stands (the carousel at home)
 INTO_THE_MAGAZINE = "G21 G90\nG0 X23 Y28 Z-45\nG1 Y44 F800\nG0 Y10\nM30\n"
@@ -26,8 +26,8 @@ PROBE = "G21 G90\nG0 Z-18\nG0 X8 Y8\nG38.2 Z-45 F60\nG0 Z[#5063 + 2]\nM30\n"
 def by_cli(text: str, name: str, machine, tool: int) -> dict:
     opts = SimpleNamespace(backlash_comp=True, reference=False, controller=False, urls=["sim://"],
                            keep_frames=True, keep_commands=True, before_outputs=None)
-    from retrofit.tooltable import ToolTable
     from retrofit.console.tools import SpindleTools
+    from retrofit.machine.tooltable import ToolTable
     table = ToolTable.load(SpindleTools(machine, []).table_path)
     return run_program(text, name, machine, opts, silent(STAGE_WEIGHTS), tool_table=table,
                        spindle_tool=tool).report

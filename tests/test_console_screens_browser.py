@@ -6,7 +6,6 @@ window, the regions never overlap and stand where the layout puts them, at 1 280
 from __future__ import annotations
 
 import pytest
-
 from console_kit import browser, needs_chromium, wait_for  # noqa: F401 (browser)
 from console_screens import STATES, bring, faults, structure
 

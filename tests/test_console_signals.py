@@ -14,11 +14,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from console_kit import LONG_MOVE, Served, free_port
-from retrofit.config import load_machine
+
 from retrofit.console.server import Console
 from retrofit.frames import PinMap
+from retrofit.machine.config import load_machine
 
 ENABLE_LOW = '\n[parport]\nenable_pin = 14\nenable_level = "low"\n'
 

@@ -7,9 +7,9 @@ from __future__ import annotations
 import json
 
 import pytest
-
 from console_kit import Served, browser, console_page, needs_chromium, open_text, polls_later, run, wait_for  # noqa: F401
-from retrofit.config import load_machine
+
+from retrofit.machine.config import load_machine
 
 pytestmark = needs_chromium
 

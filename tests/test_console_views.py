@@ -9,14 +9,14 @@ import sys
 import numpy as np
 import pytest
 
-from retrofit.config import load_machine
 from retrofit.console.runreport import measured_feed
 from retrofit.console.server import Console, command_list
 from retrofit.console.views import PulseIndex, axis_steps, timeline
 from retrofit.errors import RetrofitError
 from retrofit.gcode.program import compile_program
-from retrofit.runner import deliver
-from retrofit.runprogram import execute, plan_compiled
+from retrofit.machine.config import load_machine
+from retrofit.run.program import execute, plan_compiled
+from retrofit.run.runner import deliver
 
 LONG_MOVE = "G21 G90\nG0 X5 Z1\nG1 Z-19 F150\nG0 X10\n"
 

@@ -11,15 +11,16 @@ import json
 from dataclasses import replace
 
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from retrofit.config import load_machine
 from retrofit.controller import Controller
 from retrofit.controller.program import run_commands
 from retrofit.gcode import load_program
+from retrofit.machine.config import load_machine
 from retrofit.motion.fast import execute_fast
 from retrofit.motion.planner import plan_program
-from retrofit.runprogram import resolve_program
+from retrofit.run.program import resolve_program
 from retrofit.sim import SimMachine
 
 from tests.test_fast_equals_reference import machines, programs

@@ -14,12 +14,13 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, seed, settings, strategies as st
+from hypothesis import HealthCheck, given, seed, settings
+from hypothesis import strategies as st
 
 from retrofit.commands import CStp, Dely, FMov, IStp, PFdr, PMov, Spin, ZMov
-from retrofit.config import load_machine
 from retrofit.controller import Controller
 from retrofit.errors import MotionError
+from retrofit.machine.config import load_machine
 from retrofit.motion._jit import HAVE_NUMBA, compiled
 from retrofit.sim import SimMachine
 
@@ -166,6 +167,7 @@ def test_the_compiled_indexer_counts_the_steps_of_the_exact_one(s_num, s_den, co
     """The compiled indexer's integer target equals ``IndexerTrack.target`` (exact fractions) at
     every count the span lets it see; past that count the span hands the move back."""
     from fractions import Fraction
+
     from retrofit.controller import kernels as K
     from retrofit.controller.spans import SpanRunner
     from retrofit.motion.indexer import IndexerTrack

@@ -9,11 +9,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from retrofit.commands import Dely, FMov, IStp, Init, MFdr, PFdr, PMov, Pstn, Rdps, Rdst, Stop
-from retrofit.config import load_machine
+from retrofit.commands import Dely, FMov, Init, IStp, MFdr, PFdr, PMov, Pstn, Rdps, Rdst, Stop
 from retrofit.controller import Controller
 from retrofit.link.codec import ERR_REFUSED
-from retrofit.link.replies import Busy, Err, Position, Status, StatusFlags as F
+from retrofit.link.replies import Busy, Err, Position, Status
+from retrofit.link.replies import StatusFlags as F
+from retrofit.machine.config import load_machine
 from retrofit.sim import SimMachine
 
 from tests.helpers import limit_breaches, step_times

@@ -10,9 +10,9 @@ from pathlib import Path
 import pytest
 
 from retrofit.commands import Dely, FMov, Paus, PMov, Spin
-from retrofit.config import load_machine
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program, load_program
+from retrofit.machine.config import load_machine
 
 HERE = Path(__file__).resolve().parent / "gcode"
 MILL = load_machine(HERE / "rs274-mill.toml")

@@ -10,12 +10,12 @@ from types import SimpleNamespace
 import pytest
 
 from retrofit.commands import Cool, Dout, FMov, PMov, Spin, Tool, Wait, parse_command
-from retrofit.config import load_machine
 from retrofit.errors import ConfigError, GcodeError, OutputError
 from retrofit.gcode import compile_program, load_program
-from retrofit.progress import silent
-from retrofit.runprogram import STAGE_WEIGHTS, run_program
-from retrofit.tooltable import ToolTable
+from retrofit.machine.config import load_machine
+from retrofit.machine.tooltable import ToolTable
+from retrofit.run.program import STAGE_WEIGHTS, run_program
+from retrofit.run.progress import silent
 
 HERE = Path(__file__).resolve().parent / "gcode"
 RS274_MILL = load_machine(HERE / "rs274-mill.toml")

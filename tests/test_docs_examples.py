@@ -130,8 +130,8 @@ def test_cli_examples_run(page, line, command, page_dir):
 
 def test_machine_file_reference_names_every_key(monkeypatch):
     """docs/machine-files.md names every key the loader reads from the shipped machine files."""
-    from retrofit import tomlreader
-    from retrofit.config import SECTION_PARSERS, list_machines, load_machine
+    from retrofit.machine import tomlreader
+    from retrofit.machine.config import SECTION_PARSERS, list_machines, load_machine
     read = set()
     for getter in ("get_float", "get_int", "get_bool", "get_str", "get_list"):
         def recording(self, key, *args, _original=getattr(tomlreader.Section, getter), **kwargs):

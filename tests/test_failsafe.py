@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from retrofit.cli import main
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
 
 ROOT = Path(__file__).resolve().parents[1]
 LATHE = load_machine("chivu-lathe")

@@ -13,10 +13,10 @@ from pathlib import Path
 import pytest
 
 from retrofit.cli import main
-from retrofit.config import load_machine
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
-from retrofit.tooltable import ToolTable
+from retrofit.machine.config import load_machine
+from retrofit.machine.tooltable import ToolTable
 
 DATA = Path(__file__).parent / "data" / "fanuc"
 

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from retrofit.config import load_machine
 from retrofit.gcode import compile_program
+from retrofit.machine.config import load_machine
 
 DATA = Path(__file__).parent / "data" / "fanuc"
 

@@ -17,8 +17,9 @@ from pathlib import Path
 import pytest
 
 from retrofit.commands import FMov, PMov, ZMov
-from retrofit.config import load_machine
 from retrofit.gcode import compile_program
+from retrofit.machine.config import load_machine
+
 from tests.test_gcode_rs274 import canon_events, compare
 
 DATA = Path(__file__).parent / "data" / "fanuc"

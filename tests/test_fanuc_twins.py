@@ -14,9 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from retrofit.config import load_machine
 from retrofit.gcode import compile_program
-from retrofit.tooltable import ToolTable
+from retrofit.machine.config import load_machine
+from retrofit.machine.tooltable import ToolTable
 
 DATA = Path(__file__).parent / "data" / "fanuc"
 TWINS = sorted(p.name[:-len("-fanuc.nc")] for p in (DATA / "twins").glob("*-fanuc.nc"))

@@ -3,10 +3,11 @@
 from dataclasses import replace
 
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from retrofit.commands import Dely, FMov, PFdr, PMov
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
 from retrofit.motion.execute import execute_reference
 from retrofit.motion.fast import execute_fast
 from retrofit.motion.planner import plan_program

@@ -10,11 +10,12 @@ import numpy as np
 import pytest
 
 from retrofit.commands import FMov
-from retrofit.config import load_machine
 from retrofit.errors import LinkError, OutputError
 from retrofit.link import StatusFlags
+from retrofit.machine.config import load_machine
 from retrofit.outputs import open_output
 from retrofit.outputs.serial import BANNER, Banner
+
 from tests.conformance.targets import SimavrTarget, build_firmware, missing_tools
 from tests.test_firmware_sim import Script, replies
 
@@ -73,7 +74,7 @@ def test_the_start_line_is_found_among_noise_and_another_link_version_is_refused
 # -- measured on the pins: the harness runs the firmware for a fixed number of cycles ----------
 
 S = 16_000_000                                   # AVR cycles a second
-fs = pytest.importorskip("retrofit.firmware_sim")
+fs = pytest.importorskip("retrofit.firmware.sim")
 
 
 @pytest.fixture(scope="module")

@@ -23,7 +23,7 @@ def header_tool():
 
 
 def test_the_shipped_header_is_what_the_machine_file_gives():
-    from retrofit.config import load_machine
+    from retrofit.machine.config import load_machine
     shipped = (FIRMWARE / "machines" / "mitic-lathe.h").read_text()
     assert shipped == header_tool().header(load_machine("mitic-lathe")), (
         "firmware/machines/mitic-lathe.h is out of date: run make -C firmware machine")
@@ -44,7 +44,7 @@ def test_the_header_carries_steps_per_mm_switches_and_homing_of_the_lathe():
 def test_the_mills_setter_beam_is_a_probe_input_on_the_next_free_connector():
     """tul-mill's four homing switches take X-min, X-max, Y-min, Y-max: the beam gets Z-min (D18,
     PD3), with no axis and no status bit; the lathe has no setter, so no probe input."""
-    from retrofit.config import load_machine
+    from retrofit.machine.config import load_machine
     shipped = (FIRMWARE / "machines" / "tul-mill.h").read_text()
     assert shipped == header_tool().header(load_machine("tul-mill")), (
         "firmware/machines/tul-mill.h is out of date: run make -C firmware machine MACHINE=tul-mill")

@@ -17,17 +17,18 @@ import time
 import numpy as np
 import pytest
 
-from retrofit.config import load_machine
 from retrofit.link import QUEUED, Position, Status, StatusFlags
 from retrofit.link.replies import decode_reply, encode_reply
+from retrofit.machine.config import load_machine
+
 from tests.test_firmware_sim import Script, replies
 
 pytestmark = pytest.mark.skipif(
     shutil.which("avr-gcc") is None or shutil.which("make") is None,
     reason="the firmware needs avr-gcc and make: apt-get install gcc-avr avr-libc make libsimavr-dev")
 
-fs = pytest.importorskip("retrofit.firmware_sim")
-st = pytest.importorskip("retrofit.firmware_stress")
+fs = pytest.importorskip("retrofit.firmware.sim")
+st = pytest.importorskip("retrofit.firmware.stress")
 S = fs.F_CPU
 BENCH = fs.ROOT / "bench" / "steprate.toml"
 STALL_CYCLES = 100 * 16             # 100 us

@@ -3,7 +3,7 @@
 For each firmware machine (the shipped ones, and the bench machine without speed limits of its
 own, whose feeds the host must clamp), a program of G1 at the highest feed the machine allows
 along each path and G0 back, on 1 to 4 axes, equal and in Bresenham ratios, is planned as a
-firmware run plans it (retrofit.firmware_limits.plan_within_limits) and sent command by command
+firmware run plans it (retrofit.firmware.limits.plan_within_limits) and sent command by command
 through the host's link endpoint, in lockstep with simavr, RDST every 2 ms. After every move, at
 rest, RDPS must be the move's end and so must the step pins (less a backlash take-up); the board never restarts, no RDST
 says ERROR or STEP_ERROR, and no axis steps faster than the table's rate for its case allows.
@@ -17,16 +17,16 @@ import shutil
 import numpy as np
 import pytest
 
-from retrofit.config import load_machine
 from retrofit.link.replies import Position, Status, StatusFlags
+from retrofit.machine.config import load_machine
 
 pytestmark = pytest.mark.skipif(
     shutil.which("avr-gcc") is None or shutil.which("make") is None,
     reason="the firmware needs avr-gcc and make: apt-get install gcc-avr avr-libc make libsimavr-dev")
 
-fs = pytest.importorskip("retrofit.firmware_sim")
-mx = pytest.importorskip("retrofit.firmware_stress_mix")
-fl = pytest.importorskip("retrofit.firmware_limits")
+fs = pytest.importorskip("retrofit.firmware.sim")
+mx = pytest.importorskip("retrofit.firmware.stress_mix")
+fl = pytest.importorskip("retrofit.firmware.limits")
 BENCH = fs.ROOT / "bench" / "steprate.toml"
 SHARES = (1.0, 0.5, 0.25, 0.125)
 

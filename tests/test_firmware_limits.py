@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 
 import retrofit
-from retrofit import firmware_limits as fl
 from retrofit.cli import main
-from retrofit.config import load_machine
 from retrofit.errors import ConfigError, GcodeError
+from retrofit.firmware import limits as fl
+from retrofit.machine.config import load_machine
+
 from tests.conformance.targets import missing_tools
 
 needs_avr = pytest.mark.skipif(bool(missing_tools()), reason="the firmware needs avr-gcc, make "
@@ -49,7 +50,7 @@ def test_the_table_is_the_benchs_writing_of_its_measurements():
 def test_no_shipped_machine_file_allows_a_rate_above_the_table():
     """Every firmware machine's axes top out below the lowest planned rate (the firmware caps
     each axis at its machine-file speed), and its encoder at max_rpm below the encoder limit."""
-    from retrofit.firmware_sim import supported_machines
+    from retrofit.firmware.sim import supported_machines
     limits = fl.load()
     lowest = min(limits.steps.values())
     for name in supported_machines():
@@ -108,7 +109,7 @@ def test_the_firmware_run_steps_no_faster_than_the_limit_and_says_it_clamped(tmp
     """The program asks X for 50 kHz (F30000 on 100 steps/mm; the machine file allows 60 kHz):
     on the firmware's pins no X interval is shorter than the table's rate allows (1 axis, with
     tul-mill's 10 us pulse), the clamped feed is reached, and the run's summary names the lines."""
-    from retrofit import firmware_sim as fs
+    from retrofit.firmware import sim as fs
     path = fast_mill(tmp_path)
     machine = load_machine(path)
     rate, words = fl.load().step_rate(1, True, long_pulse=True)

@@ -15,16 +15,17 @@ import pytest
 
 from retrofit.atc.beam import SimBeam
 from retrofit.atc.settings import tools_of
-from retrofit.config import load_machine
 from retrofit.link import Err, Position, Status
 from retrofit.link.script import ScriptedHost
+from retrofit.machine.config import load_machine
+
 from tests.test_firmware_sim import OFF_LIMIT_CYCLES, Script
 
 pytestmark = pytest.mark.skipif(
     shutil.which("avr-gcc") is None or shutil.which("make") is None,
     reason="the firmware needs avr-gcc and make: apt-get install gcc-avr avr-libc make libsimavr-dev")
 
-fs = pytest.importorskip("retrofit.firmware_sim")
+fs = pytest.importorskip("retrofit.firmware.sim")
 S = 16_000_000                       # cycles a second
 PROBED, MOVING, ERROR = 0x8000, 0x0001, 0x0100
 TOOL = (20.0, 3.0)                   # length, diameter mm: tul-mill's reference tool T1
@@ -35,7 +36,7 @@ OVER_BEAM = {"X": 800, "Y": 800}     # steps: the beam's middle (8 mm, 8 mm)
 class ProbeScript(Script):
     """Script with PROB frames built byte by byte."""
 
-    def prob(self, cycle: int, flags: int, steps: dict[str, int]) -> "ProbeScript":
+    def prob(self, cycle: int, flags: int, steps: dict[str, int]) -> ProbeScript:
         bits = {"X": 0, "Y": 1, "Z": 2, "E": 7}
         mask = sum(1 << bits[a] for a in steps)
         body = b"".join((steps[a] & 0xFFFFFF).to_bytes(3, "big")

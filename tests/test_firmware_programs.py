@@ -1,6 +1,6 @@
 """Whole programs through ``retrofit run --output serial+socket://`` on the firmware in simavr.
 
-The firmware runs on simavr's cycle-exact ATmega2560 (``retrofit.firmware_sim.Harness``, the
+The firmware runs on simavr's cycle-exact ATmega2560 (``retrofit.firmware.sim.Harness``, the
 engine of ``retrofit firmware sim``), its AVR time as fast as simavr goes; the host is
 ``retrofit run`` itself. Where the carriages went is read from the step pins (the harness's log,
 decoded by the driver model of ``sim://``), never from the firmware's own counters; the oracle
@@ -15,15 +15,16 @@ import numpy as np
 import pytest
 
 from retrofit.cli import main
-from retrofit.config import load_machine
 from retrofit.controller.program import run_commands
 from retrofit.gcode import compile_program
+from retrofit.machine.config import load_machine
 from retrofit.sim import SimMachine
+
 from tests.conformance.targets import missing_tools
 
 pytestmark = pytest.mark.skipif(bool(missing_tools()), reason="the firmware needs avr-gcc, make "
                                 "and libsimavr: apt-get install gcc-avr avr-libc libsimavr-dev")
-fs = pytest.importorskip("retrofit.firmware_sim")
+fs = pytest.importorskip("retrofit.firmware.sim")
 
 TOOL_CYCLE = "G21 G90\nT3 M6\nM3 S1000\nG0 X10 Y10\nG1 Z-5 F200\nT5 M6\nG0 X5 Y5\nT0 M6\nM2\n"
 THREAD = ("G18 G21 G90\nG0 X12 Z3\nS300 M3\n"

@@ -14,7 +14,8 @@ import pytest
 
 import retrofit
 from retrofit.cli import main
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
+
 from tests.conformance.targets import SimavrTarget, build_firmware, missing_tools
 
 pytestmark = pytest.mark.skipif(bool(missing_tools()), reason="the firmware needs avr-gcc, make and "

@@ -20,13 +20,13 @@ from retrofit.atc.settings import tools_of
 from retrofit.atc.state import SpindleStore, state_paths
 from retrofit.atc.tooltable import ToolTableStore
 from retrofit.cli import main
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
 
 pytestmark = pytest.mark.skipif(
     shutil.which("avr-gcc") is None or shutil.which("make") is None,
     reason="the firmware needs avr-gcc and make: apt-get install gcc-avr avr-libc make libsimavr-dev")
 
-fs = pytest.importorskip("retrofit.firmware_sim")
+fs = pytest.importorskip("retrofit.firmware.sim")
 
 
 def spindle_holds(machine, table, tool: int) -> None:

@@ -14,11 +14,21 @@ import numpy as np
 import pytest
 
 from retrofit.commands import parse_command
-from retrofit.config import load_machine
 from retrofit.controller.program import ProgramError, run_commands
-from retrofit.link import (IMMEDIATE, QUEUED, Ack, Position, Session, Status,
-                           StatusFlags, encode_command, encode_frame, seq_byte)
+from retrofit.link import (
+    IMMEDIATE,
+    QUEUED,
+    Ack,
+    Position,
+    Session,
+    Status,
+    StatusFlags,
+    encode_command,
+    encode_frame,
+    seq_byte,
+)
 from retrofit.link.script import KEEPALIVE_S, SIMAVR_FIRST_SESSION, ScriptedHost
+from retrofit.machine.config import load_machine
 from retrofit.motion.indexer import IndexerTrack, lead_in_counts
 from retrofit.sim import SimMachine
 
@@ -26,7 +36,7 @@ pytestmark = pytest.mark.skipif(
     shutil.which("avr-gcc") is None or shutil.which("make") is None,
     reason="the firmware needs avr-gcc and make: apt-get install gcc-avr avr-libc make libsimavr-dev")
 
-fs = pytest.importorskip("retrofit.firmware_sim")
+fs = pytest.importorskip("retrofit.firmware.sim")
 CYCLES_PER_US = 16
 S = 16_000_000                       # cycles a second
 
@@ -51,11 +61,11 @@ class Script:
             self.items += [(1_100_000 + k * every, self.host.keepalive())
                            for k in range(int(KEEPALIVE_HORIZON_S / KEEPALIVE_S))]
 
-    def at(self, cycle: int, text: str, channel: int | None = None) -> "Script":
+    def at(self, cycle: int, text: str, channel: int | None = None) -> Script:
         self.items.append((cycle, self.host.frame(text, channel=channel)))
         return self
 
-    def payload(self, cycle: int, payload: bytes, channel: int = QUEUED) -> "Script":
+    def payload(self, cycle: int, payload: bytes, channel: int = QUEUED) -> Script:
         """A frame of a raw payload (built byte by byte by the test)."""
         self.items.append((cycle, self.host.frame(payload=payload, channel=channel)))
         return self

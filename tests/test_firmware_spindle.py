@@ -14,12 +14,13 @@ import pytest
 
 import retrofit
 from retrofit.cli import main
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
+
 from tests.conformance.targets import SimavrTarget, missing_tools
 
 needs_avr = pytest.mark.skipif(bool(missing_tools()), reason="the firmware needs avr-gcc, make "
                                "and libsimavr: apt-get install gcc-avr avr-libc libsimavr-dev")
-fs = pytest.importorskip("retrofit.firmware_sim")
+fs = pytest.importorskip("retrofit.firmware.sim")
 
 G76 = ("G18 G21 G90\nG0 X12 Z3\nM3 S600\n"
        "G76 P1.5 Z-6 I-0.5 J0.3 K0.92 R2 Q0 H1\nG0 X20\nM5\nM2\n")
@@ -48,7 +49,7 @@ def test_m3_m4_m5_from_the_firmware_turn_the_sim_spindle_tick_for_tick():
     tick, those of retrofit.sim's SimSpindle (ramp and load noise of [spindle.sim]) driven by the
     speed the firmware's PWM asks (600 rpm in 1/256ths of the 2000 rpm full scale), and they stop
     after M5 once the drive has ramped down."""
-    from retrofit.firmware_spindle import replay
+    from retrofit.firmware.spindle import replay
     machine = load_machine("mitic-lathe")
     S = fs.F_CPU
     script = frames(machine, [(2_000_000, "SPIN S600 D1"), (int(0.8 * S), "SPIN S600 D-1"),

@@ -17,19 +17,20 @@ import numpy as np
 import pytest
 
 from retrofit.commands import parse_command
-from retrofit.config import load_machine
 from retrofit.link import QUEUED, encode_command, encode_frame, seq_byte
 from retrofit.link.script import ScriptedHost
+from retrofit.machine.config import load_machine
 from retrofit.motion.lookahead import Kinematics, junction_speed
+
 from tests.test_firmware_sim import Script
 
 pytestmark = pytest.mark.skipif(
     shutil.which("avr-gcc") is None or shutil.which("make") is None,
     reason="the firmware needs avr-gcc and make: apt-get install gcc-avr avr-libc make libsimavr-dev")
 
-fs = pytest.importorskip("retrofit.firmware_sim")
-fr = pytest.importorskip("retrofit.firmware_runs")
-st = pytest.importorskip("retrofit.firmware_stress")
+fs = pytest.importorskip("retrofit.firmware.sim")
+fr = pytest.importorskip("retrofit.firmware.runs")
+st = pytest.importorskip("retrofit.firmware.stress")
 S = fs.F_CPU
 BENCH = fs.ROOT / "bench" / "steprate.toml"
 
@@ -295,7 +296,7 @@ def test_the_474_segment_circle_runs_within_5_percent_of_the_host_plan(mill):
     out), the AVR's time at the wall clock's pace: as long as the host plan (junction deviation
     over 16 moves) to 5 %, each axis's acceleration within its limit plus the quantisation."""
     from retrofit.gcode import compile_program
-    from retrofit.runprogram import plan_compiled
+    from retrofit.run.program import plan_compiled
     machine, elf = mill
     text = "G21 G90 G17\nG0 X30 Y20\nG1 F1200\n" + "G2 X30 Y20 I-10 J0\n" * 3 + "M2\n"
     program = compile_program(text, machine, file="circle.ngc")

@@ -1,4 +1,4 @@
-"""The mixed stress run on the firmware in simavr (retrofit.firmware_stress_mix): random moves up to
+"""The mixed stress run on the firmware in simavr (retrofit.firmware.stress_mix): random moves up to
 and above the firmware's ceiling on 1-4 axes, homing and thread passes, RDST polled every 2-20 ms,
 garbage and dropped bytes, the host in lockstep with the AVR's time. At every rest RDPS equals the
 plan (the commanded moves' sum, the home positions) and so do the step pins at the cycle of the
@@ -14,14 +14,14 @@ import shutil
 
 import pytest
 
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
 
 pytestmark = pytest.mark.skipif(
     shutil.which("avr-gcc") is None or shutil.which("make") is None,
     reason="the firmware needs avr-gcc and make: apt-get install gcc-avr avr-libc make libsimavr-dev")
 
-fs = pytest.importorskip("retrofit.firmware_sim")
-mx = pytest.importorskip("retrofit.firmware_stress_mix")
+fs = pytest.importorskip("retrofit.firmware.sim")
+mx = pytest.importorskip("retrofit.firmware.stress_mix")
 
 #: the slow stage's long run: chunks of at least CHUNK_S simulated seconds, each a fresh board
 #: with seed LONG_SEED * 10 000 + chunk, CHUNKS of them: ten simulated minutes in all
@@ -80,6 +80,7 @@ def test_a_homing_seek_asked_above_what_the_slow_tick_keeps_ends_on_its_switch(m
     20 000): one start line, RDPS the home position, the carriage at its switch within the
     latch's resolution."""
     from retrofit.link import QUEUED
+
     from tests.test_firmware_sim import Script, replies
     machine, elf = mix
     end = 2_000_000 + int(5_000 / 20_000 * fs.F_CPU) + 16_000_000

@@ -7,13 +7,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from retrofit.config import load_machine
 from retrofit.fpga.record import pack
 from retrofit.fpga.simulate import gateware_equals, simulate
 from retrofit.frames import PinMap
 from retrofit.gcode import compile_program
+from retrofit.machine.config import load_machine
 from retrofit.motion.fast import execute_fast
-from retrofit.runprogram import plan_compiled
+from retrofit.run.program import plan_compiled
 
 ENGRAVER = load_machine("engraver")
 COARSE = replace(ENGRAVER, tick_us=20.0)      # 20 us ticks: a short program is a few thousand

@@ -9,9 +9,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from retrofit.config import load_machine
 from retrofit.errors import OutputError
 from retrofit.frames import PortFrames
+from retrofit.machine.config import load_machine
 from retrofit.outputs import known_schemes, open_output
 
 

@@ -4,9 +4,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from retrofit.config import load_machine
 from retrofit.frames import PinMap, PortFrames
+from retrofit.machine.config import load_machine
 from retrofit.sim import SimMachine
+
 from tests.helpers import run_targets
 
 

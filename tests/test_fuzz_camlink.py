@@ -18,8 +18,8 @@ from retrofit.camlink.client import CamClient
 from retrofit.camlink.machine import CamMill
 from retrofit.camlink.protocol import LineSplitter, parse_message
 from retrofit.camlink.server import CamLinkServer
-from retrofit.config import load_machine
 from retrofit.errors import LinkError, RetrofitError
+from retrofit.machine.config import load_machine
 
 MILL = load_machine("grenoble-mill")
 WORDS = ["A", "JX", "JY", "JZ", "M1", "M0", "P1", "P0", "S150", "S-1", "S99999999999999999999",

@@ -10,11 +10,11 @@ from __future__ import annotations
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from retrofit.config import load_machine
 from retrofit.errors import MotionError
+from retrofit.firmware.mcu import make_controller
 from retrofit.link import DeviceEndpoint, FrameDecoder, encode_frame
 from retrofit.link.framing import Frame
-from retrofit.mcu import make_controller
+from retrofit.machine.config import load_machine
 
 MACHINE = load_machine("mitic-lathe")
 S24 = st.integers(-(2**23), 2**23 - 1).map(lambda v: (v & 0xFFFFFF).to_bytes(3, "big"))

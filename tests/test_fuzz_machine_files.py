@@ -11,12 +11,11 @@ from __future__ import annotations
 import random
 import re
 
-import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from retrofit.config import list_machines, load_machine, machines_dir
 from retrofit.errors import ConfigError
+from retrofit.machine.config import list_machines, load_machine, machines_dir
 
 TEXTS = {name: (machines_dir() / f"{name}.toml").read_text() for name in list_machines()}
 NAMES = sorted(TEXTS)

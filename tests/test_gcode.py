@@ -7,10 +7,10 @@ from pathlib import Path
 
 import pytest
 
-from retrofit.commands import Cool, Dely, FMov, PFdr, PMov, Pstn, Spin, ZMov
-from retrofit.config import load_machine
+from retrofit.commands import Cool, Dely, FMov, PFdr, PMov, Spin, ZMov
 from retrofit.errors import GcodeError
 from retrofit.gcode import Program, compile_program, load_program
+from retrofit.machine.config import load_machine
 
 ENGRAVER_TOML = """\
 [machine]

@@ -17,6 +17,7 @@ import pytest
 from retrofit.commands import FMov, Spin
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
+
 from tests.gcode.regenerate import run_rs274
 from tests.test_gcode_rs274 import MACHINE, TOOLS, canon_events, compare, retrofit_points
 

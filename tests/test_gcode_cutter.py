@@ -12,11 +12,12 @@ from pathlib import Path
 import pytest
 
 from retrofit.commands import Cool, PMov
-from retrofit.config import load_machine
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
 from retrofit.gcode.cutter import find_turn
-from retrofit.tooltable import ToolTable
+from retrofit.machine.config import load_machine
+from retrofit.machine.tooltable import ToolTable
+
 from tests.gcode.regenerate import RS274, inch_tool_table
 
 HERE = Path(__file__).resolve().parent / "gcode"

@@ -6,8 +6,8 @@ import subprocess
 import sys
 
 from retrofit.commands import PFdr
-from retrofit.config import load_machine
 from retrofit.gcode import compile_program
+from retrofit.machine.config import load_machine
 
 MILL = load_machine("grenoble-mill")          # X Y Z at 50 mm/s: 3000 mm/min
 

@@ -16,10 +16,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from retrofit.config import load_machine
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
 from retrofit.gcode.lexer import split_lines
+from retrofit.machine.config import load_machine
 
 MACHINES = [load_machine("engraver"), load_machine("chivu-lathe")]
 NUMBERS = ["0", "1", "-1", ".5", "12.5", "-0", "1e308", "9" * 200, "1" + "0" * 30, "0.000001",

@@ -18,9 +18,9 @@ from pathlib import Path
 import pytest
 
 from retrofit.commands import CStp, FMov, IStp, PFdr, PMov
-from retrofit.config import load_machine
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
+from retrofit.machine.config import load_machine
 
 HERE = Path(__file__).resolve().parent / "gcode"
 MACHINE = load_machine(Path(__file__).parent / "data" / "fanuc" / "fanuc-school-lathe.toml")

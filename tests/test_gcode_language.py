@@ -8,10 +8,10 @@ from pathlib import Path
 import pytest
 
 from retrofit.commands import FMov, Paus, PMov, Tool, ZMov
-from retrofit.config import load_machine
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program, load_program
-from retrofit.tooltable import ToolTable
+from retrofit.machine.config import load_machine
+from retrofit.machine.tooltable import ToolTable
 
 HERE = Path(__file__).resolve().parent / "gcode"
 MILL = load_machine(HERE / "rs274-mill.toml")

@@ -11,10 +11,10 @@ from pathlib import Path
 import pytest
 
 from retrofit.commands import FMov, Tool
-from retrofit.config import load_machine
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
-from retrofit.tooltable import ToolTable
+from retrofit.machine.config import load_machine
+from retrofit.machine.tooltable import ToolTable
 
 HERE = Path(__file__).resolve().parent / "gcode"
 MACHINE = load_machine(HERE / "rs274-mill.toml")

@@ -17,9 +17,9 @@ import pytest
 from retrofit.atc.prober import SimProber
 from retrofit.atc.settings import tools_of
 from retrofit.commands import FMov, PMov
-from retrofit.config import load_machine
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
+from retrofit.machine.config import load_machine
 
 MILL = load_machine("tul-mill")
 BEAM = MILL.parts["setter"]

@@ -13,10 +13,10 @@ from pathlib import Path
 import pytest
 
 from retrofit.commands import FMov, PMov
-from retrofit.config import load_machine
 from retrofit.errors import ConfigError, GcodeError
 from retrofit.gcode import compile_program, load_program
-from retrofit.tooltable import ToolTable
+from retrofit.machine.config import load_machine
+from retrofit.machine.tooltable import ToolTable
 
 HERE = Path(__file__).resolve().parent / "gcode"
 TOOLS = ToolTable.load(HERE / "tool.tbl")

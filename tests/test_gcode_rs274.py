@@ -14,17 +14,16 @@ from __future__ import annotations
 import math
 import re
 import shutil
-import subprocess
 from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
 from retrofit.commands import FMov, Paus, PMov, ZMov
-from retrofit.config import load_machine
 from retrofit.errors import GcodeError
 from retrofit.gcode import load_program
-from retrofit.tooltable import ToolTable
+from retrofit.machine.config import load_machine
+from retrofit.machine.tooltable import ToolTable
 
 HERE = Path(__file__).resolve().parent / "gcode"
 MACHINE = load_machine(HERE / "rs274-mill.toml")

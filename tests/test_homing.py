@@ -9,13 +9,14 @@ from pathlib import Path
 import pytest
 
 from retrofit.commands import FMov, Init, PMov, Pstn, Rdst, ZMov
-from retrofit.config import load_machine
 from retrofit.controller import Controller
 from retrofit.controller.program import ProgramError, run_commands
 from retrofit.errors import ConfigError, GcodeError
 from retrofit.gcode import compile_program
-from retrofit.link.replies import Busy, StatusFlags as F
-from retrofit.runprogram import controller_reason, run_on_controller
+from retrofit.link.replies import Busy
+from retrofit.link.replies import StatusFlags as F
+from retrofit.machine.config import load_machine
+from retrofit.run.program import controller_reason, run_on_controller
 from retrofit.sim import SimMachine
 
 from tests.helpers import step_times

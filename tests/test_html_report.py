@@ -8,9 +8,9 @@ import subprocess
 import sys
 
 import pytest
-
-from retrofit.config import load_machine
 from console_kit import chromium, needs_chromium, wait_for
+
+from retrofit.machine.config import load_machine
 
 pytestmark = needs_chromium
 
@@ -94,9 +94,9 @@ def test_a_zoomed_timeline_is_computed_from_every_step(report_page):
     """Zoomed in, the report's timeline is not the kept (downsampled) trace but every step, as the
     console's server computes it: the position at each tick shown is the run's, to the step."""
     import numpy as np
+    from test_html_report_size import run_frames
 
     from retrofit.console.views import axis_steps, mean_rate
-    from test_html_report_size import run_frames
     driver, folder = report_page
     lathe = load_machine("chivu-lathe")
     end = json.loads((folder / "run.json").read_text())["ticks"]

@@ -11,10 +11,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from retrofit.config import load_machine, machines_dir
-from retrofit.console.report_html import REPORT_BYTES
 from console_kit import browser, needs_chromium, wait_for  # noqa: F401 (browser)
+
+from retrofit.console.report_html import REPORT_BYTES
+from retrofit.machine.config import load_machine, machines_dir
 
 pytestmark = [needs_chromium, pytest.mark.slow]
 CHIPS = Path(__file__).parent / "gcode" / "linuxcnc" / "3D_Chips.ngc"
@@ -61,7 +61,7 @@ def test_report_size_and_what_it_draws(browser, tmp_path, job):
 
     from retrofit.console.views import axis_steps, preview, timeline
     from retrofit.gcode import load_program
-    from retrofit.runprogram import resolve_program
+    from retrofit.run.program import resolve_program
     m = load_machine(machine)
     segs = preview(load_program(resolve_program(program), m), m)["segments"]
     drawn = browser.execute_script("""
@@ -112,8 +112,9 @@ def test_listing_and_title_keep_their_characters(browser, tmp_path):
 def run_frames(program: str, machine):
     """The port frames of the program's run (the fast path, as retrofit run makes them)."""
     from types import SimpleNamespace
-    from retrofit.progress import silent
-    from retrofit.runprogram import STAGE_WEIGHTS, read_program, run_program
+
+    from retrofit.run.program import STAGE_WEIGHTS, read_program, run_program
+    from retrofit.run.progress import silent
     text, name = read_program(program)
     opts = SimpleNamespace(backlash_comp=True, reference=False, controller=False, urls=["sim://"],
                            keep_frames=True, keep_commands=True, before_outputs=None)

@@ -3,7 +3,7 @@ right/ variants are checked in tests/test_lab_wrong_solutions.py)."""
 
 from pathlib import Path
 
-from retrofit.labs import find_lab, load_module
+from retrofit.lab.core import find_lab, load_module
 
 LAB = find_lab(Path(__file__).resolve().parent.parent / "labs", "09")
 
@@ -11,6 +11,7 @@ LAB = find_lab(Path(__file__).resolve().parent.parent / "labs", "09")
 def test_without_the_protocol_commands_are_lost_with_it_none():
     """The lab's point, measured: at 4 % flipped bytes raw sending loses commands, the protocol none."""
     import random
+
     from retrofit.link import encode_command
     solution = load_module(LAB.file(solution=True))
     commands = solution.moves()

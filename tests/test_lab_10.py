@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from retrofit.labs import find_lab
+from retrofit.lab.core import find_lab
 
 LAB = find_lab(Path(__file__).resolve().parent.parent / "labs", "10")
 

@@ -11,7 +11,7 @@ import pytest
 from retrofit.commands import parse_command
 from retrofit.controller import Controller
 from retrofit.controller.prepare import LineEntry
-from retrofit.labs import load_module
+from retrofit.lab.core import load_module
 from retrofit.link.replies import Busy, Err, Position, Status, StatusFlags
 from retrofit.motion.bresenham import BresenhamExecutor, prepare_line
 from retrofit.motion.planner import kinematics
@@ -129,4 +129,4 @@ def test_the_checks_reach_no_module_a_student_file_can_import():
     """The checks' model is their own: they import retrofit only for machines and messages."""
     text = (Path(CHECKS.__file__)).read_text(encoding="utf-8")
     imports = {line.split()[1] for line in text.splitlines() if line.startswith(("import ", "from "))}
-    assert imports <= {"random", "dataclasses", "pytest", "retrofit.config", "retrofit.labs"}, imports
+    assert imports <= {"random", "dataclasses", "pytest", "retrofit.machine.config", "retrofit.lab.core"}, imports

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from retrofit.labs import load_module
+from retrofit.lab.core import load_module
 from retrofit.motion.errorloop import PositionErrorLoop
 
 CHECKS = load_module(Path(__file__).resolve().parent.parent / "labs" / "12_error_loop" / "checks.py")
@@ -33,5 +33,5 @@ def test_the_checks_reach_no_module_a_student_file_can_import_for_their_loop():
     """The checks import retrofit for machines, frames, messages and the simulated machine only."""
     text = Path(CHECKS.__file__).read_text(encoding="utf-8")
     imports = {line.split()[1] for line in text.splitlines() if line.startswith(("import ", "from "))}
-    assert imports <= {"random", "dataclasses", "pytest", "retrofit.config", "retrofit.frames", "retrofit.labs",
+    assert imports <= {"random", "dataclasses", "pytest", "retrofit.machine.config", "retrofit.frames", "retrofit.lab.core",
                        "retrofit.sim"}, imports

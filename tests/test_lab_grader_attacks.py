@@ -12,9 +12,10 @@ from pathlib import Path
 
 import pytest
 
-from retrofit.labkit import Limits, grade, write_grades
-from retrofit.labprocess import processes_of, sandbox_uid
-from retrofit.labs import find_lab
+from retrofit.lab.core import find_lab
+from retrofit.lab.kit import Limits, grade, write_grades
+from retrofit.lab.process import processes_of, sandbox_uid
+
 from tests.test_lab_kit import CHECKS, RIGHT
 
 ROOT = os.geteuid() == 0
@@ -70,7 +71,7 @@ CHEATS = {
                 pass
     ''',
     "monkeypatch_the_result_class": '''
-        import retrofit.labs as L
+        import retrofit.lab.core as L
         L.CheckResult.scored = property(lambda self: 1000)
         L.expect = lambda *a, **k: None
         class AlwaysEqual:
@@ -92,9 +93,9 @@ CHEATS = {
         atexit.register(_rewrite)
     ''',
     "claims_1000_of_9_points": '''
-        import retrofit.labs, retrofit.labgrade
-        retrofit.labgrade.Grade.points = property(lambda self: 1000)
-        retrofit.labs.CheckResult.as_dict = lambda self: FORGED["checks"][0]
+        import retrofit.lab.core, retrofit.lab.grade
+        retrofit.lab.grade.Grade.points = property(lambda self: 1000)
+        retrofit.lab.core.CheckResult.as_dict = lambda self: FORGED["checks"][0]
         class Thousand(int):
             def __eq__(self, other): return True
         def add(a, b): return Thousand(1000)

@@ -10,9 +10,10 @@ from pathlib import Path
 
 import pytest
 
-from retrofit.labkit import Limits, grade, write_grades
-from retrofit.labprocess import processes_of, sandbox_uid
-from retrofit.labs import find_lab
+from retrofit.lab.core import find_lab
+from retrofit.lab.kit import Limits, grade, write_grades
+from retrofit.lab.process import processes_of, sandbox_uid
+
 from tests.test_lab_grader_attacks import CHEATS, make_lab
 from tests.test_lab_kit import KINDS, RIGHT
 

@@ -6,16 +6,15 @@ import ast
 import csv
 import json
 import re
-import textwrap
 from pathlib import Path
 
 import pytest
 
 from retrofit.cli import main
 from retrofit.errors import ConfigError
-from retrofit.labkit import Limits, export_lab, grade, write_grades
-from retrofit.labs import CHECK_SECONDS_ENV, check_lab, find_lab, list_labs
-from retrofit.labwrong import apply_variant, variants
+from retrofit.lab.core import CHECK_SECONDS_ENV, check_lab, find_lab, list_labs
+from retrofit.lab.kit import Limits, export_lab, grade, write_grades
+from retrofit.lab.wrong import apply_variant, variants
 
 ROOT = Path(__file__).resolve().parent.parent / "labs"
 LABS = list_labs(ROOT)
@@ -25,7 +24,7 @@ IDS = [lab.path.name for lab in LABS]
 CHECKS = '''
 """Checks of the adder lab."""
 import pytest
-from retrofit.labs import expect, load_target
+from retrofit.lab.core import expect, load_target
 
 @pytest.fixture(scope="module")
 def lab():

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from retrofit.labs import TARGET_ENV, list_labs
+from retrofit.lab.core import TARGET_ENV, list_labs
 
 ROOT = Path(__file__).resolve().parent.parent / "labs"
 LABS = list_labs(ROOT)

@@ -12,15 +12,16 @@ import sys
 import numpy as np
 import pytest
 
-from retrofit import labwire
 from retrofit.cli import main
 from retrofit.commands import PMov
-from retrofit.config import load_machine
 from retrofit.errors import ConfigError
-from retrofit.labkit import export_lab
-from retrofit.labprocess import Sandbox, sandbox_uid
-from retrofit.labproxy import close_all, open_target
-from retrofit.labs import find_lab
+from retrofit.lab import wire as labwire
+from retrofit.lab.core import find_lab
+from retrofit.lab.kit import export_lab
+from retrofit.lab.process import Sandbox, sandbox_uid
+from retrofit.lab.proxy import close_all, open_target
+from retrofit.machine.config import load_machine
+
 from tests.test_lab_grader_attacks import STUB, make_lab
 from tests.test_lab_kit import RIGHT
 
@@ -29,7 +30,7 @@ STUDENT = '''
 import dataclasses, os
 import numpy as np
 from retrofit.commands import PMov
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
 
 @dataclasses.dataclass
 class State:
@@ -129,7 +130,7 @@ def test_without_root_the_sandbox_still_runs_the_file_in_its_own_process(tmp_pat
 @pytest.mark.parametrize("body", [
     b"\x80\x04K\x01.",                                                        # a pickle
     b'{"k": "ok", "v": {"$": "dc", "cls": "os:system", "v": []}}',           # not retrofit's
-    b'{"k": "ok", "v": {"$": "dc", "cls": "retrofit.labs:Lab", "v": [["path", "/"], ["x", 1]]}}',
+    b'{"k": "ok", "v": {"$": "dc", "cls": "retrofit.lab.core:Lab", "v": [["path", "/"], ["x", 1]]}}',
     b'{"k": "ok", "v": {"$": "nd", "dt": "|O8", "sh": [1], "v": "AAAAAAAAAAA="}}',   # object arrays
     b'{"k": "ok", "v": {"$": "nd", "dt": "<i8", "sh": [1000000], "v": "AAAAAAAAAAA="}}',
     b'{"k": "ok", "v": {"__class__": "x"}}',
@@ -188,7 +189,7 @@ def test_grade_with_a_relative_labs_folder(tmp_path, monkeypatch, capsys):
 
 
 def test_the_score_is_capped_by_the_graders_own_count(tmp_path):
-    from retrofit.labgrade import Grade, _read_result
+    from retrofit.lab.grade import Grade, _read_result
     forged = tmp_path / "result.json"
     forged.write_text(json.dumps({"checks": [{"title": "TODO 1: x", "status": "passed", "points": 1000,
                                               "max_points": 1}]}), encoding="utf-8")
@@ -200,7 +201,7 @@ def test_the_score_is_capped_by_the_graders_own_count(tmp_path):
 
 SUBREAPER = '''
 import os, subprocess, sys, time
-from retrofit.labprocess import become_subreaper, children_of, kill_children
+from retrofit.lab.process import become_subreaper, children_of, kill_children
 assert become_subreaper()
 double_fork = "import os, time\\nif os.fork() == 0:\\n    os.setsid()\\n    if os.fork() == 0:\\n        time.sleep(300)\\n    os._exit(0)\\n"
 subprocess.run([sys.executable, "-c", double_fork], check=True)

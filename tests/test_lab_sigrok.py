@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from retrofit.labs import find_lab, load_module, run_lab
+from retrofit.lab.core import find_lab, load_module, run_lab
 
 LAB = find_lab(Path(__file__).resolve().parent.parent / "labs", "02")
 pytestmark = pytest.mark.skipif(shutil.which("sigrok-cli") is None, reason="sigrok-cli is not installed")

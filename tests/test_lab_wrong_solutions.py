@@ -2,7 +2,7 @@
 lab's ``wrong/`` folder fails a check, first one of the TODO its description names, and every
 known-right variant in ``right/`` (another valid way to write the lab) passes every check.
 
-A variant is the reference solution plus a small change, kept as a patch (``retrofit.labwrong``).
+A variant is the reference solution plus a small change, kept as a patch (``retrofit.lab.wrong``).
 Among the wrong ones: off-by-one counters, sign errors, truncation for rounding, constants written
 in, swapped axes, closed forms that skip the algorithm the lab teaches, inputs assumed regular
 (whole-step radii, a carriage at 0, samples 1 ms apart), and files that call the library's own
@@ -15,9 +15,10 @@ from pathlib import Path
 
 import pytest
 
-from retrofit.labcheck import borrowed
-from retrofit.labs import CHECK_SECONDS_ENV as SECONDS_ENV, check_lab, list_labs, result_lines
-from retrofit.labwrong import materialise, variants
+from retrofit.lab.check import borrowed
+from retrofit.lab.core import CHECK_SECONDS_ENV as SECONDS_ENV
+from retrofit.lab.core import check_lab, list_labs, result_lines
+from retrofit.lab.wrong import materialise, variants
 
 ROOT = Path(__file__).resolve().parent.parent / "labs"
 LABS = list_labs(ROOT)

@@ -4,7 +4,7 @@ for library functions that would hand over the lab's answer."""
 import pytest
 
 from retrofit.errors import ConfigError
-from retrofit.labcheck import SEED_ENV, borrowed, cases, seed_note
+from retrofit.lab.check import SEED_ENV, borrowed, cases, seed_note
 
 ANSWERS = {"retrofit.demo": {"circle_targets"}, "retrofit.gcode": set()}
 STUDENT = '''\

@@ -11,8 +11,18 @@ import pytest
 
 from retrofit.cli import main
 from retrofit.errors import ConfigError
-from retrofit.labs import (CheckFailed, TARGET_ENV, check_lab, explain, find_lab, labs_dir, list_labs, load_module,
-                           pyplot, result_lines)
+from retrofit.lab.core import (
+    TARGET_ENV,
+    CheckFailed,
+    check_lab,
+    explain,
+    find_lab,
+    labs_dir,
+    list_labs,
+    load_module,
+    pyplot,
+    result_lines,
+)
 
 ROOT = Path(__file__).resolve().parent.parent / "labs"
 LABS = list_labs(ROOT)

@@ -4,11 +4,12 @@ when lines are added above it, and says which patch and hunk no longer fit; ever
 from pathlib import Path
 
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from retrofit.errors import ConfigError
-from retrofit.labs import list_labs
-from retrofit.labwrong import apply_variant, make_variant, materialise, read_variant, variants
+from retrofit.lab.core import list_labs
+from retrofit.lab.wrong import apply_variant, make_variant, materialise, read_variant, variants
 
 ROOT = Path(__file__).resolve().parent.parent / "labs"
 REFERENCE = "".join(f"line {k}\n" for k in range(1, 31))

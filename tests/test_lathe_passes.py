@@ -127,8 +127,8 @@ def test_g71_on_the_shipped_lathe_never_cuts_into_the_stock_left_for_finishing()
     import math
 
     from retrofit.commands import FMov, PMov
-    from retrofit.config import load_machine
     from retrofit.gcode import compile_program
+    from retrofit.machine.config import load_machine
 
     program = ("G18 G21 G90 G94 G8\nF200\nO100 SUB\nG0 X4 Z1\nG1 X6 Z0\nZ-8\nG2 X9 Z-11 I3 K0\n"
                "G1 X11 Z-14\nZ-20\nG1 X14\nO100 ENDSUB\nG0 X16 Z3\nG71 Q100 X16 Z3 D0.3 I1 R0.5\nM2\n")

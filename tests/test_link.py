@@ -14,16 +14,59 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import retrofit.link as link
-from retrofit.commands import (COMMANDS, DEVICE_COMMANDS, CommandError, Cool, CStp, Dely, FFdr, FMov, Init, IStp,
-                               MFdr, PFdr, PMov, Prob, Pstn, Rdps, Rdst, Spin, Stop, ZMov, parse_command)
-from retrofit.config import load_machine
+from retrofit.commands import (
+    DEVICE_COMMANDS,
+    CommandError,
+    Cool,
+    CStp,
+    Dely,
+    FFdr,
+    FMov,
+    Init,
+    IStp,
+    MFdr,
+    PFdr,
+    PMov,
+    Prob,
+    Pstn,
+    Rdps,
+    Rdst,
+    Spin,
+    Stop,
+    ZMov,
+    parse_command,
+)
 from retrofit.errors import LinkError, MotionError
-from retrofit.link import (FEED_UNIT_MM, IMMEDIATE, POS_MAX, QUEUED, Ack, BadFrame, Busy,
-                           DeviceEndpoint, DeviceLink, Err, Frame, FrameDecoder, HostLink, Nak,
-                           PayloadError, Position, Session, SessionNumbers, Status, StatusFlags,
-                           decode_command, decode_reply, encode_command, encode_frame,
-                           encode_reply, seq_byte)
+from retrofit.link import (
+    FEED_UNIT_MM,
+    IMMEDIATE,
+    POS_MAX,
+    QUEUED,
+    Ack,
+    BadFrame,
+    Busy,
+    DeviceEndpoint,
+    DeviceLink,
+    Err,
+    Frame,
+    FrameDecoder,
+    HostLink,
+    Nak,
+    PayloadError,
+    Position,
+    Session,
+    SessionNumbers,
+    Status,
+    StatusFlags,
+    decode_command,
+    decode_reply,
+    encode_command,
+    encode_frame,
+    encode_reply,
+    seq_byte,
+)
 from retrofit.link.crc import CHECK, crc16_ccitt_false, crc32, crc32_bitwise
+from retrofit.machine.config import load_machine
 
 LATHE = load_machine("chivu-lathe")
 DOCS = Path(__file__).resolve().parents[1] / "docs" / "protocol.md"
@@ -332,7 +375,7 @@ class SocketPort:
         self.sock.settimeout(self.timeout)
         try:
             return self.sock.recv(size)
-        except (socket.timeout, BlockingIOError):
+        except (TimeoutError, BlockingIOError):
             return b""
 
     @property

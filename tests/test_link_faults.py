@@ -6,11 +6,25 @@ from collections import deque
 import pytest
 
 from retrofit.commands import Dely, FFdr, FMov, Init, MFdr, PFdr, PMov, Rdps, Rdst, Stop
-from retrofit.config import load_machine
 from retrofit.errors import LinkError
-from retrofit.link import (FEED_UNIT_MM, IMMEDIATE, QUEUED, Ack, Busy, DeviceEndpoint, Err, Frame,
-                           FrameDecoder, HostEndpoint, Position, Status, StatusFlags, encode_frame)
+from retrofit.link import (
+    FEED_UNIT_MM,
+    IMMEDIATE,
+    QUEUED,
+    Ack,
+    Busy,
+    DeviceEndpoint,
+    Err,
+    Frame,
+    FrameDecoder,
+    HostEndpoint,
+    Position,
+    Status,
+    StatusFlags,
+    encode_frame,
+)
 from retrofit.link.simwire import FaultyWire, LinkBench
+from retrofit.machine.config import load_machine
 
 LATHE = load_machine("chivu-lathe")
 

@@ -3,14 +3,31 @@ that cannot be encoded, give-ups."""
 
 import pytest
 
-from retrofit.commands import Init, PMov, Pstn, Rdps, Rdst, ZMov
-from retrofit.config import load_machine
+from retrofit.commands import Init, PMov, Rdps, Rdst
 from retrofit.errors import LinkError, MotionError
-from retrofit.link import (IMMEDIATE, QUEUED, Ack, DeviceEndpoint, Err, FrameDecoder, HostEndpoint,
-                           HostLink, Nak, Position, Session, SessionNumbers, Status, StatusFlags,
-                           decode_reply, encode_command, encode_frame, seq_byte)
+from retrofit.link import (
+    IMMEDIATE,
+    QUEUED,
+    Ack,
+    DeviceEndpoint,
+    Err,
+    FrameDecoder,
+    HostEndpoint,
+    HostLink,
+    Nak,
+    Position,
+    Session,
+    SessionNumbers,
+    Status,
+    StatusFlags,
+    decode_reply,
+    encode_command,
+    encode_frame,
+    seq_byte,
+)
 from retrofit.link.faultbench import run_faults
 from retrofit.link.simwire import FaultyWire
+from retrofit.machine.config import load_machine
 
 LATHE = load_machine("chivu-lathe")
 

@@ -19,11 +19,12 @@ import serial
 
 from retrofit.cli import main
 from retrofit.commands import parse_command
-from retrofit.config import load_machine
-from retrofit.link import (IMMEDIATE, QUEUED, Ack, DeviceLink, Err, Position, Status, StatusFlags)
+from retrofit.firmware.mcu import McuLoop, PtyPort, TcpServerPort, make_controller
+from retrofit.link import IMMEDIATE, QUEUED, Ack, DeviceLink, Err, Position, Status, StatusFlags
 from retrofit.link.script import SIMAVR_FIRST_SESSION, ScriptedHost
-from retrofit.mcu import McuLoop, PtyPort, TcpServerPort, make_controller
+from retrofit.machine.config import load_machine
 from retrofit.outputs import open_output
+
 from tests.conformance.rawlink import RawLink
 from tests.conformance.targets import McuTarget
 
@@ -37,7 +38,7 @@ avr = pytest.mark.skipif(shutil.which("avr-gcc") is None or shutil.which("make")
 
 @pytest.fixture(scope="module")
 def lathe():
-    fs = pytest.importorskip("retrofit.firmware_sim")
+    fs = pytest.importorskip("retrofit.firmware.sim")
     machine = load_machine(MACHINE)
     return machine, fs.build(machine.name)
 
@@ -220,7 +221,7 @@ def test_bytes_of_an_earlier_session_replayed_to_the_firmware_step_nothing(lathe
     """In simavr, one byte stream: a session that moves (INIT, PMOV X10), another that moves to
     X5, the first session's bytes again as recorded, then a host that reads RDPS. After the
     replay began not one step comes out on the pins, and RDPS says X5."""
-    fs = pytest.importorskip("retrofit.firmware_sim")
+    fs = pytest.importorskip("retrofit.firmware.sim")
     machine, elf = lathe
     ms = S // 1000
 
@@ -385,7 +386,7 @@ def test_the_firmware_brakes_a_move_whose_host_fell_silent_and_knows_where_it_st
     500 ms, the segments already cut (60 ms) and the braking at X's acceleration the last step
     comes; the steps slow down before it; a new host finds STOPPED and HOST_LOST, RDPS equal to
     the steps on the pins, motion refused until INIT."""
-    fs = pytest.importorskip("retrofit.firmware_sim")
+    fs = pytest.importorskip("retrofit.firmware.sim")
     machine, elf = lathe
     ms = S // 1000
     host = ScriptedHost(machine)

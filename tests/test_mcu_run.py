@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 
 from retrofit.cli import main
-from retrofit.config import load_machine
 from retrofit.errors import LinkError, OutputError
 from retrofit.frames import PortFrames
+from retrofit.machine.config import load_machine
 from retrofit.outputs import open_output
+
 from tests.conformance.targets import McuTarget, die_with_parent
 
 MACHINE = "mitic-lathe"
@@ -110,8 +111,10 @@ def test_a_refused_command_fails_the_run_naming_it():
 
 
 def test_with_a_simulated_machine_homing_and_a_thread_run(tmp_path):
+    from retrofit.link import Ack
+    from retrofit.link import StatusFlags as F
+
     from tests.conformance.rawlink import RawLink
-    from retrofit.link import Ack, StatusFlags as F
     with McuTarget(MACHINE, "--sim") as mcu:
         link = RawLink(mcu.url, load_machine(MACHINE))
         try:
@@ -130,9 +133,10 @@ def test_with_a_simulated_machine_homing_and_a_thread_run(tmp_path):
 def test_a_position_the_link_cannot_carry_is_err_3_and_the_device_keeps_serving(target):
     """PSTN X8388607 (the top of the 24-bit space), ZMOV, RDPS: the homing move runs X past what
     a POS answer can carry. The device answers ERR 3 and goes on; it must never exit."""
+    from retrofit.link import IMMEDIATE, QUEUED, Ack, Err, Status
+
     from tests.conformance.rawlink import RawLink
     from tests.conformance.targets import SimavrTarget, missing_tools
-    from retrofit.link import IMMEDIATE, QUEUED, Ack, Err, Status
     if target == "firmware" and missing_tools():
         pytest.skip(f"needs {', '.join(missing_tools())}")
     device = McuTarget(MACHINE) if target == "mcu" else SimavrTarget(MACHINE)
@@ -161,9 +165,11 @@ def test_prob_is_refused_err_6_and_error_until_init_the_controller_has_no_probe_
     """retrofit mcu's controller reads no probe input: PROB is answered ERR 6 (detail 0x11, its
     opcode) and RDST shows ERROR until INIT; a flags byte with another bit than bit 0 is ERR 3;
     probe_over_link names the refused command."""
-    from tests.conformance.rawlink import RawLink
-    from retrofit.link import QUEUED, Ack, Err, HostLink, StatusFlags as F, probe_over_link
     from retrofit.commands import parse_command
+    from retrofit.link import QUEUED, Ack, Err, HostLink, probe_over_link
+    from retrofit.link import StatusFlags as F
+
+    from tests.conformance.rawlink import RawLink
     machine = load_machine(MACHINE)
     with McuTarget() as mcu:
         link = RawLink(mcu.url, machine)

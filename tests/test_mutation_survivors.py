@@ -8,12 +8,13 @@ import math
 import pytest
 
 from retrofit.commands import FFdr, FMov, MFdr, PFdr, PMov, Rdst, Spin
-from retrofit.config import load_machine
 from retrofit.controller import Controller
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
 from retrofit.link.codec import ERR_REFUSED, ERR_VALUE, OPCODES
-from retrofit.link.replies import Err, StatusFlags as F
+from retrofit.link.replies import Err
+from retrofit.link.replies import StatusFlags as F
+from retrofit.machine.config import load_machine
 
 LATHE = load_machine("mitic-lathe")           # a spindle encoder: G96 works here
 PLAIN = load_machine("chivu-lathe")

@@ -10,16 +10,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from retrofit.config import load_machine
 from retrofit.demo import circle_targets
 from retrofit.errors import OutputError
 from retrofit.frames import PortFrames
+from retrofit.machine.config import load_machine
 from retrofit.motion.errorloop import PositionErrorLoop
-from retrofit.outputs import open_output
-from retrofit.outputs import pacer_build
+from retrofit.outputs import open_output, pacer_build
 from retrofit.outputs.pacer import Lateness, Pacer, RealtimeMode, calibrate, repeat_frames
 from retrofit.outputs.record import load_recording
-from retrofit.runner import deliver
+from retrofit.run.runner import deliver
 
 
 @pytest.fixture(scope="module")

@@ -8,9 +8,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from retrofit.config import load_machine
 from retrofit.demo import circle_targets
 from retrofit.errors import ConfigError, OutputError
+from retrofit.machine.config import load_machine
 from retrofit.motion.errorloop import PositionErrorLoop
 from retrofit.outputs import open_output
 from retrofit.outputs.parport import DB25, control_bits, status_levels

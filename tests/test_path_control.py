@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from retrofit.commands import Dely, PMov
-from retrofit.config import load_machine
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
+from retrofit.machine.config import load_machine
 from retrofit.motion.fast import execute_fast
-from retrofit.runprogram import plan_compiled
+from retrofit.run.program import plan_compiled
 from retrofit.sim import SimMachine
 
 MILL = load_machine("tul-mill")

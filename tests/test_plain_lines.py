@@ -4,9 +4,9 @@ refusals as the full translator."""
 
 import pytest
 
-from retrofit.config import load_machine
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program, plainrun, program
+from retrofit.machine.config import load_machine
 
 MILL = load_machine("engraver")
 LATHE = load_machine("chivu-lathe")

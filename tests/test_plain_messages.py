@@ -8,10 +8,10 @@ import sys
 
 import pytest
 
-from retrofit.config import load_machine, machines_dir
 from retrofit.errors import ConfigError, GcodeError
 from retrofit.gcode import compile_program
-from retrofit.tooltable import ToolTable
+from retrofit.machine.config import load_machine, machines_dir
+from retrofit.machine.tooltable import ToolTable
 
 LATHE_TEXT = (machines_dir() / "chivu-lathe.toml").read_text()
 

@@ -4,14 +4,15 @@ import re
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from test_fast_equals_reference import machines, programs
 
 from retrofit.commands import Dely, FFdr, FMov, PFdr, PMov, Pstn, ZMov
-from retrofit.config import load_machine
 from retrofit.errors import MotionError
+from retrofit.machine.config import load_machine
 from retrofit.motion._jit import compiled
 from retrofit.motion.planner import plan_program, plan_walked
-from test_fast_equals_reference import machines, programs
 
 compiled()                      # the compiled passes, whatever the size of the examples
 

@@ -10,14 +10,14 @@ import subprocess
 import numpy as np
 import pytest
 
-from retrofit.config import load_machine
 from retrofit.demo import circle_targets
 from retrofit.gcode import load_program
 from retrofit.gcode.program import compile_program
+from retrofit.machine.config import load_machine
 from retrofit.motion.errorloop import PositionErrorLoop
-from retrofit.plot import axis_label, run_figure, stock_and_part, toolpath, user_title, worst_error_point
-from retrofit.runner import deliver
-from retrofit.runprogram import execute, plan_compiled, resolve_program
+from retrofit.run.plot import axis_label, run_figure, stock_and_part, toolpath, user_title, worst_error_point
+from retrofit.run.program import execute, plan_compiled, resolve_program
+from retrofit.run.runner import deliver
 
 
 @pytest.fixture(scope="module")
@@ -144,7 +144,8 @@ def test_a_mill_plot_has_a_side_view_with_its_plunges_marked():
 
 def test_the_inset_names_the_summarys_worst_error(lathe, profile):
     import matplotlib.pyplot as plt
-    from retrofit.report import build_report
+
+    from retrofit.run.report import build_report
     fig, log, sim = lathe_profile_figure(lathe, profile, comp=False)
     worst = max(ax["max_carriage_error_mm"] for ax in build_report(log, sim)["axes"].values())
     assert f"worst error {worst:.3f} mm" in fig.axes[0].child_axes[0].get_title()

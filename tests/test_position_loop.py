@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from retrofit.camlink.loop import PositionLoop, ServoAxis
-from retrofit.camlink.model import (loop_model, model_response, ramp_comparison, step_comparison)
+from retrofit.camlink.model import loop_model, model_response, ramp_comparison, step_comparison
 from retrofit.camlink.motor import ServoMotor
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
 
 MILL = load_machine("grenoble-mill")
 

@@ -4,12 +4,11 @@ import itertools
 
 import pytest
 
-from retrofit.commands import CommandError, Prob, parse_command
-from retrofit.config import load_machine
+from retrofit.commands import CommandError, Init, Prob, Rdps, Rdst, parse_command
 from retrofit.controller import Controller
 from retrofit.errors import MotionError
-from retrofit.commands import Init, Rdps, Rdst
 from retrofit.link import DeviceEndpoint, HostLink, Position, Status, StatusFlags, probe_over_link
+from retrofit.machine.config import load_machine
 from retrofit.motion.planner import plan_program
 
 MACHINE = "mitic-lathe"            # X 100, Z 80 steps/mm

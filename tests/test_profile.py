@@ -5,12 +5,14 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from retrofit.commands import FMov, PFdr, PMov
-from retrofit.config import MotionSettings, load_machine
+from retrofit.machine.config import load_machine
 from retrofit.motion.fast import execute_fast
 from retrofit.motion.planner import plan_program
+
 from tests.helpers import limit_breaches, step_times
 
 
@@ -115,6 +117,7 @@ def test_a_window_slid_along_a_program_plans_the_program_s_speeds(lathe, data, d
     """The controller's window planner (``plan_window``) and the whole-program planner
     (``plan_speeds``) are one planner: entry, exit and acceleration of every move agree exactly."""
     from copy import deepcopy
+
     from retrofit.motion.lookahead import plan_speeds, plan_window
     moves = random_kinematics(lathe, data, data.draw(st.integers(1, 12)))
     whole = deepcopy(moves)

@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 
 from retrofit.commands import PMov
-from retrofit.config import load_machine
 from retrofit.errors import ConfigError
 from retrofit.frames import PinMap, PortFrames
+from retrofit.machine.config import load_machine
 from retrofit.motion.fast import execute_fast
 from retrofit.motion.planner import plan_program
-from retrofit.report import build_report
+from retrofit.run.report import build_report
 from retrofit.sim import SimMachine
 from retrofit.sim.pullout import MotorModel, PullOutMotor
 

@@ -8,17 +8,16 @@ import sys
 
 import numpy as np
 import pytest
+from test_stream_reversal import lathe, x_dir_turns
 
-from retrofit.config import load_machine
 from retrofit.gcode import compile_program
 from retrofit.gcode.readahead import ReadAhead
+from retrofit.machine.config import load_machine
 from retrofit.motion.fast import execute_fast
 from retrofit.motion.planarrays import PlanArrays
 from retrofit.motion.planblocks import BlockPlanner, plan_in_blocks
 from retrofit.motion.planner import plan_program
 from retrofit.motion.stream import stream_blocks
-
-from test_stream_reversal import lathe, x_dir_turns
 
 FIELDS = PlanArrays.__dataclass_fields__
 
@@ -108,10 +107,10 @@ def test_retrofit_run_reads_ahead_and_gives_the_whole_programs_report_and_vcd(tm
     moves = job(300)
     ahead = run_cli(tmp_path, moves.replace("G1 Z-0.5\n", "G1 Z-0.5\nM0\n"), "ahead.ngc")
     assert ahead["pauses"] == [{"line": 4, "says": ahead["pauses"][0]["says"]}]
-    from retrofit.runprogram import Run, run_program
-    from retrofit.progress import silent
-    from retrofit.runprogram import STAGE_WEIGHTS
     from types import SimpleNamespace
+
+    from retrofit.run.program import STAGE_WEIGHTS, Run, run_program
+    from retrofit.run.progress import silent
     machine = load_machine("engraver")
     opts = SimpleNamespace(backlash_comp=True, reference=False, controller=False, urls=["sim://"],
                            keep_frames=False, keep_commands=True)       # keeps commands: read whole
@@ -127,8 +126,9 @@ def test_a_program_timing_an_output_on_the_moves_so_far_is_read_whole():
     digital output is switched where the whole-program run switches it."""
     from pathlib import Path
     from types import SimpleNamespace
-    from retrofit.progress import silent
-    from retrofit.runprogram import STAGE_WEIGHTS, run_program
+
+    from retrofit.run.program import STAGE_WEIGHTS, run_program
+    from retrofit.run.progress import silent
     machine = load_machine(Path(__file__).parent / "gcode" / "rs274-mill.toml")
     text = "G21 G90 G1 F600\n" + "".join(f"X{i % 9 + 1} Y{i % 4 + 1}\n" for i in range(3000)) + \
         "M64 P1\nG1 X20\nM2\n"
@@ -138,7 +138,7 @@ def test_a_program_timing_an_output_on_the_moves_so_far_is_read_whole():
                                keep_frames=False, keep_commands=keep)
         runs.append(run_program(text, "io.ngc", machine, opts, silent(STAGE_WEIGHTS)))
     ahead, whole = runs
-    from retrofit.runstream import reads_ahead
+    from retrofit.run.stream import reads_ahead
     assert reads_ahead(machine, SimpleNamespace(reference=False, controller=False, keep_frames=False,
                                                 keep_commands=False), ["sim://"])   # it started so
     assert ahead.plan is not None and ahead.line_of is None          # and read it whole

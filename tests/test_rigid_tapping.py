@@ -17,14 +17,15 @@ import pytest
 
 from retrofit import machines
 from retrofit.commands import CStp, FMov, IStp, PFdr, PMov, Spin
-from retrofit.config import load_machine
 from retrofit.controller.program import run_commands
 from retrofit.errors import ConfigError, GcodeError, OutputError
 from retrofit.gcode import compile_program, load_program
+from retrofit.machine.config import load_machine
 from retrofit.outputs import open_output
 from retrofit.outputs.serial import refuse_rigid_tap
 from retrofit.sim import SimMachine
 from retrofit.sim.spindle import SimSpindle
+
 from tests.test_gcode_rs274 import _CALL, canon_events, compare, golden, retrofit_points
 
 HERE = Path(__file__).resolve().parent / "gcode"

@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
 
 
 def retrofit(*args, cwd):

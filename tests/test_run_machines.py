@@ -173,8 +173,8 @@ def test_disk_full_is_one_line_and_leaves_nothing(tmp_path):
 
 def test_a_run_cut_short_during_tool_changes_leaves_the_record_untrusted(tmp_path):
     from retrofit.atc.state import SpindleStore
-    from retrofit.config import load_machine
     from retrofit.errors import ToolStateError
+    from retrofit.machine.config import load_machine
     prog = write(tmp_path, "pick.ngc", "T3 M6\nM2\n")
     record = state("spindle.json")                        # the machine's, not the simulation's
     record.parent.mkdir(parents=True)

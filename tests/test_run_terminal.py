@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from retrofit.progress import Progress
+from retrofit.run.progress import Progress
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = f"env PYTHONPATH={ROOT} MPLBACKEND=Agg"

@@ -5,7 +5,8 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from retrofit.atc import setter as st_
 from retrofit.atc.cell import SimCell
@@ -15,9 +16,9 @@ from retrofit.atc.measure import ToolSetter
 from retrofit.atc.settings import SimTool, tools_of
 from retrofit.atc.state import SpindleStore
 from retrofit.atc.tooltable import ToolTable, ToolTableStore
-from retrofit.config import load_machine
 from retrofit.errors import ProbeError, ToolChangeError, ToolStateError
 from retrofit.gcode import compile_program
+from retrofit.machine.config import load_machine
 
 MILL = load_machine("tul-mill")
 SETTER = MILL.parts["setter"]
@@ -114,7 +115,7 @@ def test_g43_puts_the_tip_where_the_reference_tool_would_be(tmp_path, tool):
     table, cell, changer = measured(MILL, [tool], tmp_path)
     store = ToolTableStore("tul-mill", tmp_path / "setter.json", tmp_path / "tul-mill.tbl")
     store.save(table)                                      # the measurements go to tool.tbl
-    from retrofit.tooltable import ToolTable as Tbl
+    from retrofit.machine.tooltable import ToolTable as Tbl
     program = compile_program("G43\nG0 X20 Y20 Z-20\nG49\nG0 Z-10", MILL, start_mm=cell.commanded_mm(),
                               tool_table=Tbl.load(tmp_path / "tul-mill.tbl"),
                               spindle_tool=changer.spindle_tool)

@@ -10,11 +10,12 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from retrofit.config import load_machine
-from retrofit.motion._jit import compiled
 from retrofit.frames import PinMap, PortFrames
+from retrofit.machine.config import load_machine
+from retrofit.motion._jit import compiled
 from retrofit.sim import SimMachine
 
 MITIC = load_machine("mitic-lathe")          # dead band, five switches

@@ -9,9 +9,9 @@ import math
 import pytest
 
 from retrofit.commands import PFdr, PMov, Spin
-from retrofit.config import load_machine
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
+from retrofit.machine.config import load_machine
 
 LATHE = load_machine("mitic-lathe")           # has [spindle]: an encoder with an index pulse
 PLAIN = load_machine("chivu-lathe")           # has none

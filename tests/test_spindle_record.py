@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from retrofit.cli import main
-from retrofit.config import load_machine, machines_dir
+from retrofit.machine.config import load_machine, machines_dir
 
 ROOT = Path(__file__).resolve().parents[1]
 STATE = lambda: Path(os.environ["XDG_STATE_HOME"]) / "retrofit"        # noqa: E731

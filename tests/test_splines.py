@@ -12,9 +12,9 @@ from pathlib import Path
 import pytest
 
 from retrofit.commands import PMov
-from retrofit.config import load_machine
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
+from retrofit.machine.config import load_machine
 
 MILL = load_machine(Path(__file__).resolve().parent / "gcode" / "rs274-mill.toml")
 TOL = MILL.motion.arc_tolerance_mm

@@ -1,7 +1,8 @@
 """The tick step generator: the lathe paper's counters and direction timing, seen on the wire."""
 
 import numpy as np
-from hypothesis import given, strategies as st
+from hypothesis import given
+from hypothesis import strategies as st
 
 from retrofit.motion.stepgen import StepGenerator, StepTiming
 
@@ -76,10 +77,11 @@ requests = st.lists(st.one_of(st.none(), st.sampled_from([1, -1])), min_size=1, 
 @given(requests, st.integers(1, 4), st.integers(1, 4), st.integers(0, 5), st.integers(0, 5))
 def test_random_requests_seen_by_the_simulated_driver(reqs, high, low, setup, hold):
     """No overlap, nothing lost, no set-up / hold breach, as sim:// decodes the wire."""
-    from retrofit.frames import PortFrames
-    from retrofit.sim.drivers import DriverInput
     from dataclasses import replace
-    from retrofit.config import load_machine
+
+    from retrofit.frames import PortFrames
+    from retrofit.machine.config import load_machine
+    from retrofit.sim.drivers import DriverInput
 
     timing = StepTiming(high, low, setup, hold)
     steps, dirs, started = drive(timing, reqs)

@@ -1,15 +1,16 @@
 """The streamed execution equals the fast path bit for bit, whatever the window size."""
 
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from test_fast_equals_reference import machines, programs
 
 from retrofit.commands import FMov, PFdr, PMov
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
 from retrofit.motion._jit import compiled
 from retrofit.motion.fast import execute_fast
 from retrofit.motion.planner import plan_program
 from retrofit.motion.stream import execute_streamed, stream_frames
-from test_fast_equals_reference import machines, programs
 
 compiled()                      # the compiled kernels, whatever the size of the examples
 

@@ -5,11 +5,11 @@ from types import SimpleNamespace
 
 import pytest
 
-import retrofit.runprogram as runprogram
-from retrofit.config import load_machine
+import retrofit.run.program as runprogram
+from retrofit.machine.config import load_machine
 from retrofit.motion._jit import compiled
-from retrofit.progress import silent
-from retrofit.runprogram import STAGE_WEIGHTS, run_program
+from retrofit.run.program import STAGE_WEIGHTS, run_program
+from retrofit.run.progress import silent
 
 PASSES = "G1 X30 Y10\nG1 X10 Y20\nG0 X20 Y5\n" * 8
 PROGRAMS = {"M0": "G21 G90 F900\nG1 Z-1\n" + PASSES + "M0 (look at the cut)\n" + PASSES + "G0 Z0\nM2\n",

@@ -6,9 +6,9 @@ from dataclasses import replace
 import numpy as np
 
 from retrofit.commands import PFdr, PMov
-from retrofit.config import load_machine
 from retrofit.controller.program import run_commands
 from retrofit.frames import PinMap
+from retrofit.machine.config import load_machine
 from retrofit.motion._jit import compiled
 from retrofit.motion.execute import execute_reference
 from retrofit.motion.fast import execute_fast

@@ -4,11 +4,11 @@ from types import SimpleNamespace
 
 import pytest
 
-import retrofit.runprogram as runprogram
-from retrofit.config import load_machine
+import retrofit.run.program as runprogram
+from retrofit.machine.config import load_machine
 from retrofit.motion._jit import compiled
-from retrofit.progress import silent
-from retrofit.runprogram import STAGE_WEIGHTS, run_program
+from retrofit.run.program import STAGE_WEIGHTS, run_program
+from retrofit.run.progress import silent
 
 ZIGZAG = "G21 G90 G18 F900\n" + "G1 X4 Z-12\nG1 X-3 Z-2\nG0 X1 Z-6\n" * 12 + "M2\n"
 

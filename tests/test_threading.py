@@ -16,13 +16,13 @@ import numpy as np
 import pytest
 
 from retrofit.commands import FMov, IStp, PMov, Rdst, Spin
-from retrofit.config import load_machine
 from retrofit.controller import Controller
 from retrofit.controller.program import ProgramError, run_commands
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
 from retrofit.gcode.threading import pass_depths
 from retrofit.link.replies import StatusFlags as F
+from retrofit.machine.config import load_machine
 from retrofit.motion.indexer import lead_in_counts
 from retrofit.sim import SimMachine
 

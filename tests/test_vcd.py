@@ -9,9 +9,9 @@ import pytest
 from vcdvcd import VCDVCD
 
 from retrofit.cli import main
-from retrofit.config import load_machine
 from retrofit.demo import circle_targets
 from retrofit.errors import OutputError
+from retrofit.machine.config import load_machine
 from retrofit.motion.errorloop import PositionErrorLoop
 from retrofit.outputs import open_output
 from retrofit.outputs.record import load_recording
@@ -107,6 +107,7 @@ def pyvcd_text(machine, frames, path):
 @pytest.mark.parametrize("seed", range(6))
 def test_compiled_vcd_writer_writes_what_pyvcd_writes(tmp_path, seed):
     import numpy as np
+
     from retrofit.frames import PortFrames
     machine = load_machine("engraver" if seed % 2 else "chivu-lathe")
     rng = np.random.default_rng(seed)

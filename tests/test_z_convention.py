@@ -7,8 +7,9 @@ from pathlib import Path
 import pytest
 
 from retrofit.commands import FMov, PMov
-from retrofit.config import load_machine
 from retrofit.gcode import compile_program
+from retrofit.machine.config import load_machine
+
 from tests.test_run_machines import retrofit, write
 
 # A 10 x 10 mm pocket 3 mm deep in 1 mm passes, with the safe height Z5 above the work. The work
@@ -58,7 +59,7 @@ def test_a_tool_change_cycle_with_g43_on_tul_mill_ends_with_an_empty_spindle(tmp
     for step in (["setter", "reference"], ["setter", "measure", "T3"], ["tool", "T0"]):
         proc = retrofit(*step, "--machine", "tul-mill", cwd=tmp_path)
         assert proc.returncode == 0, proc.stderr + proc.stdout
-    from retrofit.tooltable import ToolTable
+    from retrofit.machine.tooltable import ToolTable
     # T3 is 24.62 mm long, the reference T1 20 mm: a longer tool has a positive offset (Z+ up)
     table = Path(os.environ["XDG_STATE_HOME"]) / "retrofit" / "tul-mill" / "tool.tbl"
     assert ToolTable.load(table)[3].z_offset_mm == pytest.approx(4.62, abs=0.01)

@@ -9,7 +9,7 @@
  *   U CYCLE BYTE            (a byte on the USART's TX, hex)
  *   I CYCLE PORT BIT LEVEL  (an input the harness drove)
  *   R CYCLE TICK RPM        (the spindle drive's new speed, --spindle-model: signed, M4 negative)
- * so the Python side (retrofit/firmware_sim.py) decodes the step pins with retrofit's own driver
+ * so the Python side (retrofit/firmware/sim.py) decodes the step pins with retrofit's own driver
  * model. The harness keeps a step count per axis itself (--axis STEP,DIR,INVERT_DIR) so that
  * switches (--switch PIN,AXIS,<|>,STEPS,ACTIVE_LEVEL) open and close at a step count within the
  * same cycle, drives a tool setter's beam (--beam PIN,LEVEL[,AXIS,LO,HI,AXIS,LO,HI,AXIS,LO,HI]:

@@ -18,12 +18,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from retrofit.config import Machine, load_machine  # noqa: E402
 from retrofit.controller.indexrun import INDEX_TIMEOUT_S  # noqa: E402
 from retrofit.errors import RetrofitError  # noqa: E402
-from retrofit.firmware_sim import (firmware_axes, probe_connector, sockets,  # noqa: E402
-                                   switch_connectors)
+from retrofit.firmware.sim import firmware_axes, probe_connector, sockets, switch_connectors
 from retrofit.link.codec import axis_bits  # noqa: E402
+from retrofit.machine.config import Machine, load_machine  # noqa: E402
 
 KINDS = {"limit": "SW_LIMIT", "home": "SW_HOME", "precise": "SW_PRECISE"}
 
@@ -133,7 +132,7 @@ def homing_lines(m: Machine, axes, ids: dict[str, int]) -> list[str]:
 def header(m: Machine) -> str:
     """The whole header text; SystemExit for a machine the firmware cannot serve (an encoder
     faster than it follows: firmware/limits.toml)."""
-    from retrofit.firmware_limits import check_encoder
+    from retrofit.firmware.limits import check_encoder
     try:
         check_encoder(m)
         axes = firmware_axes(m)

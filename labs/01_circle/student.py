@@ -5,10 +5,10 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from retrofit.config import load_machine
-from retrofit.labs import pyplot, save_figure
+from retrofit.machine.config import load_machine
+from retrofit.lab.core import pyplot, save_figure
 from retrofit.motion.errorloop import PositionErrorLoop
-from retrofit.plot import carriage_path
+from retrofit.run.plot import carriage_path
 from retrofit.sim import SimMachine
 
 MACHINE = "chivu-lathe"

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
 from retrofit.frames import PinMap
-from retrofit.labs import pyplot, save_figure
+from retrofit.lab.core import pyplot, save_figure
 from retrofit.motion.errorloop import PositionErrorLoop
 from retrofit.outputs import open_output
 

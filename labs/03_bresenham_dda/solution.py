@@ -5,7 +5,7 @@ from __future__ import annotations
 import random
 from pathlib import Path
 
-from retrofit.labs import pyplot, save_figure
+from retrofit.lab.core import pyplot, save_figure
 from retrofit.motion.bresenham import bresenham_cycles, prepare_line
 from retrofit.motion.dda import dda_positions
 

@@ -10,9 +10,9 @@ from dataclasses import replace
 
 import pytest
 
-from retrofit.config import load_machine
-from retrofit.labcheck import cases, seed_note
-from retrofit.labs import expect, load_target
+from retrofit.machine.config import load_machine
+from retrofit.lab.check import cases, seed_note
+from retrofit.lab.core import expect, load_target
 from retrofit.motion.errorloop import PositionErrorLoop
 from retrofit.sim import SimMachine
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
-from retrofit.config import load_machine
-from retrofit.labs import pyplot, save_figure
+from retrofit.machine.config import load_machine
+from retrofit.lab.core import pyplot, save_figure
 from retrofit.motion.errorloop import PositionErrorLoop
 from retrofit.sim import SimMachine
 

@@ -14,9 +14,9 @@ from pathlib import Path
 import pytest
 
 from retrofit.commands import PMov
-from retrofit.config import load_machine
-from retrofit.labcheck import borrowed, cases, seed_note
-from retrofit.labs import expect, load_target, target_path
+from retrofit.machine.config import load_machine
+from retrofit.lab.check import borrowed, cases, seed_note
+from retrofit.lab.core import expect, load_target, target_path
 from retrofit.motion.fast import execute_fast
 from retrofit.motion.planner import plan_program
 from retrofit.sim import SimMachine

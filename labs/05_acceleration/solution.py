@@ -7,8 +7,8 @@ from dataclasses import replace
 from pathlib import Path
 
 from retrofit.commands import PMov
-from retrofit.config import load_machine
-from retrofit.labs import pyplot, save_figure
+from retrofit.machine.config import load_machine
+from retrofit.lab.core import pyplot, save_figure
 from retrofit.motion.fast import execute_fast
 from retrofit.motion.planner import plan_program
 from retrofit.sim import SimMachine

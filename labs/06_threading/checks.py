@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 from retrofit.commands import IStp, Spin
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
 from retrofit.controller.program import run_commands
 from retrofit.gcode import compile_program
-from retrofit.labcheck import cases, seed_note
-from retrofit.labs import expect, load_target
+from retrofit.lab.check import cases, seed_note
+from retrofit.lab.core import expect, load_target
 from retrofit.sim import SimMachine
 
 PITCH, Z_START, SKIP_MM = 1.5, 3.0, 2.5

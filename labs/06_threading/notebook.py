@@ -25,8 +25,8 @@ from pathlib import Path
 
 from IPython.display import Image, display
 
-from retrofit.config import load_machine
-from retrofit.labs import load_module, target_path
+from retrofit.machine.config import load_machine
+from retrofit.lab.core import load_module, target_path
 
 HERE = Path.cwd()
 lab = load_module(target_path(HERE))
@@ -57,7 +57,7 @@ for written in lab.main(HERE / "out"):
 # The same checks as `retrofit lab check 06`: one line per check.
 
 # %%
-from retrofit.labs import check_lab, find_lab, result_lines
+from retrofit.lab.core import check_lab, find_lab, result_lines
 
 for line in result_lines(check_lab(find_lab(HERE.parent, "06"), target=target_path(HERE))):
     print(line)

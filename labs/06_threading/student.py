@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 
 from retrofit.commands import IStp, Spin
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
 from retrofit.controller.program import run_commands
 from retrofit.gcode import compile_program
-from retrofit.labs import pyplot, save_figure
+from retrofit.lab.core import pyplot, save_figure
 from retrofit.sim import SimMachine
 
 MACHINE = "mitic-lathe"

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from retrofit.camlink.model import step_comparison
-from retrofit.config import load_machine
-from retrofit.labcheck import borrowed, cases, seed_note
-from retrofit.labs import expect, load_target, target_path
+from retrofit.machine.config import load_machine
+from retrofit.lab.check import borrowed, cases, seed_note
+from retrofit.lab.core import expect, load_target, target_path
 
 
 @pytest.fixture(scope="module")

@@ -7,8 +7,8 @@ from dataclasses import replace
 from pathlib import Path
 
 from retrofit.camlink.model import loop_model, step_comparison
-from retrofit.config import load_machine
-from retrofit.labs import pyplot, save_figure
+from retrofit.machine.config import load_machine
+from retrofit.lab.core import pyplot, save_figure
 
 MACHINE = "grenoble-mill"
 AXIS = "X"

@@ -16,9 +16,9 @@ from retrofit.atc.cell import SimCell
 from retrofit.atc.magazine import MagazineState
 from retrofit.atc.sequences import change_sequence
 from retrofit.atc.settings import atc_of
-from retrofit.config import load_machine
-from retrofit.labcheck import borrowed, cases, seed_note
-from retrofit.labs import expect, load_target, target_path
+from retrofit.machine.config import load_machine
+from retrofit.lab.check import borrowed, cases, seed_note
+from retrofit.lab.core import expect, load_target, target_path
 
 START_MM = {"X": 5.0, "Y": 5.0, "Z": -5.0, "E": 0.0}
 

@@ -10,8 +10,8 @@ from retrofit.atc.cell import SimCell
 from retrofit.atc.magazine import MagazineState
 from retrofit.atc.sequences import change_sequence
 from retrofit.atc.settings import atc_of
-from retrofit.config import load_machine
-from retrofit.labs import pyplot, save_figure
+from retrofit.machine.config import load_machine
+from retrofit.lab.core import pyplot, save_figure
 
 MACHINE = "tul-mill"
 FROM_TOOL, TO_TOOL = 3, 7

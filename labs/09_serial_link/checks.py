@@ -14,10 +14,10 @@ from pathlib import Path
 import pytest
 
 from retrofit.commands import PMov
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
 from retrofit.errors import LinkError
-from retrofit.labcheck import borrowed, cases, seed_note
-from retrofit.labs import expect, load_target, target_path
+from retrofit.lab.check import borrowed, cases, seed_note
+from retrofit.lab.core import expect, load_target, target_path
 from retrofit.link import DeviceEndpoint, Frame, FrameDecoder, HostEndpoint, encode_command
 from retrofit.link.framing import BadFrame
 from retrofit.link.simwire import FaultyWire, LinkBench

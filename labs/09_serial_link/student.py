@@ -7,8 +7,8 @@ import random
 from pathlib import Path
 
 from retrofit.commands import PMov
-from retrofit.config import load_machine
-from retrofit.labs import pyplot, save_figure
+from retrofit.machine.config import load_machine
+from retrofit.lab.core import pyplot, save_figure
 from retrofit.link import DeviceEndpoint, Frame, FrameDecoder, HostEndpoint, crc32
 from retrofit.link.framing import BadFrame, ESC, ESC_XOR, SOF
 from retrofit.link.simwire import FaultyWire, LinkBench

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from retrofit.labcheck import borrowed, cases, seed_note
-from retrofit.labs import expect, load_target, target_path
+from retrofit.lab.check import borrowed, cases, seed_note
+from retrofit.lab.core import expect, load_target, target_path
 
 PROGRAMS = Path(__file__).resolve().parent / "programs"
 NAMES = sorted(p.stem for p in PROGRAMS.glob("*.ngc"))
@@ -42,7 +42,7 @@ def recorded(name):
 def by_retrofit(name):
     """The same moves from retrofit's interpreter on the mill, or None where it refuses the program."""
     from retrofit.commands import FMov, PFdr, PMov
-    from retrofit.config import load_machine
+    from retrofit.machine.config import load_machine
     from retrofit.errors import RetrofitError
     from retrofit.gcode.program import compile_program
     try:

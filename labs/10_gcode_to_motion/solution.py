@@ -7,7 +7,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from retrofit.labs import pyplot, save_figure
+from retrofit.lab.core import pyplot, save_figure
 
 PROGRAMS = Path(__file__).resolve().parent / "programs"
 _WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")

@@ -13,8 +13,8 @@ from dataclasses import replace
 
 import pytest
 
-from retrofit.config import load_machine
-from retrofit.labs import expect, load_target
+from retrofit.machine.config import load_machine
+from retrofit.lab.core import expect, load_target
 
 KEYS = ("window", "queue", "prepared", "executing", "cycle", "position", "offset", "stopped", "error", "interp")
 IMMEDIATE = ("RDPS", "RDST", "STOP", "INIT", "FFDR", "MFDR")

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from retrofit.commands import CStp, Dely, FFdr, FMov, Init, MFdr, PFdr, Pstn, Rdps, Rdst, Stop, ZMov, parse_command
-from retrofit.config import load_machine
-from retrofit.labs import pyplot, save_figure
+from retrofit.machine.config import load_machine
+from retrofit.lab.core import pyplot, save_figure
 from retrofit.motion.bresenham import bresenham_cycles, prepare_line
 
 MACHINE = "mitic-lathe"

@@ -11,8 +11,8 @@ import numpy as np
 # the command classes your functions tell apart (parse_command turns a text into one)
 from retrofit.commands import CStp, Dely, FFdr, FMov, Init, MFdr, PFdr, PMov, Pstn, Rdps, Rdst, Stop, ZMov, \
     parse_command
-from retrofit.config import load_machine
-from retrofit.labs import pyplot, save_figure
+from retrofit.machine.config import load_machine
+from retrofit.lab.core import pyplot, save_figure
 from retrofit.motion.bresenham import bresenham_cycles, prepare_line
 
 MACHINE = "mitic-lathe"

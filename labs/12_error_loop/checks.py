@@ -13,9 +13,9 @@ from dataclasses import replace
 
 import pytest
 
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
 from retrofit.frames import PortFrames
-from retrofit.labs import expect, load_target
+from retrofit.lab.core import expect, load_target
 from retrofit.sim import SimMachine
 
 

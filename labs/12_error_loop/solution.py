@@ -6,9 +6,9 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
 from retrofit.frames import PinMap, PortFrames
-from retrofit.labs import pyplot, save_figure
+from retrofit.lab.core import pyplot, save_figure
 from retrofit.motion.stepgen import StepGenerator, StepTiming
 from retrofit.sim import SimMachine
 

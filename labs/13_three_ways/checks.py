@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from retrofit.labcheck import borrowed, cases, seed_note
-from retrofit.labs import expect, load_target, target_path
+from retrofit.lab.check import borrowed, cases, seed_note
+from retrofit.lab.core import expect, load_target, target_path
 
 _DRAW = cases("13 records")
 

@@ -8,12 +8,12 @@ from pathlib import Path
 from amaranth.hdl import Elaboratable, Module, Signal
 from amaranth.sim import Simulator
 
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
 from retrofit.frames import PinMap
 from retrofit.gcode import compile_program
-from retrofit.labs import pyplot, save_figure
+from retrofit.lab.core import pyplot, save_figure
 from retrofit.motion.execute import execute_reference
-from retrofit.runprogram import plan_compiled
+from retrofit.run.program import plan_compiled
 
 MACHINE = "engraver"
 TICK_US = 20.0            # a coarse tick keeps the gateware's simulation short (the engraver's is 1 us)

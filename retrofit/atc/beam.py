@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import math
 
-from ..config import Machine
-from .settings import tools_of
+from ..machine.config import Machine
 from .setter import SetterSettings
+from .settings import tools_of
 
 #: float noise allowed on every comparison, so an edge exactly on a step breaks the beam there
 _SLACK_MM = 1e-9

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..config import Axis
-from ..tomlreader import Section
+from ..machine.config import Axis
+from ..machine.tomlreader import Section
 
 
 @dataclass(frozen=True)

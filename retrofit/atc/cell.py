@@ -12,15 +12,15 @@ from __future__ import annotations
 
 import bisect
 import copy
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Iterable
 
 import numpy as np
 
 from ..commands import Command
-from ..config import Machine
 from ..errors import ProbeError
 from ..frames import PinMap, PortFrames
+from ..machine.config import Machine
 from ..motion.fast import execute_fast
 from ..motion.planner import plan_program
 from ..runlog import RunLog

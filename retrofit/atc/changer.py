@@ -8,12 +8,13 @@ clearing it after the last. It never moves anything itself.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Protocol, Sequence
+from typing import Protocol
 
 from ..commands import Command, Pstn
-from ..config import Machine
 from ..errors import ToolChangeError
+from ..machine.config import Machine
 from .sequences import ChangeSequence, Step, change_sequence, check_tool, recovery_steps
 from .settings import atc_of
 from .state import SpindleStore

@@ -19,8 +19,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..commands import PAUSE_REASONS, Command, FMov, Paus, PMov, Pstn, Spin, Tool
-from ..config import Machine
 from ..errors import GcodeError, ToolChangeError
+from ..machine.config import Machine
 
 
 @dataclass(frozen=True)

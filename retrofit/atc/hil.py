@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 
-from ..config import Machine
+from ..machine.config import Machine
 from .beam import beam_box_steps
 from .magazine import MagazineState
 from .settings import atc_of, tools_of

@@ -16,12 +16,12 @@ G38 moves the same way, as the program is read (``retrofit run`` with a serial o
 
 from __future__ import annotations
 
-from typing import Iterable, Sequence
+from collections.abc import Iterable, Sequence
 
 from ..commands import Command, PFdr, PMov, Prob
-from ..config import Machine
 from ..errors import LinkError, MotionError, OutputError, ProbeError
 from ..link.probing import probe_over_link
+from ..machine.config import Machine
 from .cell import ProbeHit
 
 

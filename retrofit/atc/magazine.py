@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..config import Machine
+from ..machine.config import Machine
 from ..sim import SimMachine, Violation
 from .settings import atc_of, tools_of
 
@@ -39,14 +39,14 @@ class MagazineState:
     pockets: dict[int, int | None] = field(default_factory=dict)
 
     @classmethod
-    def loaded(cls, machine: Machine, spindle_tool: int = 0) -> "MagazineState":
+    def loaded(cls, machine: Machine, spindle_tool: int = 0) -> MagazineState:
         """Every simulated tool in its own pocket, except ``spindle_tool``, which is in the spindle."""
         atc = atc_of(machine)
         tools = tools_of(machine).sim
         pockets = {n: (n if n in tools and n != spindle_tool else None) for n in range(1, atc.pockets + 1)}
         return cls(spindle_tool or None, pockets)
 
-    def copy(self) -> "MagazineState":
+    def copy(self) -> MagazineState:
         """An independent copy (the pockets' dict is not shared)."""
         return MagazineState(self.spindle, dict(self.pockets))
 

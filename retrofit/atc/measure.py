@@ -8,12 +8,13 @@ must be in the spindle (the tool changer puts it there).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Protocol, Sequence
+from typing import Protocol
 
 from ..commands import Command
-from ..config import Machine
 from ..errors import ProbeError, ToolChangeError
+from ..machine.config import Machine
 from . import setter as st
 from .tooltable import Reference, ToolEntry, ToolTable
 

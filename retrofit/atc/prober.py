@@ -11,11 +11,11 @@ move step by step against the beam and stops at the first step that changes it.
 from __future__ import annotations
 
 from ..commands import PFdr, PMov
-from ..config import Machine
 from ..errors import RetrofitError
 from ..gcode.errors import RuleError
 from ..gcode.probing import ProbeRequest, ProbeResult
 from ..gcode.program import Program
+from ..machine.config import Machine
 from .cell import SimCell
 from .front import expand_host_commands
 from .magazine import MagazineState

@@ -20,8 +20,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..commands import Command, FMov, PFdr, PMov
-from ..config import Axis
-from ..tomlreader import Section
+from ..machine.config import Axis
+from ..machine.tomlreader import Section
 
 
 @dataclass(frozen=True)

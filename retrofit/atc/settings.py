@@ -1,7 +1,7 @@
 """The machine-file sections of the tool changer and the tools: ``[atc]``, ``[atc.sim]``, ``[tools]``.
 
-Each reader takes the strict :class:`~retrofit.tomlreader.Section` and the machine's axes (see
-``SECTION_PARSERS`` in :mod:`retrofit.config`) and returns a frozen object that lands in
+Each reader takes the strict :class:`~retrofit.machine.tomlreader.Section` and the machine's axes (see
+``SECTION_PARSERS`` in :mod:`retrofit.machine.config`) and returns a frozen object that lands in
 ``Machine.parts``. Positions are mm on X, Y, Z and carousel units on the carousel axis (one
 unit turns the disc by one pocket pitch, as the document's ATC_OFFSET and ATC_HOME are given).
 """
@@ -10,9 +10,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..config import Axis, Machine
 from ..errors import ConfigError, ToolChangeError
-from ..tomlreader import Section
+from ..machine.config import Axis, Machine
+from ..machine.tomlreader import Section
 
 #: when tool changes happen in G-code: on M6 (RS274NGC), or on the T word itself (Repetier, 000)
 CHANGE_ON = ("M6", "T")

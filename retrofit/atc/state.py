@@ -29,8 +29,8 @@ import os
 import shlex
 from pathlib import Path
 
-from ..errors import ToolStateError
 from ..atomic import write_json_atomic
+from ..errors import ToolStateError
 
 #: outputs that move no machine: their runs keep the simulated spindle's record
 SIMULATED_SCHEMES = ("sim", "vcd", "parport+record", "fpga-sim")
@@ -49,7 +49,7 @@ def default_state_dir() -> Path:
 
 def is_shipped(machine) -> bool:
     """Whether ``machine`` was read from a machine file that ships with retrofit."""
-    from ..config import machines_dir
+    from ..machine.config import machines_dir
     return Path(machine.source).resolve().parent == Path(str(machines_dir())).resolve()
 
 
@@ -76,7 +76,7 @@ def drives_machine(urls) -> str | None:
     return next((u for u in urls if OutputURL.parse(u).scheme not in SIMULATED_SCHEMES), None)
 
 
-def spindle_store(machine, machine_arg: str, urls, tool_table=None) -> tuple[Path, "SpindleStore"]:
+def spindle_store(machine, machine_arg: str, urls, tool_table=None) -> tuple[Path, SpindleStore]:
     """(tool table, spindle record) of a command on ``machine`` (named ``machine_arg`` on its
     command line) with outputs ``urls``: the machine's record when an output moves a machine,
     else the simulated spindle's."""

@@ -11,13 +11,12 @@ program uses the measurements.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import ToolChangeError, ToolStateError
-import math
-
 from ..atomic import write_json_atomic
+from ..errors import ToolChangeError, ToolStateError
 from .state import default_state_dir
 
 
@@ -100,7 +99,7 @@ class ToolTableStore:
         write_json_atomic(self.path, table.as_dict())
         if self.tbl is None or table.reference is None:
             return
-        from ..tooltable import ToolTable as Tbl
+        from ..machine.tooltable import ToolTable as Tbl
         tbl = Tbl.load(self.tbl)
         for number, entry in sorted(table.tools.items()):
             if entry.length_mm is not None:
@@ -113,7 +112,7 @@ class ToolTableStore:
 
 
 def _new(number: int):
-    from ..tooltable import Tool
+    from ..machine.tooltable import Tool
     return Tool(number, pocket=number)
 
 

@@ -12,8 +12,8 @@ import select
 import socket
 import time
 from collections import deque
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import Callable, Iterable
 
 from ..errors import LinkError
 from .protocol import Auto, EndOperation, Home, Message, Row, format_message, parse_position
@@ -36,7 +36,7 @@ class CamClient:
         self._buffer = b""
         self.lines: deque[str] = deque()     # reply lines received and not yet taken
 
-    def __enter__(self) -> "CamClient":
+    def __enter__(self) -> CamClient:
         return self
 
     def __exit__(self, *exc) -> None:

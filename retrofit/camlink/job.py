@@ -7,13 +7,12 @@ home (so the CAM side knows where the axes are), then per operation ``P1``/``P0`
 
 from __future__ import annotations
 
-from typing import Iterable, Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 
 from ..commands import Command, Cool, Dely, FFdr, FMov, MFdr, PFdr, PMov, Spin, ZMov
-from ..config import Machine
 from ..errors import LinkError
-from .protocol import (FEED_LIMIT, Auto, EndOperation, Home, Machining, Message, Operation, Spindle,
-                       ToolChange)
+from ..machine.config import Machine
+from .protocol import FEED_LIMIT, Auto, EndOperation, Home, Machining, Message, Operation, Spindle, ToolChange
 from .servo import servo_of
 from .trajectory import hold_rows, plan_rows, xyz_axes
 

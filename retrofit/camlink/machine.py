@@ -13,12 +13,25 @@ import threading
 from collections import deque
 from dataclasses import dataclass
 
-from ..config import Machine
 from ..errors import LinkError
+from ..machine.config import Machine
 from .loop import PositionLoop, ServoAxis
 from .motor import ServoMotor
-from .protocol import (FEED_LIMIT, Auto, EndOperation, Home, Jog, JogFeed, Machining, Message,
-                       Operation, Row, Spindle, ToolChange, format_position)
+from .protocol import (
+    FEED_LIMIT,
+    Auto,
+    EndOperation,
+    Home,
+    Jog,
+    JogFeed,
+    Machining,
+    Message,
+    Operation,
+    Row,
+    Spindle,
+    ToolChange,
+    format_position,
+)
 from .servo import servo_of
 from .trajectory import plan_rows, xyz_axes
 

@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import Machine
 from ..errors import MotionError
+from ..machine.config import Machine
 from .loop import PositionLoop, ServoAxis
 from .motor import ServoMotor
 from .servo import FEED_FULL_SCALE, servo_of

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 
-from ..config import Axis
+from ..machine.config import Axis
 from .servo import ServoSettings
 
 

@@ -20,7 +20,7 @@ import select
 import socket
 import threading
 import time
-from typing import Callable
+from collections.abc import Callable
 
 from ..errors import LinkError, RetrofitError
 from .machine import CamMill
@@ -66,7 +66,7 @@ class CamLinkServer:
         self._thread: threading.Thread | None = None
 
     # -- life cycle ---------------------------------------------------------------------------
-    def start(self) -> "CamLinkServer":
+    def start(self) -> CamLinkServer:
         """Serve in a background thread; returns self."""
         self._thread = threading.Thread(target=self.serve_forever, name="camlink-server", daemon=True)
         self._thread.start()
@@ -81,7 +81,7 @@ class CamLinkServer:
             self._drop("server shut down")
         self.listener.close()
 
-    def __enter__(self) -> "CamLinkServer":
+    def __enter__(self) -> CamLinkServer:
         return self.start()
 
     def __exit__(self, *exc) -> None:

@@ -9,9 +9,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ..config import Axis
 from ..errors import ConfigError
-from ..tomlreader import Section
+from ..machine.config import Axis
+from ..machine.tomlreader import Section
 
 #: full scale of a feedrate on the link (and of the drive's speed set-point): -255..255
 FEED_FULL_SCALE = 255

@@ -11,13 +11,13 @@ position in pulses.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import Iterable, Iterator, Sequence
 
 import numpy as np
 
-from ..config import Machine
 from ..errors import MotionError
+from ..machine.config import Machine
 from ..motion import lookahead
 from ..motion.lookahead import Kinematics
 from .protocol import FEED_LIMIT, ROW_AXES, Row

@@ -11,9 +11,8 @@ the spindle record. On a machine without a tool changer ``retrofit tool`` shows 
 
 from __future__ import annotations
 
-from . import machine_option
-
 from ..errors import RetrofitError
+from . import machine_option
 
 
 def add_commands(sub) -> None:
@@ -65,7 +64,7 @@ class _Mill:
         from ..atc.magazine import MagazineState
         from ..atc.state import spindle_store
         from ..atc.tooltable import ToolTableStore
-        from ..config import load_machine
+        from ..machine.config import load_machine
         self.machine = load_machine(args.machine)
         self.url = getattr(args, "output", None) or "sim://"
         tbl, self.store = spindle_store(self.machine, args.machine, [self.url], args.tool_table)

@@ -33,7 +33,7 @@ def add_commands(sub) -> None:
 def _cmd_serve(args) -> int:
     from ..camlink.machine import CamMill
     from ..camlink.server import CamLinkServer, parse_listen
-    from ..config import load_machine
+    from ..machine.config import load_machine
     machine = load_machine(args.machine)
     host, port = parse_listen(args.listen)
     server = CamLinkServer(CamMill(machine), host, port, log=lambda text: print(text, flush=True),
@@ -49,12 +49,13 @@ def _cmd_serve(args) -> int:
 def _cmd_send(args) -> int:
     import time
     from pathlib import Path
+
     from ..camlink.client import CamClient, stream_job
     from ..camlink.job import program_job
     from ..camlink.server import parse_listen
-    from ..config import load_machine
     from ..errors import LinkError
     from ..gcode import compile_program
+    from ..machine.config import load_machine
     machine = load_machine(args.machine)
     path = Path(args.program)
     try:
@@ -77,7 +78,7 @@ def _cmd_send(args) -> int:
 
 def _cmd_loop_model(args) -> int:
     from ..camlink.model import plot_comparison, ramp_comparison, step_comparison
-    from ..config import load_machine
+    from ..machine.config import load_machine
     machine = load_machine(args.machine)
     axis = machine.axis(args.axis).name
     step = step_comparison(machine, axis, args.step_mm)

@@ -47,10 +47,11 @@ def cmd_console(args) -> int:
     import sys
 
     import uvicorn
-    from ..config import load_machine
-    from ..console.guard import is_loopback
+
     from ..console.api import create_app
+    from ..console.guard import is_loopback
     from ..console.server import Console
+    from ..machine.config import load_machine
     host, port = listen_address(args.listen)
     remote = not is_loopback(host)
     if remote and not args.allow_remote:

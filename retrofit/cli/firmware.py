@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+
 from . import machine_option
 
 
@@ -98,9 +99,9 @@ def _tool(spec: str | None, machine) -> tuple[float, float] | int | None:
 
 
 def _cmd_sim(args) -> int:
-    from ..config import load_machine
-    from ..firmware_sim import Harness, build, report
-    from ..firmware_limits import check_encoder
+    from ..firmware.limits import check_encoder
+    from ..firmware.sim import Harness, build, report
+    from ..machine.config import load_machine
     machine = load_machine(args.machine)
     check_encoder(machine)                       # an encoder faster than the firmware follows
     start = _start_steps(args.start, machine)
@@ -144,7 +145,7 @@ def _print_report(r: dict) -> None:
 
 def firmware_size(machine_name: str) -> dict[str, int]:
     """Flash (text + data) and RAM (data + bss) bytes of the firmware for ``machine_name``."""
-    from ..firmware_sim import build
+    from ..firmware.sim import build
     elf = build(machine_name)
     out = subprocess.run(["avr-size", "-A", str(elf)], capture_output=True, text=True, check=True).stdout
     sizes = {}
@@ -157,7 +158,7 @@ def firmware_size(machine_name: str) -> dict[str, int]:
 
 
 def _cmd_size(args) -> int:
-    from ..firmware_sim import supported_machines
+    from ..firmware.sim import supported_machines
     names = args.machine or supported_machines()
     for name in names:
         s = firmware_size(name)
@@ -168,9 +169,9 @@ def _cmd_size(args) -> int:
 
 
 def _cmd_limits(args) -> int:
-    from .. import firmware_limits as fl
-    from ..config import load_machine
-    from ..firmware_sim import supported_machines
+    from ..firmware import limits as fl
+    from ..firmware.sim import supported_machines
+    from ..machine.config import load_machine
     limits = fl.load()
     current = limits.identity == fl.build_identity()
     print(f"{fl.TABLE}: build {limits.identity[:16]} "

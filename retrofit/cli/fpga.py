@@ -23,8 +23,8 @@ def add_commands(sub) -> None:
 
 
 def cmd_build(args) -> int:
-    from ..config import load_machine
     from ..fpga.board import build
+    from ..machine.config import load_machine
     from ..outputs.pacer_build import cache_dir
     machine = load_machine(args.machine)
     where = args.build_dir or cache_dir() / "fpga" / f"{args.board}-{machine.name}"

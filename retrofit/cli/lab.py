@@ -72,7 +72,7 @@ def _ascii_only() -> bool:
 
 
 def cmd_list(args) -> int:
-    from ..labs import labs_dir, list_labs
+    from ..lab.core import labs_dir, list_labs
     root = labs_dir(args.labs)
     print(f"labs in {root}:")
     for lab in list_labs(root):
@@ -82,7 +82,7 @@ def cmd_list(args) -> int:
 
 
 def cmd_run(args) -> int:
-    from ..labs import explain, find_lab, labs_dir, run_lab
+    from ..lab.core import explain, find_lab, labs_dir, run_lab
     lab = find_lab(labs_dir(args.labs), args.lab)
     file = lab.file(args.solution)
     print(f"Lab {lab.number}: {lab.title} — running {file.name}")
@@ -102,8 +102,9 @@ def cmd_run(args) -> int:
 def cmd_check(args) -> int:
     import json
     from pathlib import Path
+
     from ..errors import ConfigError
-    from ..labs import check_lab, find_lab, labs_dir, result_lines
+    from ..lab.core import check_lab, find_lab, labs_dir, result_lines
     lab = find_lab(labs_dir(args.labs), args.lab)
     file = Path(args.file) if args.file else lab.file(args.solution)
     if not file.is_file():
@@ -122,8 +123,8 @@ def cmd_check(args) -> int:
 
 
 def cmd_export(args) -> int:
-    from ..labkit import export_lab
-    from ..labs import find_lab, labs_dir
+    from ..lab.core import find_lab, labs_dir
+    from ..lab.kit import export_lab
     lab = find_lab(labs_dir(args.labs), args.lab)
     written = export_lab(lab, args.dir, warn=lambda text: print(f"warning: {text}", file=sys.stderr))
     print(f"Lab {lab.number}: {lab.title} — {len(written)} files for students in {args.dir}/{lab.path.name}")
@@ -135,8 +136,9 @@ def cmd_export(args) -> int:
 
 def cmd_grade(args) -> int:
     from pathlib import Path
-    from ..labkit import Limits, grade, write_grades
-    from ..labs import find_lab, labs_dir
+
+    from ..lab.core import find_lab, labs_dir
+    from ..lab.kit import Limits, grade, write_grades
     lab = find_lab(labs_dir(args.labs), args.lab)
     limits = Limits(cpu_seconds=args.cpu, memory_mb=args.memory, check_seconds=args.check_seconds,
                     wall_seconds=max(60.0, 3.0 * args.cpu), processes=args.processes, file_mb=args.file_mb)

@@ -42,8 +42,8 @@ def _heartbeat_ms(text: str) -> float:
 
 
 def _cmd_mcu(args) -> int:
-    from ..config import load_machine
-    from ..mcu import McuLoop, PtyPort, TcpServerPort, make_controller, parse_listen
+    from ..firmware.mcu import McuLoop, PtyPort, TcpServerPort, make_controller, parse_listen
+    from ..machine.config import load_machine
     machine = load_machine(args.machine)
     controller = make_controller(machine, backlash_comp=not args.no_backlash_comp, simulate=args.sim)
     if args.pty:

@@ -53,8 +53,8 @@ def timing_url(args, folder: str) -> str:
 
 
 def cmd_timing(args) -> int:
-    from ..config import load_machine
     from ..demo import circle_targets
+    from ..machine.config import load_machine
     from ..motion.errorloop import PositionErrorLoop
     from ..outputs import open_output
     from ..outputs.pacer import repeat_frames

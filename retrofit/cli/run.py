@@ -64,7 +64,7 @@ def motion_options(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_machines(args) -> int:
-    from ..config import list_machines, load_machine
+    from ..machine.config import list_machines, load_machine
     for name in list_machines():
         m = load_machine(name)
         axes = ", ".join(f"{a.name} {a.steps_per_mm:g} steps/mm" for a in m.axes)
@@ -79,19 +79,19 @@ def cmd_demo(args) -> int:
 
 
 def _demo(args) -> int:
-    from ..config import load_machine
     from ..demo import circle_targets
+    from ..machine.config import load_machine
     from ..motion.errorloop import PositionErrorLoop
-    from ..report import build_report
-    from ..runner import deliver
-    from ..runreport import fit, summary_lines
+    from ..run.report import build_report
+    from ..run.runner import deliver
+    from ..run.summary import fit, summary_lines
     machine = load_machine(args.machine)
     if args.points < 1 or not args.radius > 0:
         raise RetrofitError(f"--points must be >= 1 and --radius > 0 (got {args.points}, {args.radius:g})")
     files = output_files(args)
     log = PositionErrorLoop(machine, backlash_comp=not args.no_backlash_comp).run(
         circle_targets(machine, args.radius, args.points))
-    from ..runprogram import command_outputs
+    from ..run.program import command_outputs
     urls, _ = command_outputs(args.output or ["sim://"], machine, None)     # refuses serial://
     sim = deliver(log, urls)
     report = build_report(log, sim)
@@ -107,6 +107,7 @@ def _demo(args) -> int:
 
 def cmd_run(args) -> int:
     import gc
+
     # A run makes hundreds of thousands of objects (a command per arc chord, a planned move per
     # command) and almost no reference cycles: refcounting frees them, and the cyclic collector
     # would only walk them again and again (a tenth of a long run's CPU). This process ends with
@@ -122,11 +123,11 @@ def cmd_run(args) -> int:
 
 def _run(args) -> int:
     from ..atc.state import spindle_store
-    from ..config import load_machine
-    from ..progress import Progress
-    from ..runprogram import STAGE_WEIGHTS, read_program, run_program
-    from ..runreport import fit, summary_lines
-    from ..tooltable import ToolTable
+    from ..machine.config import load_machine
+    from ..machine.tooltable import ToolTable
+    from ..run.program import STAGE_WEIGHTS, read_program, run_program
+    from ..run.progress import Progress
+    from ..run.summary import fit, summary_lines
     machine = load_machine(args.machine)
     text, name = read_program(args.program)
     files = output_files(args)
@@ -200,7 +201,7 @@ def output_files(args) -> dict:
         check_target(path)
     from ..atomic import plan
     from ..outputs import OutputURL
-    from ..runner import FILE_SCHEMES
+    from ..run.runner import FILE_SCHEMES
     targets = [OutputURL.parse(u) for u in (getattr(args, "output", None) or [])]
     plan([Path(u.target) for u in targets if u.scheme in FILE_SCHEMES and u.target] + list(files.values()))
     return files
@@ -215,7 +216,7 @@ def write_files(files: dict, args, log, sim, report: dict, commands=None, progra
     from ..atomic import write_json_atomic
     lines = []
     if "plot" in files:
-        from ..plot import plot_run
+        from ..run.plot import plot_run
         lines.append(f"  plot: {plot_run(args, log, sim, commands, files['plot'], program)}")
     if "html" in files:
         from ..console.report_html import write_html_report

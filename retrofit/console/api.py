@@ -27,8 +27,8 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
-from ..config import Machine
 from ..errors import RetrofitError
+from ..machine.config import Machine
 from .guard import CONTROL_HEADER
 from .schema import PROGRAM_BYTES
 
@@ -146,7 +146,8 @@ def query_int(request, key: str, default: int = 0) -> int:
 
 def machine_info(machine: Machine, programs: list[str] = ()) -> dict:
     from importlib import resources as res
-    from ..plot import is_lathe
+
+    from ..run.plot import is_lathe
     examples = sorted(p.name for p in (res.files("retrofit") / "examples").iterdir() if p.name.endswith(".ngc"))
     return {"name": machine.name, "description": machine.description, "tick_us": machine.tick_us,
             "lathe": is_lathe(machine), "examples": examples, "programs": list(programs),

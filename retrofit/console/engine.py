@@ -18,8 +18,8 @@ from collections import deque
 from contextlib import suppress
 
 from ..commands import PAUSE_REASONS, Command, FFdr, MFdr, Stop, Tool
-from ..config import Machine
 from ..errors import MotionError
+from ..machine.config import Machine
 from .handing import programmed_feeds, send_frames
 
 #: machine time one chunk of ticks covers (s): the longest an operator's action waits

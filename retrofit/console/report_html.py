@@ -20,11 +20,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import Machine
 from ..frames import PortFrames
+from ..machine.config import Machine
 from .api import STATIC, plotly_js
 from .packing import Store, ascii_page, ascii_script, escaped
-from .views import AVERAGE_S, TIMELINE_POINTS as WINDOW_POINTS, axis_steps, preview, timeline
+from .views import AVERAGE_S, axis_steps, preview, timeline
+from .views import TIMELINE_POINTS as WINDOW_POINTS
 
 #: the most a report weighs (bytes); the pulse view's port frames fill what the rest leaves
 REPORT_BYTES = 2_000_000
@@ -51,14 +52,14 @@ def write_html_report(args, log, sim, report: dict, commands=None, target: Path 
 
     ``program`` is the run's (name, G-code text) and ``compiled`` its Program when the caller has them.
     """
-    from ..plot import user_title
+    from ..run.plot import user_title
     source, what = "", getattr(args, "which", "")
     if program is not None:
         what, source = program
         compiled = compiled or waypoint_program(log, what)
     elif getattr(args, "program", None):
         from ..gcode import load_program
-        from ..runprogram import resolve_program
+        from ..run.program import resolve_program
         path = resolve_program(args.program)
         compiled, source, what = load_program(path, log.machine), path.read_text(errors="replace"), path.name
     else:                                # a demo: its commanded points, as cuts
@@ -112,7 +113,7 @@ def run_data(machine: Machine, frames: PortFrames, sim, report: dict, program, s
              store: Store) -> dict:
     """What the page draws: preview, backplot, timeline, violations, the listing (the port frames
     are added by :func:`frame_chunks`, in the room the rest leaves)."""
-    from ..plot import carriage_path, is_lathe
+    from ..run.plot import carriage_path, is_lathe
     steps = axis_steps(frames, machine, start_steps)
     per_mm = [a.steps_per_mm for a in machine.axes]
     if program is not None:
@@ -209,7 +210,7 @@ def packed_within(store: Store, pack, items: list, limit: int):
 
 
 def _summary(report: dict) -> list[str]:
-    from ..report import summary_lines
+    from ..run.report import summary_lines
     return summary_lines(report)
 
 
@@ -273,7 +274,7 @@ if (run.frames.shown < run.frames.total)
   note(document.getElementById("pulses"), `the pulse view holds the first ${{run.frames.shown}} of ` +
        `${{run.frames.total}} port frames (what fits in a report of at most 2 MB)`);
 RV.attachRunViews(document.getElementById("timeline"), document.getElementById("pulses"), RV.localSource(run),
-  run.end_tick, run.tick_s, v).then(views => {{ 
+  run.end_tick, run.tick_s, v).then(views => {{
   performance.mark("drawn"); window.retrofitViews = views; document.body.dataset.views = "ready"; }});
 }});
 </script>

@@ -17,9 +17,9 @@ SPEED_EVENTS = ("feed", "rapid", "hold", "resume", "stop")
 
 def console_report(run) -> dict:
     """``build_report`` of a :class:`~retrofit.console.engine.SteeredRun`, with ``events`` and ``moves``."""
-    from ..report import build_report
+    from ..run.report import build_report
     log = run.ctl.run_log()
-    from ..runreport import magazine_check
+    from ..run.summary import magazine_check
     report = build_report(log, run.sim)
     found = [v.as_dict() for v in magazine_check(run.machine, log.start_steps, run.start_tool, run.sim)]
     report["violations"] = sorted(report["violations"] + found, key=lambda v: (v["tick"], v["axis"], v["kind"]))

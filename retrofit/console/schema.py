@@ -13,8 +13,8 @@ from typing import Annotated, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, model_validator
 
-from ..config import Machine
 from ..errors import RetrofitError
+from ..machine.config import Machine
 
 #: largest body of an action, a run or a control call (bytes)
 ACTION_BYTES = 64 * 1024

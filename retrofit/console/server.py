@@ -10,8 +10,8 @@ import threading
 from contextlib import contextmanager
 from pathlib import Path
 
-from ..config import Machine
 from ..errors import GcodeError, RetrofitError
+from ..machine.config import Machine
 
 #: how long the console waits for a stopped run's thread to end before it puts the outputs safe
 STOP_JOIN_S = 5.0

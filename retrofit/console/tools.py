@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..config import Machine
+from ..machine.config import Machine
 
 
 def machine_words(machine: Machine) -> str:
@@ -43,8 +43,8 @@ class SpindleTools:
         program run from the machine's zero probes (G38) on the simulated machine, as in ``retrofit
         run``, and is refused on a console that drives a real machine."""
         from ..gcode.program import compile_program
-        from ..runprogram import refuse_real_probing, sim_prober
-        from ..tooltable import ToolTable
+        from ..machine.tooltable import ToolTable
+        from ..run.program import refuse_real_probing, sim_prober
         if name.endswith(".cmds"):
             from .server import command_list
             return command_list(text, name)
@@ -80,7 +80,7 @@ def clamped_feeds(program, machine: Machine, default_feed: float) -> list[str]:
     most the slowest axis of the move allows): the first such line and how many there are."""
     import math
 
-    from ..plot import toolpath
+    from ..run.plot import toolpath
     from .handing import programmed_feeds
     feeds = programmed_feeds(program.commands, default_feed)
     found = []

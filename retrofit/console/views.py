@@ -11,9 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import Machine
 from ..frames import PortFrames
-from ..plot import is_lathe, stock_and_part, toolpath
+from ..machine.config import Machine
+from ..run.plot import is_lathe, stock_and_part, toolpath
 
 #: at most this many points per trace of a timeline window
 TIMELINE_POINTS = 1500

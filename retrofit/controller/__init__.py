@@ -21,11 +21,11 @@ from __future__ import annotations
 from collections import deque
 
 from ..commands import Command, FFdr, Init, MFdr, Rdps, Rdst, Stop
-from ..config import Machine
 from ..errors import MotionError
 from ..frames import PortFrames
 from ..link.codec import ERR_REFUSED, ERR_VALUE, OPCODES
 from ..link.replies import Busy, Err, Position, Status
+from ..machine.config import Machine
 from ..runlog import RunLog
 from .processor import Processor
 from .settings import machine_io
@@ -53,7 +53,7 @@ class Controller:
 
     Examples
     --------
-    >>> from retrofit.config import load_machine
+    >>> from retrofit.machine.config import load_machine
     >>> from retrofit.commands import parse_command
     >>> ctl = Controller(load_machine("chivu-lathe"))
     >>> ctl.submit(parse_command("PMOV X1 Z-2")) is None          # queued
@@ -280,5 +280,5 @@ class Controller:
         return self.processor.pulses.recorder.frames(self._tick)
 
     def run_log(self) -> RunLog:
-        """The run so far as a RunLog, for :func:`retrofit.report.build_report`."""
+        """The run so far as a RunLog, for :func:`retrofit.run.report.build_report`."""
         return self.processor.run_log(self.frames())

@@ -23,7 +23,6 @@ from ..motion.planner import kinematics
 from .prepare import LineEntry
 from .runs import ClockRun
 
-
 #: the feed every move gets when the heartbeat brakes the machine
 BRAKE_FEED_MM_MIN = 1.0
 

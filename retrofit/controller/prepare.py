@@ -18,8 +18,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..commands import Command, Cool, CStp, Dely, FMov, IStp, PFdr, PMov, Prob, Pstn, Spin, ZMov
-from ..config import Machine
 from ..errors import MotionError
+from ..machine.config import Machine
 from ..motion.bresenham import prepare_line
 from ..motion.lookahead import Kinematics
 from ..motion.planner import kinematics

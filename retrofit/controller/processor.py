@@ -13,16 +13,16 @@ from __future__ import annotations
 from collections import deque
 
 from ..commands import Pstn, Spin
-from ..config import Machine
 from ..errors import MotionError
+from ..machine.config import Machine
 from ..motion.bresenham import prepare_line
 from ..motion.execute import tick_of
+from ..motion.pulses import PulseShaper
 from .homing import HomeRun
 from .indexrun import IndexRun
 from .overrides import FeedOverrides
 from .prepare import ActionEntry, DwellEntry, HomeEntry, IndexEntry, LineEntry, Walker
 from .profiles import MoveProfile, ramp_pieces
-from ..motion.pulses import PulseShaper
 from .record import RunRecord
 from .runs import ClockRun, DwellRun
 from .turnaround import Turnaround

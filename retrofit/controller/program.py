@@ -11,8 +11,8 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from ..commands import Command
-from ..config import Machine
 from ..errors import MotionError
+from ..machine.config import Machine
 from . import Controller
 
 #: ticks a program may take by default (about 28 hours at 100 us)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..config import Machine
+from ..machine.config import Machine
 from ..runlog import RunLog, Waypoint
 
 

@@ -1,6 +1,6 @@
 """The machine-file sections the controller reads: [switches], [spindle] and [homing].
 
-Each reader takes a strict :class:`~retrofit.tomlreader.Section` and the machine's axes and
+Each reader takes a strict :class:`~retrofit.machine.tomlreader.Section` and the machine's axes and
 returns a frozen object stored in ``Machine.parts`` (see ``config.SECTION_PARSERS``). Names that
 refer to other sections (a homing switch, say) are checked by :func:`machine_io` once the whole
 file is read, with an error naming file, section and key.
@@ -10,9 +10,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..config import Axis, Machine
 from ..errors import ConfigError
-from ..tomlreader import Section
+from ..machine.config import Axis, Machine
+from ..machine.tomlreader import Section
 
 SWITCH_KINDS = ("limit", "home", "precise")
 SIDES = {"positive": 1, "negative": -1}

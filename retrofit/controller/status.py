@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from ..config import Machine
 from ..link.codec import AXIS_LETTERS
 from ..link.replies import Position, Status, StatusFlags
+from ..machine.config import Machine
 
 #: 002's five switches (Table II) and their bits in the status word
 SWITCH_FLAGS = {

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..config import Machine
+from ..machine.config import Machine
 from ..motion.lookahead import Kinematics, plan_window
 from ..motion.planner import EXP_ACCEL_SCALE, profile_row
 

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from amaranth.build import Attrs, Pins, PinsN, Resource, Subsignal
-from amaranth.lib.cdc import FFSynchronizer
 from amaranth.hdl import ClockDomain, ClockSignal, Elaboratable, Instance, Module, ResetSignal, Signal
+from amaranth.lib.cdc import FFSynchronizer
 
 from ..errors import RetrofitError
 from .engine import AxisTiming, PulseEngine

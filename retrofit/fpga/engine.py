@@ -41,7 +41,7 @@ class AxisTiming:
     hold: int        # direction hold after a rise
 
     @classmethod
-    def of(cls, axis) -> "AxisTiming":
+    def of(cls, axis) -> AxisTiming:
         return cls(axis.pulse_high_ticks + axis.pulse_low_ticks, axis.dir_setup_ticks, axis.dir_hold_ticks)
 
 

@@ -6,7 +6,7 @@ loops), :mod:`.blocks` (words into modal groups), :mod:`.state` (what a block le
 :mod:`.translate`, :mod:`.coords`, :mod:`.cycles`, :mod:`.threading`, :mod:`.radiuscomp` with
 :mod:`.cutter` (blocks into commands) and :mod:`.program` (the interpreter that runs them all)::
 
-    >>> from retrofit.config import load_machine
+    >>> from retrofit.machine.config import load_machine
     >>> from retrofit.gcode import compile_program
     >>> [str(c) for c in compile_program("G0 X5 Z1", load_machine("chivu-lathe")).commands]
     ['FMOV X5 Z1']

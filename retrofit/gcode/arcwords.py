@@ -13,7 +13,7 @@ import math
 from collections.abc import Mapping
 
 from ..commands import PMov
-from ..config import Machine
+from ..machine.config import Machine
 from .errors import RuleError
 from .state import clean_mm_list
 

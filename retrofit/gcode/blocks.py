@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ..config import Machine
+from ..machine.config import Machine
 from .errors import RuleError
 
 #: G codes by modal group, as LinuxCNC groups them

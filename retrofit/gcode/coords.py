@@ -18,7 +18,7 @@ next moves go (:meth:`~retrofit.gcode.state.ModalState.target`). LinuxCNC's sema
 from __future__ import annotations
 
 from ..commands import ZMov
-from ..tooltable import ToolTable, ToolTableError
+from ..machine.tooltable import ToolTable, ToolTableError
 from .errors import RuleError
 from .params import CS_CODES, CS_SELECT, CS_STEP, G28_BASE, G30_BASE, G54_BASE, G92_BASE, TOOL_Z
 from .state import clean_mm

@@ -41,7 +41,7 @@ def run_dollar(interp, line) -> None:
 def _jog(interp, line, code: str) -> None:
     lexed = lex_line(line.number, code)
     if lexed is None or lexed.oword is not None or lexed.assigns:
-        raise RuleError(f"$J= needs G-code words after '=', e.g. $J=G91 X10 F500")
+        raise RuleError("$J= needs G-code words after '=', e.g. $J=G91 X10 F500")
     words = [(letter, interp._value(tree)) for letter, tree in lexed.words]
     block = make_block(line.number, words, interp.machine)
     if block.motion is not None or not block.axes or "F" not in block.values:

@@ -9,7 +9,7 @@
 They act in LinuxCNC's place in a block: after T selects a tool, before M6 and M3/M4/M5.
 As LinuxCNC's interpreter waits for its motion controller at an M66, retrofit's finds when the
 wait starts (the program so far, planned) and reads the machine's simulated input
-(:mod:`retrofit.iopins`); the run waits the same way on the same input. P on M62-M65 is
+(:mod:`retrofit.machine.iopins`); the run waits the same way on the same input. P on M62-M65 is
 rounded to a whole output as rs274 does. Analog inputs (M66 E) are refused: the boards have none.
 """
 
@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from ..commands import Dout, Wait
 from ..errors import RetrofitError
-from ..iopins import WAIT_MODES, wait_outcome
+from ..machine.iopins import WAIT_MODES, wait_outcome
 from .errors import NeedsWholeProgram, RuleError
 
 #: where M66 leaves its result

@@ -22,8 +22,8 @@ input, a probing move is refused with its line.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 from .errors import RuleError
 from .params import AXIS_ORDER

@@ -14,15 +14,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..commands import Command
-from ..config import Machine, load_machine
 from ..errors import GcodeError
+from ..machine.config import Machine, load_machine
+from . import fanuc, lathecycles, modalsave
 from .blocks import make_block
 from .dialect import run_dollar
 from .errors import RuleError
 from .expressions import evaluate
 from .lazylines import LazyLines
 from .lexer import lex_lines
-from . import fanuc, lathecycles, modalsave
 from .ocode import Source, scan
 from .plainline import run_plain
 from .plainrun import RUN_LINES, take_run
@@ -310,14 +310,14 @@ def compile_program(text: str, machine: Machine, file: str = "<string>",
     broken rule a :class:`~retrofit.errors.GcodeError` names ``file:line`` (the subroutine file
     where the line is) and the rule, and no command at all reaches the caller. ``start_mm`` is
     where the machine stands when the program starts (axes not named there at 0 mm);
-    ``tool_table`` a :class:`~retrofit.tooltable.ToolTable` for G43 and G10 L1;
+    ``tool_table`` a :class:`~retrofit.machine.tooltable.ToolTable` for G43 and G10 L1;
     ``spindle_tool`` the tool in the spindle; ``search_path`` the folders where ``o<name> call``
     finds ``name.ngc``; ``probe`` makes G38 probing moves on the machine
     (:mod:`retrofit.gcode.probing`); ``on_progress(share)`` is called now and then with the
     share (0..1) of the work done, for a progress bar; ``dialect`` "fanuc" reads a Fanuc/Haas
     lathe program (:mod:`retrofit.gcode.fanuc_lathe`; default: the machine file's ``dialect``).
 
-    >>> from retrofit.config import load_machine
+    >>> from retrofit.machine.config import load_machine
     >>> prog = compile_program("G0 X10 Z2\\nG1 Z-5 F100", load_machine("chivu-lathe"))
     >>> [str(c) for c in prog.commands]
     ['FMOV X10 Z2', 'PFDR F100', 'PMOV X10 Z-5']

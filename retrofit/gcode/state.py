@@ -15,8 +15,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from ..config import Machine
-from ..rotary import shorter_way
+from ..machine.config import Machine
+from ..machine.rotary import shorter_way
 from .params import CS_SELECT, CS_STEP, G54_BASE, G92_BASE, Parameters
 
 MM_PER_INCH = 25.4
@@ -94,7 +94,7 @@ class ModalState:
     wrapped: frozenset = frozenset()    # rotary axes whose G90 moves take the shorter way
 
     @classmethod
-    def start(cls, machine: Machine, start_mm: Mapping[str, float] | None = None) -> "ModalState":
+    def start(cls, machine: Machine, start_mm: Mapping[str, float] | None = None) -> ModalState:
         """The state at the top of a program: G21 G90 G91.1 G94 G54, the default plane, at
         ``start_mm`` (axes not named there at 0 mm)."""
         position = {name: 0.0 for name in machine.axis_names}

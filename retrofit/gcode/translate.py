@@ -17,9 +17,23 @@ from __future__ import annotations
 import math
 
 from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, ZMov
-from ..config import Machine
+from ..machine.config import Machine
 from ..motion.arcs import arc_columns, arc_extent
-from . import coords, cycles, feedcap, iowords, modalsave, pathcontrol, polar, probing, radiuscomp, spindle, splines, tapping, tools
+from . import (
+    coords,
+    cycles,
+    feedcap,
+    iowords,
+    modalsave,
+    pathcontrol,
+    polar,
+    probing,
+    radiuscomp,
+    spindle,
+    splines,
+    tapping,
+    tools,
+)
 from .arcwords import arc_center, chord_moves, plane_axes
 from .blocks import Block
 from .errors import RuleError

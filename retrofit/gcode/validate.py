@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
-from ..config import Machine
+from ..machine.config import Machine
 from .errors import RuleError
 
 #: slack on the soft limits, in steps of the axis: a point a tenth of a step beyond a limit (the

@@ -11,17 +11,14 @@ The wire format is specified in docs/protocol.md. Layers, bottom up:
 - ``simwire``: a seeded noisy line joining both endpoints on a simulated clock (tests, labs).
 """
 
-from .codec import (AXIS_LETTERS, FEED_UNIT_MM, OPCODES, POS_MAX, PayloadError, decode_command,
-                    encode_command)
+from .codec import AXIS_LETTERS, FEED_UNIT_MM, OPCODES, POS_MAX, PayloadError, decode_command, encode_command
 from .crc import crc32
 from .device import DeviceEndpoint, DeviceStats, SessionNumbers
-from .framing import (IMMEDIATE, MAX_PAYLOAD, QUEUED, BadFrame, Frame, FrameDecoder, encode_frame,
-                      seq_byte)
+from .framing import IMMEDIATE, MAX_PAYLOAD, QUEUED, BadFrame, Frame, FrameDecoder, encode_frame, seq_byte
 from .host import HostEndpoint, HostStats, Transaction
-from .replies import (Ack, Busy, Err, Nak, Position, Reply, Session, Status, StatusFlags,
-                      decode_reply, encode_reply)
-from .transport import DeviceLink, HostLink, open_port
 from .probing import ProbeResult, probe_over_link
+from .replies import Ack, Busy, Err, Nak, Position, Reply, Session, Status, StatusFlags, decode_reply, encode_reply
+from .transport import DeviceLink, HostLink, open_port
 
 __all__ = [
     "AXIS_LETTERS", "FEED_UNIT_MM", "OPCODES", "POS_MAX", "PayloadError", "decode_command",

@@ -8,7 +8,7 @@ A machine may have up to ``MAX_AXES`` axes; an axis whose letter is not in ``AXI
 (the mill's carousel, E) takes the highest bit whose letter the machine does not use, in the
 order of the machine file (:func:`axis_bits`).
 
-    >>> from retrofit.config import load_machine
+    >>> from retrofit.machine.config import load_machine
     >>> from retrofit.commands import PMov
     >>> lathe = load_machine("chivu-lathe")
     >>> encode_command(PMov((("X", 12.5), ("Z", -3.0))), lathe).hex(" ")
@@ -21,10 +21,29 @@ from __future__ import annotations
 
 import math
 
-from ..commands import (Command, CommandError, Cool, CStp, Dely, FFdr, FMov, Init, IStp,
-                        MFdr, PFdr, PMov, Prob, Pstn, Rdps, Rdst, Spin, Stop, ZMov)
-from ..config import Machine
+from ..commands import (
+    Command,
+    CommandError,
+    Cool,
+    CStp,
+    Dely,
+    FFdr,
+    FMov,
+    Init,
+    IStp,
+    MFdr,
+    PFdr,
+    PMov,
+    Prob,
+    Pstn,
+    Rdps,
+    Rdst,
+    Spin,
+    Stop,
+    ZMov,
+)
 from ..errors import LinkError, MotionError
+from ..machine.config import Machine
 
 #: axis letter of each mask bit: bit 0 = X, bit 1 = Y, bit 2 = Z, ...
 AXIS_LETTERS = "XYZABCUV"
@@ -66,7 +85,7 @@ class PayloadError(LinkError):
 def axis_bits(machine: Machine | None) -> dict[str, int]:
     """Letter -> mask bit of each axis of ``machine`` (``AXIS_LETTERS`` without a machine).
 
-    >>> from retrofit.config import load_machine
+    >>> from retrofit.machine.config import load_machine
     >>> axis_bits(load_machine("tul-mill"))
     {'X': 0, 'Y': 1, 'Z': 2, 'E': 7}
     """

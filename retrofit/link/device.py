@@ -20,14 +20,23 @@ called for every intact frame (its CRC checks out, bound or not): the heartbeat'
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 from ..commands import Command
-from ..config import Machine
 from ..errors import RetrofitError
-from .codec import (ERR_LENGTH, ERR_NOT_SYNCED, ERR_REFUSED, ERR_SEQUENCE, ERR_VALUE, SYNC,
-                    SYNC_LEN, PayloadError, decode_command)
+from ..machine.config import Machine
+from .codec import (
+    ERR_LENGTH,
+    ERR_NOT_SYNCED,
+    ERR_REFUSED,
+    ERR_SEQUENCE,
+    ERR_VALUE,
+    SYNC,
+    SYNC_LEN,
+    PayloadError,
+    decode_command,
+)
 from .framing import SEQ_MOD, BadFrame, Frame, FrameDecoder, encode_frame, split_seq
 from .replies import Ack, Busy, Err, Nak, Reply, Session, encode_reply
 

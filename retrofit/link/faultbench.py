@@ -17,8 +17,8 @@ from collections import Counter, deque
 from dataclasses import dataclass, field
 
 from ..commands import FFdr, FMov, Init, MFdr, PMov, Rdps, Rdst
-from ..config import Machine, load_machine
 from ..errors import LinkError
+from ..machine.config import Machine, load_machine
 from .codec import FEED_UNIT_MM, encode_command
 from .crc import crc16_ccitt_false
 from .device import DeviceEndpoint, SessionNumbers
@@ -101,7 +101,7 @@ class Tally:
     bad_frames_seen: int = 0        # damaged frames both ends refused
     wire: dict = field(default_factory=dict)
 
-    def add(self, other: "Tally") -> None:
+    def add(self, other: Tally) -> None:
         """Accumulate another shard's tally."""
         for name in ("commands", "given_up", "lost", "duplicated", "corrupted", "wrong_answers",
                      "frames_sent", "bad_frames_seen"):

@@ -12,8 +12,8 @@ starts a frame: a receiver that lost, gained or garbled bytes is back in step at
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import Callable, Iterator
 
 from .crc import crc32
 

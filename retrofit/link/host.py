@@ -22,8 +22,8 @@ from collections import deque
 from dataclasses import dataclass, field
 
 from ..commands import Command, Rdps, Rdst
-from ..config import Machine
 from ..errors import LinkError
+from ..machine.config import Machine
 from .codec import ERR_LENGTH, ERR_NOT_SYNCED, ERR_SEQUENCE, SYNC, PayloadError, encode_command
 
 #: what the host says of a command it gave up on: the device may have executed it

@@ -14,11 +14,12 @@ are injected, so a test runs it on a fake clock.
 from __future__ import annotations
 
 import time
-from typing import Callable, NamedTuple
+from collections.abc import Callable
+from typing import NamedTuple
 
 from ..commands import Prob, Rdps, Rdst
-from ..config import Machine
 from ..errors import MotionError
+from ..machine.config import Machine
 from .replies import Position, Status, StatusFlags, flag_names
 from .transport import HostLink
 

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 from enum import IntFlag
 from typing import ClassVar
 
-from ..config import Machine
-from .codec import ERR_LENGTH, ERR_TEXT, axis_bits, PayloadError, pack_positions, unpack_positions
+from ..machine.config import Machine
+from .codec import ERR_LENGTH, ERR_TEXT, PayloadError, axis_bits, pack_positions, unpack_positions
 
 ACK, NAK, BUSY, ERR, POS, STAT, SESS = 0x80, 0x81, 0x82, 0x83, 0x84, 0x85, 0x86
 

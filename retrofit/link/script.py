@@ -8,7 +8,7 @@ new session before a channel's numbers would wrap, and makes keep-alive frames (
 no session: answered ERR 4, no state changes) that hold off the heartbeat over a long silent move.
 ``replies`` reads the answers back, following the sessions the SESS answers name.
 
-    >>> from retrofit.config import load_machine
+    >>> from retrofit.machine.config import load_machine
     >>> host = ScriptedHost(load_machine("chivu-lathe"))
     >>> host.sync(QUEUED).hex(" ")
     '7e 05 00 7f 5e ed 00 01 49 39 8c 33'
@@ -19,7 +19,7 @@ no session: answered ERR 4, no state changes) that hold off the heartbeat over a
 from __future__ import annotations
 
 from ..commands import Command, Rdst, parse_command
-from ..config import Machine
+from ..machine.config import Machine
 from .codec import ERR_NOT_SYNCED, SYNC, encode_command
 from .framing import IMMEDIATE, QUEUED, SEQ_MOD, BadFrame, FrameDecoder, encode_frame, seq_byte
 from .replies import Err, Reply, Session, decode_reply

@@ -14,11 +14,12 @@ from __future__ import annotations
 import errno
 import threading
 import time
-from typing import Callable, Protocol
+from collections.abc import Callable
+from typing import Protocol
 
 from ..commands import Command, Rdps
-from ..config import Machine
 from ..errors import LinkError
+from ..machine.config import Machine
 from .device import DeviceEndpoint, Handler
 from .host import MAY_HAVE_RUN, HostEndpoint, Transaction
 from .replies import Position, Reply
@@ -111,7 +112,7 @@ class HostLink:
         self._lock = threading.RLock()
 
     @classmethod
-    def open(cls, url: str, machine: Machine, *, baudrate: int = 115200, **options) -> "HostLink":
+    def open(cls, url: str, machine: Machine, *, baudrate: int = 115200, **options) -> HostLink:
         """Open ``url`` with pyserial (see open_port) and put a HostLink on it."""
         return cls(open_port(url, baudrate), machine, name=url, **options)
 
@@ -171,7 +172,7 @@ class HostLink:
         if close is not None:
             close()
 
-    def __enter__(self) -> "HostLink":
+    def __enter__(self) -> HostLink:
         return self
 
     def __exit__(self, *exc) -> None:

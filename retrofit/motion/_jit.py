@@ -107,9 +107,9 @@ def _start_for_cache() -> bool:
     False (nothing changed) where this Numba lacks the pieces this relies on.
     """
     try:
+        import numba.np.arraymath  # noqa: F401  (array lowering, BLAS check)
         from numba.core.registry import cpu_target
         from numba.core.runtime import rtsys
-        import numba.np.arraymath               # noqa: F401  (array lowering, BLAS check)
     except ImportError:
         return False
     target, typing = cpu_target.target_context, cpu_target.typing_context

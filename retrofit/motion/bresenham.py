@@ -27,9 +27,9 @@ steps, with no Python loop per step, and gives exactly what the executor does.
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Sequence
 from dataclasses import dataclass
-import operator
 
 import numpy as np
 

@@ -13,7 +13,7 @@ emit until it is known.
 
 from __future__ import annotations
 
-from typing import Iterator
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -34,11 +34,11 @@ class Columns:
         self._set(arrays)
 
     @classmethod
-    def of_plan(cls, plan, rate: float) -> "Columns":
+    def of_plan(cls, plan, rate: float) -> Columns:
         return cls(plan.machine, rate, plan.arrays(), plan.end_s)
 
     @classmethod
-    def rolling(cls, machine, rate: float, blocks) -> "Columns":
+    def rolling(cls, machine, rate: float, blocks) -> Columns:
         """Columns fed by ``blocks``, an iterator of (PlanArrays, end time or None until the last)."""
         cols = cls(machine, rate, _empty(len(machine.axes)), None, iter(blocks))
         return cols

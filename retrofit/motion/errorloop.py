@@ -11,11 +11,11 @@ Reference path, written to be read next to the paper. Each tick:
 
 from __future__ import annotations
 
-from typing import Iterable, Sequence
+from collections.abc import Iterable, Sequence
 
 from ..backlash import BacklashCompensator
-from ..config import Machine
 from ..frames import FrameRecorder, PinMap
+from ..machine.config import Machine
 from ..runlog import RunLog, Waypoint
 from .stepgen import StepGenerator, StepTiming
 

@@ -44,7 +44,7 @@ class PlanArrays:
         return len(self.t0s)
 
     @classmethod
-    def of_moves(cls, moves, n_axes: int) -> "PlanArrays":
+    def of_moves(cls, moves, n_axes: int) -> PlanArrays:
         """The columns of a list of ``PlannedMove``."""
         n = len(moves)
         profiles = np.zeros((n, P_WIDTH))
@@ -204,15 +204,15 @@ class Segments:
         return len(self.lengths)
 
     @classmethod
-    def empty(cls, n: int, n_axes: int) -> "Segments":
+    def empty(cls, n: int, n_axes: int) -> Segments:
         return cls(*(np.zeros((n, n_axes), np.int64) for _ in range(3)), np.zeros((n, n_axes)),
                    *(np.zeros(n) for _ in range(3)), np.zeros(n, np.bool_), np.zeros(n), np.zeros(n, np.int64))
 
-    def rows(self, lo: int, hi: int | None = None) -> "Segments":
+    def rows(self, lo: int, hi: int | None = None) -> Segments:
         return Segments(*(getattr(self, f)[lo:hi] for f in self.__dataclass_fields__))
 
     @staticmethod
-    def joined(parts: list["Segments"]) -> "Segments":
+    def joined(parts: list[Segments]) -> Segments:
         return Segments(*(np.concatenate([getattr(p, f) for p in parts]) for f in Segments.__dataclass_fields__))
 
 

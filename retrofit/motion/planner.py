@@ -8,14 +8,14 @@ steps, its velocity profile and its start time), so executing it is pure arithme
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import Iterable, Sequence
 
 import numpy as np
 
 from ..commands import Command, Dely, FFdr, FMov, MFdr, PFdr, PMov, Prob, Pstn, Wait, ZMov
-from ..config import Machine
 from ..errors import MotionError
+from ..machine.config import Machine
 from . import profile as prof
 from .bresenham import STEP_SPACE_LIMIT, prepare_line
 from .lookahead import Kinematics, plan_speeds
@@ -129,7 +129,7 @@ def profile_row(kin: Kinematics, entry: float, exit_: float, accel: float, expon
 
 def wait_seconds(machine: Machine, wait: Wait, start_s: float) -> float:
     """How long a WAIT started ``start_s`` into the run lasts on the machine's simulated input."""
-    from ..iopins import wait_outcome
+    from ..machine.iopins import wait_outcome
     io = machine.parts.get("io")
     if io is None or wait.input >= len(io.inputs):
         raise MotionError(f"{wait}: machine {machine.name} has no digital input {wait.input} "

@@ -17,8 +17,8 @@ from collections import deque
 
 import numpy as np
 
-from ..config import Machine
 from ..frames import FrameRecorder, PinMap
+from ..machine.config import Machine
 from .stepgen import StepGenerator, StepTiming
 
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..config import Axis
+from ..machine.config import Axis
 
 _LONG_AGO = -(1 << 40)
 
@@ -34,7 +34,7 @@ class StepTiming:
     dir_hold: int = 0
 
     @classmethod
-    def of(cls, axis: Axis) -> "StepTiming":
+    def of(cls, axis: Axis) -> StepTiming:
         return cls(axis.pulse_high_ticks, axis.pulse_low_ticks, axis.dir_setup_ticks, axis.dir_hold_ticks)
 
     @property

@@ -16,18 +16,18 @@ window of steps whatever the program's length.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import Callable, Iterator
 
 import numpy as np
 
 from ..frames import PinMap, PortFrames
 from ..runlog import RunLog, WaypointTable
-from ._jit import compiled, kernel
+from ._jit import compiled
 from .bitmerge import merge_pending
+from .columns import Columns
 from .execute import tick_of
 from .fast import _bresenham_requests, _dda_requests, plan_steps
-from .columns import Columns
 from .planner import Plan
 from .stepshape import fresh_state, lag_of, shape_steps
 

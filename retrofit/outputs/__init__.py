@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from importlib import import_module
 
-from ..config import Machine
 from ..errors import OutputError
+from ..machine.config import Machine
 from .base import Output, OutputURL
 
 #: scheme -> "module:Class", imported on first use

@@ -12,9 +12,9 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 from urllib.parse import parse_qsl, urlsplit
 
-from ..config import Machine
 from ..errors import OutputError
 from ..frames import PortFrames
+from ..machine.config import Machine
 
 
 @dataclass(frozen=True)
@@ -27,7 +27,7 @@ class OutputURL:
     query: dict[str, str]
 
     @classmethod
-    def parse(cls, text: str) -> "OutputURL":
+    def parse(cls, text: str) -> OutputURL:
         if "://" not in text:
             raise OutputError(f"output {text!r} is not a URL; expected scheme://..., e.g. sim:// or vcd://out.vcd")
         parts = urlsplit(text)

@@ -9,7 +9,7 @@ waypoint the report measures, so memory does not grow with the program's steps.
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 

@@ -34,7 +34,7 @@ class FpgaSimOutput(SimOutput):
     def open(self) -> None:
         if self.is_open:
             return
-        from ..fpga.host import RecordCompiler          # lazily: only this output needs Amaranth
+        from ..fpga.host import RecordCompiler  # lazily: only this output needs Amaranth
         from ..fpga.simulate import GateSim
         k, limit = self.opts["clocks_per_tick"], self.opts["limit_s"]
         if not 1 <= k <= 1000 or not limit > 0:
@@ -70,6 +70,7 @@ class FpgaSimOutput(SimOutput):
 
     def _finish(self) -> None:
         import numpy as np
+
         from ..fpga.simulate import first_difference
         self.gate = self.gate or self._make_gate()
         self.gate.add(self.records.finish(self.end_tick))

@@ -23,9 +23,9 @@ import ctypes
 import ctypes.util
 import os
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -64,7 +64,7 @@ class Lateness:
                                    compare=False)
 
     @classmethod
-    def of(cls, tick_ns: int, writes: int, samples, paced: bool = True) -> "Lateness":
+    def of(cls, tick_ns: int, writes: int, samples, paced: bool = True) -> Lateness:
         a = np.asarray(samples, dtype=np.int64)
         if not paced or len(a) == 0:
             return cls(tick_ns, writes, paced, samples_ns=a)

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 from ..errors import OutputError
 from ..frames import PinMap, PortFrames
-from ..tomlreader import Section
+from ..machine.tomlreader import Section
 from .base import Output
 from .pacer import ENGINES, Calibration, Lateness, Pacer, RealtimeMode, calibrate
 
@@ -98,7 +98,7 @@ class PpdevPort:
     """The real port through pyparallel (Linux ppdev): data writes, control frobs, status reads."""
 
     def __init__(self, device: str):
-        import parallel                       # lazily: only a real port needs pyparallel
+        import parallel  # lazily: only a real port needs pyparallel
         self._port = parallel.Parallel(port=device)
         self._set_data = self._port.setData
 

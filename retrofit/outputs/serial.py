@@ -35,10 +35,10 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Iterable
 
-from ..commands import CStp, Command, FMov, Init, IStp, PMov, Prob, Pstn, Rdps, Rdst, Spin, Stop, ZMov
+from ..commands import Command, CStp, FMov, Init, IStp, PMov, Prob, Pstn, Rdps, Rdst, Spin, Stop, ZMov
 from ..errors import LinkError, OutputError
 from ..frames import PortFrames
 from ..link.codec import HEARTBEAT_MS
@@ -249,7 +249,7 @@ class Banner:
     reset: str
 
     @classmethod
-    def find(cls, data: bytes) -> "Banner | None":
+    def find(cls, data: bytes) -> Banner | None:
         found = BANNER.search(data)
         return cls(found[1].decode("ascii", "replace"), int(found[2]),
                    found[3].decode("ascii", "replace")) if found else None

@@ -73,7 +73,7 @@ class VcdOutput(Output):
             return
         if not self.url.target:
             raise OutputError(f"{self.url.text}: a file is needed; expected {self.grammar}")
-        from vcd import VCDWriter              # lazily: only a VCD output needs pyvcd
+        from vcd import VCDWriter  # lazily: only a VCD output needs pyvcd
         self.path = Path(self.url.target)
         try:
             self._fh = open(self.path, "w", encoding="ascii")

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import Axis
+from ..machine.config import Axis
 
 _LONG_AGO = -(1 << 40)
 

@@ -12,13 +12,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..backlash import DeadBand
-from ..config import Machine
 from ..frames import PortFrames
+from ..machine.config import Machine
 from .axistrace import AxisTrace
 from .drivers import DriverInput, Violation
+from .pullout import PullOutMotor, turn_screw
 from .spindle import SimSpindle
 from .switches import SwitchBank
-from .pullout import PullOutMotor, turn_screw
 
 
 class SimMachine:

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 
-from ..motors import MotorModel, read_motor_tables  # noqa: F401  (re-exported: the simulator's motor model)
+from ..machine.motors import MotorModel, read_motor_tables  # noqa: F401  (re-exported: the simulator's motor model)
 from .drivers import Violation
 
 

@@ -2,10 +2,10 @@
 
 import pytest
 
-from retrofit.config import load_machine
+from retrofit.machine.config import load_machine
+
 from tests.conformance.rawlink import RawLink
-from tests.conformance.targets import (MACHINE, TARGETS, McuTarget, SimavrTarget, build_firmware,
-                                       missing_tools)
+from tests.conformance.targets import MACHINE, TARGETS, McuTarget, SimavrTarget, build_firmware, missing_tools
 
 
 @pytest.fixture(scope="session")

@@ -12,9 +12,22 @@ import time
 import serial
 
 from retrofit.commands import Command, Rdps, Rdst, parse_command
-from retrofit.config import Machine
-from retrofit.link import (IMMEDIATE, QUEUED, BadFrame, FrameDecoder, Position, Reply, Session,
-                           Status, StatusFlags, decode_reply, encode_command, encode_frame, seq_byte)
+from retrofit.link import (
+    IMMEDIATE,
+    QUEUED,
+    BadFrame,
+    FrameDecoder,
+    Position,
+    Reply,
+    Session,
+    Status,
+    StatusFlags,
+    decode_reply,
+    encode_command,
+    encode_frame,
+    seq_byte,
+)
+from retrofit.machine.config import Machine
 
 SYNC = bytes((0x7F,))        # then the host's 32-bit nonce; answered SESS with the device's number
 

@@ -11,8 +11,22 @@ import time
 import pytest
 
 from retrofit.commands import Cool, Dely, parse_command
-from retrofit.link import (IMMEDIATE, QUEUED, Ack, BadFrame, Busy, Err, Nak, Position, Session,
-                           StatusFlags, decode_reply, encode_command, encode_frame)
+from retrofit.link import (
+    IMMEDIATE,
+    QUEUED,
+    Ack,
+    BadFrame,
+    Busy,
+    Err,
+    Nak,
+    Position,
+    Session,
+    StatusFlags,
+    decode_reply,
+    encode_command,
+    encode_frame,
+)
+
 from tests.conformance.rawlink import RawLink
 from tests.conformance.targets import TARGETS
 

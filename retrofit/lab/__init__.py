@@ -1,0 +1,1 @@
+"""The labs' kit: finding and checking labs, wrong and right variants, the grader and its sandbox."""
