@@ -19,7 +19,7 @@ LAYERS = [
     {"commands", "frames", "runlog"},
     {"backlash"},
     {"motion"},
-    {"sim"},
+    {"sim", "fpga"},
     {"link"},
     {"controller"},
     {"outputs"},
