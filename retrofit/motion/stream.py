@@ -176,7 +176,8 @@ def stream_blocks(machine, start_steps, blocks, window_steps: int = 1 << 20,
                   on_waypoints=None, progress=None) -> Iterator[PortFrames]:
     """:func:`stream_frames` of a plan handed on block by block (``blocks``: (PlanArrays, None)
     until the last, (PlanArrays, end time) for the last): the same frames, while only the moves
-    of the window being made and those the planner has handed on beyond it are held."""
+    of the window being made and those the planner has handed on beyond it are held;
+    ``progress`` gets the index of the command after the last one stepped."""
     rate = 1e6 / machine.tick_us
     cols = Columns.rolling(machine, rate, blocks)
     cols.more(0, _first(window_steps))
@@ -224,8 +225,9 @@ def stream_columns(cols: Columns, window_steps: int, on_waypoints, progress) -> 
         first = False
         chunk_end = max(chunk_end, limit) if not last_window else max(end, 0) + 1
         yield PortFrames(chunk.ticks, chunk.values, chunk_end)
-        if progress is not None:
-            progress(hi / n_moves if n_moves else 1.0)
+        if progress is not None:     # rolling columns: the command index reached (their length is not known)
+            progress((int(cols.arrays.index[hi - 1]) + 1 if hi else 0) if cols.blocks is not None
+                     else hi / n_moves if n_moves else 1.0)
         lo = hi
         if last_window:
             break

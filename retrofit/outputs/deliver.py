@@ -31,7 +31,8 @@ def deliver_plan(plan, urls: list[str], progress: Callable[[float], None] | None
     The run log holds the waypoints, steps and following error but no frames (its ``frames`` is
     empty, with the run's ``end_tick``); ``progress`` gets the fraction of moves done.
     ``blocks``: (machine, iterator of (PlanArrays, end time or None)), a plan handed on block by
-    block from the start position, in place of ``plan`` (``motion.stream.stream_blocks``).
+    block from the start position, in place of ``plan`` (``motion.stream.stream_blocks``); then
+    ``progress`` gets the index of the command after the last one stepped.
     """
     from ..motion.stream import stream_blocks, stream_frames
     from ..sim import SimMachine
@@ -58,7 +59,8 @@ def deliver_plan(plan, urls: list[str], progress: Callable[[float], None] | None
             watched.append(reached)
             errors.add(steps, reached)
         gen = (stream_frames(plan, window_steps, on_waypoints=waypoints, progress=progress) if blocks is None
-               else stream_blocks(machine, start_steps, blocks[1], window_steps, on_waypoints=waypoints))
+               else stream_blocks(machine, start_steps, blocks[1], window_steps, on_waypoints=waypoints,
+                                 progress=progress))
         while True:
             try:
                 chunk = next(gen)

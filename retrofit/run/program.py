@@ -327,17 +327,19 @@ def can_stream(run: Run, opts) -> bool:
             and all(OutputURL.parse(u).scheme in STREAM_SCHEMES for u in opts.urls))
 
 
-def stream_outputs(run: Run, urls: list[str], progress, blocks=None):
+def stream_outputs(run: Run, urls: list[str], progress, blocks=None, on_index=None):
     """The plan's frames to every output as they are made (each file complete or absent); the
     simulated machine. ``run.log`` becomes the streamed log: waypoints and steps, no frames.
-    ``blocks``: (machine, iterator of plan blocks) for a run read ahead, in place of ``run.plan``."""
+    ``blocks``: (machine, iterator of plan blocks) for a run read ahead, in place of ``run.plan``,
+    and ``on_index`` then gets the index of the command after the last one stepped."""
     from contextlib import ExitStack
 
     from ..outputs.deliver import deliver_plan
     from .runner import staged_url
     with ExitStack() as files:
         staged = [staged_url(url, files) for url in urls]
-        run.log, sim = deliver_plan(run.plan, staged, lambda done: progress.fraction("outputs", done),
+        moved = on_index if blocks is not None else (lambda done: progress.fraction("outputs", done))
+        run.log, sim = deliver_plan(run.plan, staged, moved,
                                     window_steps=STREAM_WINDOW_STEPS, blocks=blocks)
     run.report["remote"] = []
     return sim

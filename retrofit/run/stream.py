@@ -63,12 +63,14 @@ def run_read_ahead(run, text: str, opts, progress, tool_table=None, spindle_tool
     run.program = _Program(name, reader.messages)
     run.expanded = Expanded([], [], [], spindle_tool, spindle_tool, name)
     feed = _Feed(run, reader, BlockPlanner(machine, opts.backlash_comp))
+    lines = text.count("\n") + 1          # the bar: the share of the program's lines stepped
     run.line_of = feed.line_of
     run.how = "fast path"
     if getattr(opts, "before_outputs", None):
         opts.before_outputs(run)
     try:
-        run.sim = stream_outputs(run, opts.urls, progress, blocks=(machine, feed.blocks()))
+        run.sim = stream_outputs(run, opts.urls, progress, blocks=(machine, feed.blocks()),
+                                 on_index=lambda index: progress.whole(feed.share_done(index, lines)))
     except (NeedsWholeProgram, NotInBlocks) as exc:
         raise ReadWhole(str(exc)) from None
     run.command_count = reader.count
@@ -125,6 +127,10 @@ class _Feed:
         self.move_t0s.append(arrays.t0s)
         self.move_lines.append(np.frombuffer(self.lines, np.int32)[arrays.index].copy())
         return arrays
+
+    def share_done(self, index: int, lines: int) -> float:
+        """The share of the program's ``lines`` stepped when the commands before ``index`` are."""
+        return self.lines[index - 1] / lines if 0 < index <= len(self.lines) else 0.0
 
     def line_of(self, tick: int):
         """The program line of the move under way at ``tick`` (None when not known)."""
