@@ -52,15 +52,6 @@ class Progress:
             self.shown = units
 
     def whole(self, done: float) -> None:
-        """``done`` (0..1) of a run whose stages go together (a program read ahead, its outputs a
-        look-ahead behind its reading): the bar as one stage."""
-        end = max(self.base[stage] + self.weights[stage] for stage in self.base)
-        units = int(min(max(done, 0.0), 1.0) * end * self.scale * TOTAL)
-        if self.bar is not None and units > self.shown:
-            self.bar.update(units - self.shown)
-            self.shown = units
-
-    def whole(self, done: float) -> None:
         """``done`` (0..1) of a run whose stages go together (a program read ahead): the bar as
         one stage."""
         end = max(self.base[stage] + self.weights[stage] for stage in self.base)
