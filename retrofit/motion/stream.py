@@ -183,7 +183,12 @@ def stream_blocks(machine, start_steps, blocks, window_steps: int = 1 << 20,
     cols.more(0, _first(window_steps))
     if cols.final and not compiled(int(cols.steps_from(0))):     # small: one chunk by NumPy
         plan = Plan(machine, tuple(start_steps), end_s=cols.end_s, arrays=cols.arrays)
-        return (yield from _whole_run(plan, on_waypoints, progress))
+        index = cols.arrays.index
+
+        def done(share: float) -> None:           # the share of moves made, as a command index
+            made = int(round(share * len(index)))
+            progress(int(index[made - 1]) + 1 if made else 0)
+        return (yield from _whole_run(plan, on_waypoints, None if progress is None else done))
     return (yield from stream_columns(cols, window_steps, on_waypoints, progress))
 
 
