@@ -12,9 +12,11 @@ run the same way, alternated.
 
 from __future__ import annotations
 
+import os
+
+os.environ.setdefault("RETROFIT_READ_AHEAD", "1")     # the pipeline read ahead, window by window
 import argparse
 import json
-import os
 import statistics
 import sys
 import tempfile

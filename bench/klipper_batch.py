@@ -11,8 +11,10 @@ commands (``queue_step`` counts summed). Batch mode may stop its serial queue's 
 before the last messages are written, so the file can hold fewer steps than were generated.
 """
 
-import json
 import os
+
+os.environ.setdefault("RETROFIT_READ_AHEAD", "1")     # the pipeline read ahead, window by window
+import json
 import sys
 import time
 

@@ -23,9 +23,11 @@ Columns: this code; ``--previous DIR`` another checkout of retrofit (its ``XDG_C
 
 from __future__ import annotations
 
+import os
+
+os.environ.setdefault("RETROFIT_READ_AHEAD", "1")     # the pipeline read ahead, window by window
 import argparse
 import json
-import os
 import statistics
 import subprocess
 import sys

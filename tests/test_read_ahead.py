@@ -22,6 +22,12 @@ from retrofit.motion.stream import stream_blocks
 FIELDS = PlanArrays.__dataclass_fields__
 
 
+
+@pytest.fixture(autouse=True)
+def reading_ahead(monkeypatch):
+    """Reading ahead is asked for (RETROFIT_READ_AHEAD=1), here and in the runs these tests start."""
+    monkeypatch.setenv("RETROFIT_READ_AHEAD", "1")
+
 def job(moves: int = 400) -> str:
     """An engraving-like job: plunge, a zigzag of short moves with arcs and dwells, retract."""
     out = ["G21 G90 F2400", "G0 X10 Y10 Z2", "G1 Z-0.5"]

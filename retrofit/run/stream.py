@@ -32,7 +32,12 @@ class ReadWhole(Exception):
 
 
 def reads_ahead(machine, opts, urls) -> bool:
-    """Whether the run may be read ahead (see the module doc)."""
+    """Whether the run may be read ahead (see the module doc). Only with RETROFIT_READ_AHEAD=1 for
+    now: a run interrupted late on a busy computer has left a report unlike the whole run's, so
+    every program is read whole first unless asked."""
+    import os
+    if os.environ.get("RETROFIT_READ_AHEAD", "0") != "1":
+        return False
     from ..outputs import OutputURL
     from .program import STREAM_SCHEMES
     return (not opts.reference and not opts.controller and "atc" not in machine.parts
