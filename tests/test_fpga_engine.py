@@ -96,9 +96,9 @@ def test_a_record_breaking_the_direction_setup_is_refused_and_stops():
     assert int(np.sum(np.diff(step_x.astype(int)) == 1)) == 1     # the refused pulse never rose
 
 
-#: batches of five random programs: the slow stage draws 8 (40 programs) within CI's time;
+#: batches of five random programs: the slow stage draws 4 (20 programs) within CI's time;
 #: RETROFIT_FPGA_PROGRAMS=200 draws the 200 of docs/fpga.md (about 7 CPU-minutes)
-BATCHES = max(1, int(os.environ.get("RETROFIT_FPGA_PROGRAMS", "40")) // 5)
+BATCHES = max(1, int(os.environ.get("RETROFIT_FPGA_PROGRAMS", "20")) // 5)
 
 
 @pytest.mark.slow
@@ -142,10 +142,10 @@ def engraving_frames():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("fraction", [0.0, 0.3, 0.6, 0.9], ids=["start", "30pc", "60pc", "90pc"])
+@pytest.mark.parametrize("fraction", [0.0, 0.6], ids=["start", "60pc"])
 def test_pins_equal_the_reference_on_windows_of_the_shipped_engraving(engraving_frames, fraction):
     """engraving.ngc at the engraver's own 1 us tick (95 M ticks in all): 30 000-tick windows that
-    start where the pins have been still for 300 ticks, at four places along the run."""
+    start where the pins have been still for 300 ticks, at two places along the run (the start and 60 %)."""
     frames = engraving_frames
     start = 0 if fraction == 0 else quiet_start(frames, int(frames.end_tick * fraction))
     part = window(frames, start, 30_000)
