@@ -70,6 +70,23 @@ def test_the_guard_calls_the_export_of_the_exact_types_and_hands_any_other_call_
     assert missed == [add] * 6
 
 
+def test_a_contiguous_column_takes_the_export_built_for_any_layout():
+    # a window of one move makes counts[:, a] C-contiguous; the export is built for the 'A' layout
+    # of longer windows, which Numba's 'A' code also takes: it must answer, not load Numba
+    def first(a):
+        return a[0]
+    first.__module__ = "retrofit.example"
+    module = SimpleNamespace(k0_0=lambda a: ("compiled", a[0]))
+    library = _aot.Library(module, {"retrofit.example:" + first.__qualname__: {"int64[1A]": "k0_0"}})
+    missed = []
+    guard = library.guard(first, lambda func: missed.append(func) or func)
+    counts = np.arange(6, dtype=np.int64).reshape(3, 2)
+    one_row = counts[:1]
+    assert _aot.describe(counts[:, 1]) == "int64[1A]" and _aot.describe(one_row[:, 1]) == "int64[1C]"
+    assert guard(counts[:, 1]) == ("compiled", 1) and guard(one_row[:, 1]) == ("compiled", 1)
+    assert guard(counts[:, 1].astype(np.int32)) == 1 and missed == [first]   # another type: a miss
+
+
 SWITCH = '''
 import importlib.util, json, sys
 import numpy as np

@@ -21,6 +21,7 @@ import importlib.util
 import json
 import os
 import platform
+import re
 import sys
 from pathlib import Path
 
@@ -133,13 +134,29 @@ class Library:
                    for key, name in self.kernels.get(kernel_name(func), {}).items()}
 
         def call(*args, **named):
-            compiled = None if named else exports.get(tuple(map(describe, args)))
+            compiled = None
+            if not named:
+                key = tuple(map(describe, args))
+                compiled = exports.get(key)
+                if compiled is None and None not in key:
+                    compiled = exports[key] = _any_layout(exports, key)
             if compiled is None:
                 return on_miss(func)(*args, **named)
             return compiled(*args)
         call.__name__, call.__qualname__, call.__doc__ = func.__name__, func.__qualname__, func.__doc__
         call.__module__, call.__wrapped__, call.py_func = func.__module__, func, func   # py_func: as Numba's
         return call
+
+
+def _any_layout(exports: dict, key: tuple):
+    """The export built for any layout (``A``) of the arrays ``key`` has as contiguous ones: a column
+    of a one-row window is C-contiguous, the same column of a longer one is not."""
+    for built, compiled in exports.items():
+        if len(built) == len(key) and all(b == k or (b.endswith("A]") or b.endswith("Ar]")) and
+                                          re.sub(r"[CF](r?\])$", r"A\1", k) == b
+                                          for b, k in zip(built, key)):
+            return compiled
+    return None
 
 
 def load() -> Library | None:
