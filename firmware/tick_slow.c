@@ -69,18 +69,15 @@ void slow_entry(void)
 #else
     __asm__ __volatile__(
         "sts %[high], r24\n\t"
-        "brtc 4f\n\t"                         /* late: the pulse ends from the count seen */
-        "lds r24, %[next]\n\t"
-        "lds r25, %[next]+1\n\t"
-        "subi r24, lo8(-(%[fallofs]))\n\t"
-        "sbci r25, hi8(-(%[fallofs]))\n\t"
-        "add r24, r23\n\t"
-        "brcc 5f\n\t"
-        "inc r25\n\t"
-        "5: sts %[ocrbh], r25\n\t"
+        "brtc 4f\n\t"                         /* late: the pulse ends from the count read */
+        "lds r24, %[tcntl]\n\t"             /* after the rise (the count seen before it may */
+        "lds r25, %[tcnth]\n\t"             /* end just before the pins rise: a Z pulse */
+        "subi r24, lo8(-(%[after]))\n\t"    /* was one cycle short so) */
+        "sbci r25, hi8(-(%[after]))\n\t"
+        "sts %[ocrbh], r25\n\t"
         "sts %[ocrbl], r24\n\t"
         "4: pop r23\n\t"
-        ::ENTRY_OPERANDS, [fallofs] "n"(SLOT_COUNTS + FALL_AFTER_RISE_COUNTS));
+        ::ENTRY_OPERANDS, [after] "n"(FALL_AFTER_RISE_COUNTS));
 #endif
     __asm__ __volatile__(
         "3: ldi r24, 1\n\t"
