@@ -16,8 +16,6 @@ import pytest
 
 from retrofit.machine.config import load_machine
 
-from tests import soak
-
 pytestmark = pytest.mark.skipif(
     shutil.which("avr-gcc") is None or shutil.which("make") is None,
     reason="the firmware needs avr-gcc and make: apt-get install gcc-avr avr-libc make libsimavr-dev")
@@ -27,7 +25,7 @@ mx = pytest.importorskip("retrofit.firmware.stress_mix")
 
 #: the slow stage's long run: chunks of at least CHUNK_S simulated seconds, each a fresh board
 #: with seed LONG_SEED * 10 000 + chunk, CHUNKS of them: ten simulated minutes in all
-LONG_SEED, CHUNKS, CHUNK_S = 1, 120, 5.0       # 120 boards: ten simulated minutes (RETROFIT_SOAK=1)
+LONG_SEED, CHUNKS, CHUNK_S = 1, 120, 5.0
 
 
 @pytest.fixture(scope="module")
@@ -61,7 +59,7 @@ def test_moves_homing_and_threads_mixed_end_every_rest_where_the_plan_does(mix, 
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("chunk", soak.parts(CHUNKS, 30))          # CI: 30 of the 120 (tests/soak.py)
+@pytest.mark.parametrize("chunk", range(CHUNKS))
 def test_ten_simulated_minutes_of_mixed_stress(mix, chunk):
     """One of CHUNKS fresh boards, at least CHUNK_S simulated seconds each: moves up to 60 kHz
     asked, homing, threads (the encoder's speed drawn per chunk)."""
