@@ -53,14 +53,8 @@ def seen(report: dict) -> dict:
             "ticks": report["ticks"], "violations": [(v["kind"], v["axis"], v["line"]) for v in report["violations"]]}
 
 
-#: the two runs part at the carousel's homing (ZMOV E): the console's run, on the 002 controller,
-#: searches the switch and moves E 2660 steps in all; retrofit run's planner moves it straight to
-#: zero (1984 steps) -- the machine times differ by 0.4 s
-ZMOV_PARTS = pytest.mark.xfail(strict=True, reason="ZMOV E: the controller searches the switch, the planner does not")
-
-
 @pytest.mark.parametrize("program,machine", [pytest.param("lathe-profile.ngc", "chivu-lathe", marks=pytest.mark.slow), (INTO_THE_MAGAZINE, "tul-mill"),
-                                             pytest.param(CHANGE, "tul-mill", marks=[ZMOV_PARTS, pytest.mark.slow]),
+                                             pytest.param(CHANGE, "tul-mill", marks=pytest.mark.slow),
                                              (PROBE, "tul-mill")],
                          ids=["lathe-profile", "into-the-magazine", "carousel-change", "g38-probe"])
 def test_the_console_runs_what_retrofit_run_runs(program, machine, tmp_path, monkeypatch):
