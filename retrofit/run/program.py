@@ -42,6 +42,7 @@ class Run:
     io: dict | None = None          # DOUT changes and WAITs (retrofit.run.digital.io_report)
     line_of: object = None          # tick -> program line, for a run read ahead or on the controller
     pause_ticks: dict | None = None  # command index -> tick of a pause, for a run on the controller
+    kept: object = None             # what a streamed run kept for its HTML report (opts.report_store)
 
 
 def read_program(name: str, stdin=None) -> tuple[str, str]:
@@ -137,7 +138,9 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
         if getattr(opts, "before_outputs", None):
             opts.before_outputs(run)
         if streamed:
-            run.sim = stream_outputs(run, opts.urls, progress)
+            if getattr(opts, "report_store", None):
+                run.kept = opts.report_store(run)
+            run.sim = stream_outputs(run, opts.urls, progress, taps=[run.kept.feed] if run.kept else [])
         else:
             run.sim = deliver_outputs(run, opts.urls, wait, progress, opened)
     except BaseException:
@@ -326,11 +329,12 @@ def can_stream(run: Run, opts) -> bool:
             and all(OutputURL.parse(u).scheme in STREAM_SCHEMES for u in opts.urls))
 
 
-def stream_outputs(run: Run, urls: list[str], progress, blocks=None, on_index=None):
+def stream_outputs(run: Run, urls: list[str], progress, blocks=None, on_index=None, taps=()):
     """The plan's frames to every output as they are made (each file complete or absent); the
     simulated machine. ``run.log`` becomes the streamed log: waypoints and steps, no frames.
     ``blocks``: (machine, iterator of plan blocks) for a run read ahead, in place of ``run.plan``,
-    and ``on_index`` then gets the index of the command after the last one stepped."""
+    and ``on_index`` then gets the index of the command after the last one stepped; ``taps`` get
+    each window of frames too."""
     from contextlib import ExitStack
 
     from ..outputs.deliver import deliver_plan
@@ -339,7 +343,7 @@ def stream_outputs(run: Run, urls: list[str], progress, blocks=None, on_index=No
         staged = [staged_url(url, files) for url in urls]
         moved = on_index if blocks is not None else (lambda done: progress.fraction("outputs", done))
         run.log, sim = deliver_plan(run.plan, staged, moved,
-                                    window_steps=STREAM_WINDOW_STEPS, blocks=blocks)
+                                    window_steps=STREAM_WINDOW_STEPS, blocks=blocks, taps=taps)
     run.report["remote"] = []
     return sim
 
