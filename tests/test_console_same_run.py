@@ -75,3 +75,21 @@ def test_the_console_runs_what_retrofit_run_runs(program, machine, tmp_path, mon
         changes = [e["text"] for e in console["events"] if e["kind"] == "tool change"]
         assert changes == [f"tool change T{tool} -> T3 by the changer (condition 1)"] == \
             [c["says"] for c in cli["tool"]["changes"]]
+
+
+@pytest.mark.parametrize("text", ["G21 G90\nG0 X10\nM62 P0\nG1 Z-5 F300\nM63 P0\nM30\n",
+                                  "G21 G90\nG0 X10\nM66 P0 L3 Q2\nG1 Z-5 F300\nM30\n"], ids=["m62", "m66"])
+def test_digital_outputs_and_input_waits_are_refused_not_skipped(text, tmp_path, monkeypatch):
+    """The console's controller makes no M62-M66 (retrofit run writes them in the port byte): the
+    console refuses such a program, naming its line, instead of running it without them."""
+    monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path))
+    from retrofit.errors import GcodeError
+    console = Console(load_machine("chivu-lathe"))
+    try:
+        with pytest.raises(GcodeError, match=r"^io\.ngc:3: .*M62-M66"):
+            console.open(name="io.ngc", text=text)
+        assert console.program is None
+        with pytest.raises(GcodeError, match=r'^MDI "M62 P0": .*M62-M66'):
+            console.act("mdi", text="M62 P0")
+    finally:
+        console.close()
