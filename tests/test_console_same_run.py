@@ -12,7 +12,7 @@ import pytest
 
 from retrofit.console.server import Console
 from retrofit.machine.config import load_machine
-from retrofit.run.program import STAGE_WEIGHTS, read_program, run_program
+from retrofit.run.program import STAGE_WEIGHTS, pause_tick, read_program, run_program
 from retrofit.run.progress import silent
 
 #: the spindle drives into the magazine where no pocket stands (the carousel at home)
@@ -93,3 +93,38 @@ def test_digital_outputs_and_input_waits_are_refused_not_skipped(text, tmp_path,
             console.act("mdi", text="M62 P0")
     finally:
         console.close()
+
+
+def test_a_pause_stops_the_axes_in_both(tmp_path, monkeypatch):
+    """M0 and a manual change (T2 M6): retrofit run brings the axes to rest before each pause, as
+    the console's run does (it blended through a pause before: a real output stopped at speed).
+    The steps are the same, tick for tick, up to the first pause; after each pause the console's
+    controller starts again once its last pulse has ended, a few ticks later."""
+    monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path))
+    from retrofit.console.views import axis_steps
+    machine = load_machine("chivu-lathe")
+    text = "G21 G90\nG0 X5 Z1\nG1 Z-10 F300\nM0\nG1 X10 Z-12\nT2 M6\nG0 Z2\nM30\n"
+    console = Console(machine)
+    try:
+        console.open(name="job.ngc", text=text)
+        console.start(0)
+        end = time.monotonic() + 120
+        while console.state()["state"] != "done" and time.monotonic() < end:
+            if console.state().get("dialog"):
+                console.act("answer")
+            time.sleep(0.02)
+        steered = [s.ticks for s in axis_steps(console.frames(), machine)]
+        in_console = console.report()
+    finally:
+        console.close()
+    opts = SimpleNamespace(backlash_comp=True, reference=False, controller=False, urls=["sim://"],
+                           keep_frames=True, keep_commands=True, before_outputs=None)
+    run = run_program(text, "job.ngc", machine, opts, silent(STAGE_WEIGHTS))
+    planned = [s.ticks for s in axis_steps(run.log.frames, machine)]
+    first_pause = pause_tick(run, run.expanded.pauses[0].index)
+    for a, b in zip(steered, planned):
+        assert len(a) == len(b)
+        assert list(a[a <= first_pause]) == list(b[b <= first_pause])       # the same up to M0
+        late = a - b
+        assert 0 <= late.min() and late.max() <= 2 * 5                      # 4 ticks a pause on this lathe
+    assert seen(in_console)["axes"] == seen(run.report)["axes"]
