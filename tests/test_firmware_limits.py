@@ -190,7 +190,7 @@ def test_a_pause_stays_between_the_moves_it_stood_between_when_feeds_are_clamped
     (pause,) = exp.pauses
     before = [str(c) for c in exp.commands[:pause.index]]
     after = [str(c) for c in exp.commands[pause.index:]]
-    assert before[-1].startswith("FMOV X20") and after[0].startswith("PFDR F")
+    assert before[-2].startswith("FMOV X20") and before[-1] == "DELY P0" and after[0].startswith("PFDR F")
     assert after[1].startswith("PMOV X40") and pause.line == 3
 
 

@@ -12,13 +12,15 @@ a device: before planning, :func:`expand_host_commands` replaces each one.
 - Elsewhere ``TOOL Tn`` becomes a manual change: a pause (``PAUS M6``) for the operator; none
   when Tn is already in the spindle (T1 -> T1 is no change).
 - Every pause is a :class:`HostEvent` the run records (``sim://``) or waits on (a real output).
+  A ``DELY P0`` goes before it: the axes come to rest there (the planner blends no move through
+  a pause), as a machine stands at M0 and as the console's run stops.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..commands import PAUSE_REASONS, Command, FMov, Paus, PMov, Pstn, Spin, Tool
+from ..commands import PAUSE_REASONS, Command, Dely, FMov, Paus, PMov, Pstn, Spin, Tool
 from ..errors import GcodeError, ToolChangeError
 from ..machine.config import Machine
 
@@ -88,12 +90,14 @@ def expand_host_commands(program, machine: Machine, spindle_tool: int = 0,
         elif isinstance(cmd, Tool):
             says = f"{PAUSE_REASONS[6]}: put T{cmd.number} in the spindle" if cmd.number else \
                 f"{PAUSE_REASONS[6]}: take the tool out of the spindle"
+            _come_to_rest(out, line)
             out.events.append(HostEvent(len(out.commands), line, "pause", says, cmd.number))
             out.end_tool = cmd.number
             if keep_pauses:
                 out.commands.append(cmd)
                 out.lines.append(line)
         elif isinstance(cmd, Paus):
+            _come_to_rest(out, line)
             out.events.append(HostEvent(len(out.commands), line, "pause",
                                         PAUSE_REASONS.get(cmd.reason, f"pause M{cmd.reason}")))
             if keep_pauses:
@@ -103,6 +107,12 @@ def expand_host_commands(program, machine: Machine, spindle_tool: int = 0,
             out.commands.append(cmd)
             out.lines.append(line)
     return out
+
+
+def _come_to_rest(out: Expanded, line) -> None:
+    """The axes at rest before a pause: DELY P0 (the planner stops for a dwell)."""
+    out.commands.append(Dely(0.0))
+    out.lines.append(line)
 
 
 class _Frame:

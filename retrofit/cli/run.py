@@ -140,8 +140,8 @@ def _run(args) -> int:
             store.begin(start_tool, run.expanded.end_tool)
     opts = SimpleNamespace(backlash_comp=not args.no_backlash_comp, reference=args.reference,
                            controller=args.controller, urls=urls,
-                           keep_frames=bool(getattr(args, "html", None)),
-                           keep_commands=bool(getattr(args, "plot", None)),
+                           keep_commands=bool(getattr(args, "plot", None) or getattr(args, "html", None)),
+                           report_store=html_store if getattr(args, "html", None) else None,
                            before_outputs=mark, dialect=args.dialect)
     progress = Progress(STAGE_WEIGHTS, None if args.progress == "auto" else args.progress == "on")
     try:
@@ -160,9 +160,15 @@ def _run(args) -> int:
     lines += [f"  line {line}: note: {text}" for line, text in notes[:10]]
     lines += [f"  ... and {len(notes) - 10} more notes"] if len(notes) > 10 else []
     files_lines = write_files(files, args, run.log, run.sim, run.report,     # a path is not wrapped
-                              run.program.commands, (name, text), run.program)
+                              run.program.commands, (name, text), run.program, run.kept)
     print("\n".join(fit(lines) + files_lines))
     return exit_code(run.report, args)
+
+
+def html_store(run):
+    """What ``--html`` keeps of a streamed run: bounded, whatever the run's length."""
+    from ..console.reportstore import store_for
+    return store_for(run)
 
 
 def changes_tools(expanded) -> bool:
@@ -208,10 +214,11 @@ def output_files(args) -> dict:
 
 
 def write_files(files: dict, args, log, sim, report: dict, commands=None, program=None,
-                compiled=None) -> list[str]:
+                compiled=None, kept=None) -> list[str]:
     """Write the plot, the page and the report (each complete or absent); their summary lines.
 
-    ``program`` is the run's (name, G-code text), ``compiled`` its Program (None for a demo).
+    ``program`` is the run's (name, G-code text), ``compiled`` its Program (None for a demo),
+    ``kept`` what a streamed run kept for the page.
     """
     from ..atomic import write_json_atomic
     lines = []
@@ -220,7 +227,7 @@ def write_files(files: dict, args, log, sim, report: dict, commands=None, progra
         lines.append(f"  plot: {plot_run(args, log, sim, commands, files['plot'], program)}")
     if "html" in files:
         from ..console.report_html import write_html_report
-        path = write_html_report(args, log, sim, report, commands, files["html"], program, compiled)
+        path = write_html_report(args, log, sim, report, commands, files["html"], program, compiled, kept)
         lines.append(f"  html: {path}")
     if "report" in files:
         write_json_atomic(files["report"], report)

@@ -47,10 +47,12 @@ LISTING_BYTES = 120_000
 
 
 def write_html_report(args, log, sim, report: dict, commands=None, target: Path | None = None,
-                      program: tuple[str, str] | None = None, compiled=None) -> Path:
+                      program: tuple[str, str] | None = None, compiled=None, store=None) -> Path:
     """``--html FILE`` of ``retrofit run`` or ``retrofit demo``: the report of this run.
 
-    ``program`` is the run's (name, G-code text) and ``compiled`` its Program when the caller has them.
+    ``program`` is the run's (name, G-code text) and ``compiled`` its Program when the caller has
+    them; ``store``: what a streamed run kept for the page (:class:`.reportstore.ReportStore`),
+    whose log holds no frames.
     """
     from ..run.plot import user_title
     source, what = "", getattr(args, "which", "")
@@ -66,7 +68,7 @@ def write_html_report(args, log, sim, report: dict, commands=None, target: Path 
         compiled = waypoint_program(log, what)
     program = compiled
     title = user_title(log.machine, what, not args.no_backlash_comp)
-    text = html_report(log.machine, log.frames, sim, report, title, program, source, log.start_steps)
+    text = html_report(log.machine, log.frames, sim, report, title, program, source, log.start_steps, store)
     from ..atomic import staged
     out = Path(target or args.html)
     with staged(out) as tmp:               # complete or absent, even on Ctrl-C
@@ -84,11 +86,14 @@ def waypoint_program(log, name: str):
 
 
 def html_report(machine: Machine, frames: PortFrames, sim, report: dict, title: str, program=None,
-                source: str = "", start_steps=None) -> str:
+                source: str = "", start_steps=None, kept=None) -> str:
     """The HTML text of a run's report (see the module's docstring): windows-1252, ASCII but
-    for the packed store, at most :data:`REPORT_BYTES` long."""
+    for the packed store, at most :data:`REPORT_BYTES` long. ``kept``: a streamed run's
+    :class:`.reportstore.ReportStore` (``frames`` then holds only the run's end tick)."""
     store = Store()
-    data = run_data(machine, frames, sim, report, program, source, start_steps, store)
+    data = run_data(machine, frames, sim, report, program, source, start_steps, store, kept)
+    if kept is not None:
+        frames = kept.frames(frames.end_tick)
     data["plotly"] = store.text(report_plotly().read_text(encoding="utf-8"))
     summary = "".join(f"<li>{html.escape(line)}</li>" for line in _summary(report))
     parts = {"title": ascii_page(html.escape(title)), "summary": ascii_page(summary),
@@ -110,11 +115,11 @@ def report_plotly() -> Path:
 
 
 def run_data(machine: Machine, frames: PortFrames, sim, report: dict, program, source: str, start_steps,
-             store: Store) -> dict:
+             store: Store, kept=None) -> dict:
     """What the page draws: preview, backplot, timeline, violations, the listing (the port frames
     are added by :func:`frame_chunks`, in the room the rest leaves)."""
     from ..run.plot import carriage_path, is_lathe
-    steps = axis_steps(frames, machine, start_steps)
+    steps = kept.steps() if kept is not None else axis_steps(frames, machine, start_steps)
     per_mm = [a.steps_per_mm for a in machine.axes]
     if program is not None:
         pv = preview(program, machine, source)
@@ -138,9 +143,9 @@ def run_data(machine: Machine, frames: PortFrames, sim, report: dict, program, s
     return {"preview": pv, "backplot": backplot, "tick_s": machine.tick_s, "end_tick": end,
             "per_mm": per_mm, "start_steps": list(start_steps or [0] * len(machine.axes)),
             "average_s": AVERAGE_S, "window_points": WINDOW_POINTS,
-            "timeline": packed_timeline(timeline(steps, machine, 0, end, carriage_at, TIMELINE_POINTS),
-                                        machine.tick_s, store),
-            "frames": {"lines": lines, "total": len(frames)},
+            "timeline": packed_timeline(timeline(steps, machine, 0, kept.timeline_end if kept else end,
+                                                 carriage_at, TIMELINE_POINTS), machine.tick_s, store),
+            "frames": {"lines": lines, "total": kept.total if kept is not None else len(frames)},
             "source": listed, "source_lines": len(source.splitlines()),
             "violations": report.get("violations", [])}
 

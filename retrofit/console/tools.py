@@ -41,7 +41,14 @@ class SpindleTools:
         """``text`` compiled for the machine with its tool table and the tool in the spindle
         (a ``.cmds`` file: a command list, see :func:`retrofit.console.server.command_list`). A
         program run from the machine's zero probes (G38) on the simulated machine, as in ``retrofit
-        run``, and is refused on a console that drives a real machine."""
+        run``, and is refused on a console that drives a real machine. M62-M66 are refused with
+        their line: the console's controller does not make them (``retrofit run`` does)."""
+        from ..run.program import refuse_io_on_controller
+        program = self._compiled(text, name, spindle_tool, **options)
+        refuse_io_on_controller(program, "the console steps the 002 controller")
+        return program
+
+    def _compiled(self, text: str, name: str, spindle_tool: int, **options):
         from ..gcode.program import compile_program
         from ..machine.tooltable import ToolTable
         from ..run.program import refuse_real_probing, sim_prober

@@ -88,10 +88,7 @@ def timeline(steps: list[AxisSteps], machine: Machine, t0: int, t1: int, carriag
     edge in the window over the time between them (exact for an even step rate, where counting
     steps would jump by a step), the acceleration the change of that velocity across the window.
     """
-    t0, t1 = int(max(t0, 0)), int(max(t1, t0 + 2))
-    ticks = np.unique(np.linspace(t0, t1 - 1, points).round().astype(np.int64))
-    spacing = int(ticks[1] - ticks[0]) if len(ticks) > 1 else 1
-    half = max(int(AVERAGE_S / machine.tick_s / 2), spacing, 1)
+    ticks, half = timeline_ticks(machine, t0, t1, points)
     out = {"t": (ticks * machine.tick_s).round(9).tolist(), "axes": {},
            "window_s": round(2 * half * machine.tick_s, 6)}
     for i, (a, s) in enumerate(zip(machine.axes, steps)):
@@ -106,6 +103,14 @@ def timeline(steps: list[AxisSteps], machine: Machine, t0: int, t1: int, carriag
             axis["error_mm"] = (carriage(i, ticks) - pos).round(6).tolist()
         out["axes"][a.name] = axis
     return out
+
+
+def timeline_ticks(machine: Machine, t0: int, t1: int, points: int = TIMELINE_POINTS) -> tuple[np.ndarray, int]:
+    """The ticks a timeline of [t0, t1) is computed at, and the half width (ticks) of its window."""
+    t0, t1 = int(max(t0, 0)), int(max(t1, t0 + 2))
+    ticks = np.unique(np.linspace(t0, t1 - 1, points).round().astype(np.int64))
+    spacing = int(ticks[1] - ticks[0]) if len(ticks) > 1 else 1
+    return ticks, max(int(AVERAGE_S / machine.tick_s / 2), spacing, 1)
 
 
 def mean_rate(s: AxisSteps, ticks: np.ndarray, half: int) -> np.ndarray:

@@ -25,14 +25,15 @@ AROUND_VIOLATION_TICKS = 200
 
 
 def deliver_plan(plan, urls: list[str], progress: Callable[[float], None] | None = None,
-                 window_steps: int = 1 << 18, blocks=None):
+                 window_steps: int = 1 << 18, blocks=None, taps=()):
     """Stream ``plan``'s frames to every output in ``urls``; return (run log, simulated machine).
 
     The run log holds the waypoints, steps and following error but no frames (its ``frames`` is
     empty, with the run's ``end_tick``); ``progress`` gets the fraction of moves done.
     ``blocks``: (machine, iterator of (PlanArrays, end time or None)), a plan handed on block by
     block from the start position, in place of ``plan`` (``motion.stream.stream_blocks``); then
-    ``progress`` gets the index of the command after the last one stepped.
+    ``progress`` gets the index of the command after the last one stepped. ``taps``: more
+    callables that get each chunk of frames (what an HTML report keeps of them).
     """
     from ..motion.stream import stream_blocks, stream_frames
     from ..sim import SimMachine
@@ -50,7 +51,7 @@ def deliver_plan(plan, urls: list[str], progress: Callable[[float], None] | None
         sim = sims[0].sim if sims else SimMachine(machine, start_steps, **trace)
         for s in [sim] + [out.sim for out in sims]:
             s.keep_watched = blocks is None       # read ahead: nothing plots the run afterwards
-        feeds = [out.write for out in outputs] + ([] if sims else [sim.feed])
+        feeds = [out.write for out in outputs] + ([] if sims else [sim.feed]) + list(taps)
         table = log.waypoints = WaypointTable(len(machine.axes), keep_all=blocks is None)
         watched, errors = [], _WorstError(machine)
 

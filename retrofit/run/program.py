@@ -40,7 +40,9 @@ class Run:
     how: str = ""
     command_count: int = 0
     io: dict | None = None          # DOUT changes and WAITs (retrofit.run.digital.io_report)
-    line_of: object = None          # tick -> program line, for a run read ahead (retrofit.run.stream)
+    line_of: object = None          # tick -> program line, for a run read ahead or on the controller
+    pause_ticks: dict | None = None  # command index -> tick of a pause, for a run on the controller
+    kept: object = None             # what a streamed run kept for its HTML report (opts.report_store)
 
 
 def read_program(name: str, stdin=None) -> tuple[str, str]:
@@ -119,7 +121,7 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
         streamed = False
         if reason:
             refuse_io_on_controller(run.expanded, reason)
-            run.log = run_on_controller(run.expanded, machine, opts.backlash_comp, opts.reference, reason)
+            run.log = run_on_controller(run.expanded, machine, opts.backlash_comp, opts.reference, reason, run)
             run.how = f"002 controller ({reason})"
             progress.done("plan")
         else:
@@ -136,7 +138,9 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
         if getattr(opts, "before_outputs", None):
             opts.before_outputs(run)
         if streamed:
-            run.sim = stream_outputs(run, opts.urls, progress)
+            if getattr(opts, "report_store", None):
+                run.kept = opts.report_store(run)
+            run.sim = stream_outputs(run, opts.urls, progress, taps=[run.kept.feed] if run.kept else [])
         else:
             run.sim = deliver_outputs(run, opts.urls, wait, progress, opened)
     except BaseException:
@@ -254,29 +258,27 @@ def controller_reason(commands, machine: Machine) -> str | None:
     from ..commands import IStp, ZMov
     if any(isinstance(c, IStp) for c in commands):
         return "threads under the spindle's indexer"
-    if "homing" in machine.parts and "atc" not in machine.parts and any(isinstance(c, ZMov) for c in commands):
+    if "homing" in machine.parts and any(isinstance(c, ZMov) for c in commands):
         return "homing against switches"
     return None
 
 
 def run_on_controller(expanded, machine: Machine, backlash_comp: bool = True, reference: bool = False,
-                      reason: str = "") -> RunLog:
+                      reason: str = "", run: Run | None = None) -> RunLog:
     """Run the commands through the tick-by-tick controller driving a simulated machine (its
-    switches and spindle are the controller's inputs); a GcodeError naming file:line when the
-    controller refuses a command or halts with an error."""
-    from ..controller.program import ProgramError, run_commands
-    from ..sim import SimMachine
+    switches and spindle are the controller's inputs), standing still at each pause as the
+    console does (:mod:`retrofit.run.controlled`); ``run`` gets the program line of each tick and
+    the tick of each pause. A GcodeError naming file:line when the controller refuses a command
+    or halts with an error."""
+    from .controlled import run_controlled
     if reference:
         raise GcodeError(f"--reference steps the planner's per-tick reference path; this program "
                          f"runs through the controller ({reason}), which is per tick already",
                          expanded.file)
-    try:
-        ctl = run_commands(expanded.commands, machine, backlash_comp=backlash_comp, sim=SimMachine(machine))
-    except ProgramError as exc:
-        index = exc.command_index
-        line = expanded.lines[index] if index is not None and 0 <= index < len(expanded.lines) else None
-        raise GcodeError(str(exc), expanded.file, line) from None
-    return ctl.run_log()
+    done = run_controlled(expanded, machine, backlash_comp)
+    if run is not None:
+        run.line_of, run.pause_ticks = done.line_of, done.pause_ticks
+    return done.log
 
 
 def execute(plan, reference: bool = False) -> RunLog:
@@ -327,11 +329,12 @@ def can_stream(run: Run, opts) -> bool:
             and all(OutputURL.parse(u).scheme in STREAM_SCHEMES for u in opts.urls))
 
 
-def stream_outputs(run: Run, urls: list[str], progress, blocks=None, on_index=None):
+def stream_outputs(run: Run, urls: list[str], progress, blocks=None, on_index=None, taps=()):
     """The plan's frames to every output as they are made (each file complete or absent); the
     simulated machine. ``run.log`` becomes the streamed log: waypoints and steps, no frames.
     ``blocks``: (machine, iterator of plan blocks) for a run read ahead, in place of ``run.plan``,
-    and ``on_index`` then gets the index of the command after the last one stepped."""
+    and ``on_index`` then gets the index of the command after the last one stepped; ``taps`` get
+    each window of frames too."""
     from contextlib import ExitStack
 
     from ..outputs.deliver import deliver_plan
@@ -340,7 +343,7 @@ def stream_outputs(run: Run, urls: list[str], progress, blocks=None, on_index=No
         staged = [staged_url(url, files) for url in urls]
         moved = on_index if blocks is not None else (lambda done: progress.fraction("outputs", done))
         run.log, sim = deliver_plan(run.plan, staged, moved,
-                                    window_steps=STREAM_WINDOW_STEPS, blocks=blocks)
+                                    window_steps=STREAM_WINDOW_STEPS, blocks=blocks, taps=taps)
     run.report["remote"] = []
     return sim
 
@@ -348,7 +351,7 @@ def stream_outputs(run: Run, urls: list[str], progress, blocks=None, on_index=No
 def pause_tick(run: Run, index: int) -> int:
     """The tick at which the moves before command ``index`` have ended."""
     if run.plan is None:
-        return 0 if index == 0 else int(run.log.ticks)
+        return (run.pause_ticks or {}).get(index, 0 if index == 0 else int(run.log.ticks))
     ends = [m.t0_s + m.duration_s for m in run.plan.moves if m.index < index]
     return round(max(ends, default=0.0) / run.machine.tick_s)
 
