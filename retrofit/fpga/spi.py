@@ -33,6 +33,9 @@ class SpiBridge(Elaboratable):
 
     def __init__(self, engine):
         self.engine = engine
+        # 32-bit words for the pulse engine; the digital-integration engine's wider records make
+        # its words longer (whole bytes): op and selector stay the top five bits, the reply the top 32
+        self.word_bits = max(32, -(-(5 + len(engine.wr_data)) // 8) * 8)
         self.sck, self.copi, self.cs_n = Signal(), Signal(), Signal(init=1)
         self.cipo = Signal()
         self.stop_in = Signal()               # the stop pin, already active-high
@@ -45,22 +48,28 @@ class SpiBridge(Elaboratable):
                          FFSynchronizer(self.cs_n, cs_n, init=1)]
         sck_was, cs_was = Signal(), Signal(init=1)
         m.d.sync += [sck_was.eq(sck), cs_was.eq(cs_n)]
-        shift_in, shift_out, count = Signal(32), Signal(32), Signal(6)
+        w = self.word_bits
+        shift_in, shift_out, count = Signal(w), Signal(w), Signal(range(w + 1))
         held_stop, run, select = Signal(), Signal(), Signal(2)
         level = Signal(5)
         m.d.comb += level.eq(eng.rd_level)
         reply = Cat(eng.rd_position[:24], level, eng.underrun, eng.fault, eng.stopped)
-        m.d.comb += [self.cipo.eq(shift_out[31]), eng.rd_axis.eq(select), eng.run.eq(run),
-                     eng.stop.eq(held_stop | self.stop_in | self.lost),
-                     eng.wr_axis.eq(shift_in[27:29]), eng.wr_data.eq(shift_in[:25])]
+        m.d.comb += [self.cipo.eq(shift_out[w - 1]), eng.rd_axis.eq(select), eng.run.eq(run),
+                     eng.wr_axis.eq(shift_in[w - 5:w - 3]), eng.wr_data.eq(shift_in[:len(eng.wr_data)])]
         with m.If(cs_was & ~cs_n):                                 # selected: a word begins
-            m.d.sync += [count.eq(0), shift_out.eq(reply)]
+            m.d.sync += [count.eq(0), shift_out.eq(reply << (w - 32))]
         with m.Elif(~cs_n & sck & ~sck_was):                       # rising SCK: sample COPI
-            m.d.sync += [shift_in.eq(Cat(copi, shift_in[:31])), count.eq(count + 1)]
+            m.d.sync += [shift_in.eq(Cat(copi, shift_in[:w - 1])), count.eq(count + 1)]
         with m.Elif(~cs_n & ~sck & sck_was):                       # falling SCK: next bit out
             m.d.sync += shift_out.eq(shift_out << 1)
-        done = ~cs_was & cs_n & (count == 32)
-        op = shift_in[29:32]
+        # the stop sources are registers; their OR is one more, so the engine's halt is one gate
+        stop = Signal()
+        m.d.sync += stop.eq(held_stop | self.stop_in | self.lost)
+        m.d.comb += eng.stop.eq(stop)
+        # a whole word ended (deselected after w bits), acted on a clock later from a register
+        done = Signal()
+        m.d.sync += done.eq(~cs_was & cs_n & (count == w))
+        op = shift_in[w - 3:w]
         m.d.comb += [eng.wr_en.eq(done & (op == OP_RECORD)), eng.clear.eq(done & (op == OP_CONTROL) & shift_in[1])]
         with m.If(done & (op == OP_RECORD) & ~eng.wr_rdy & ~eng.halted):
             m.d.sync += self.lost.eq(1)
@@ -69,7 +78,7 @@ class SpiBridge(Elaboratable):
             with m.If(shift_in[1]):
                 m.d.sync += self.lost.eq(0)
         with m.If(done & (op == OP_SELECT)):
-            m.d.sync += select.eq(shift_in[27:29])
+            m.d.sync += select.eq(shift_in[w - 5:w - 3])
         return m
 
 
