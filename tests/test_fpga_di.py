@@ -142,3 +142,11 @@ def test_di_pins_equal_the_reference_on_windows_of_the_shipped_engraving(fractio
     diff = first_difference(part, run.frames)
     assert diff is None, f"window from tick {start} (line {m0}): {diff}"
     assert not run.underrun and not run.fault
+
+
+def test_a_pulse_whose_turn_never_comes_is_an_underrun_not_a_silent_stall():
+    line = LAY.pack(LAY.line, n=2, d0=2, d1=0, dir0=1)                    # X positive; the pin shows negative
+    times = [LAY.pack(LAY.time, delay=20), LAY.pack(LAY.time, delay=20)]
+    run = simulate(COARSE, [times, [line], []], 400, variant="di")          # and no turn record
+    assert run.underrun and run.positions == [0, 0, 0]
+    assert 20 + 255 <= run.fault_tick <= 20 + 258

@@ -1,4 +1,4 @@
-"""The pulse engine on a real iCE40 board: its pins (the board file), a 36 MHz clock from the PLL,
+"""The pulse engine on a real iCE40 board: its pins (the board file), a 48 MHz clock from the PLL,
 and the build with Yosys and nextpnr-ice40 (the YoWASP builds from PyPI unless ``YOSYS``,
 ``NEXTPNR_ICE40`` and ``ICEPACK`` name other ones), read back as resources and the maximum clock.
 
@@ -25,9 +25,12 @@ from .spi import SpiBridge
 
 #: board name -> (module, platform class) in amaranth-boards
 BOARDS = {"icebreaker": ("amaranth_boards.icebreaker", "ICEBreakerPlatform")}
-#: the FPGA clock: the board's 12 MHz through the PLL (DIVR 0, DIVF 63, DIVQ 4: 12 * 64 / 16)
-CLOCK_HZ = 48e6
+#: the FPGA clock: the board's 12 MHz through the PLL (DIVR 0, DIVF 63: a 768 MHz oscillator,
+#: divided by 2 ** DIVQ): the pulse engine at 48 MHz (DIVQ 4); the digital-integration engine,
+#: whose decisions are not registered (it places at about 15 MHz), at 12 MHz (DIVQ 6)
 DIVF = 63
+DIVQ = {"pulse": 4, "di": 6}
+CLOCK_HZ = {variant: 12e6 * (DIVF + 1) / 2 ** q for variant, q in DIVQ.items()}
 
 _LVCMOS = Attrs(IO_STANDARD="SB_LVCMOS")
 RESOURCES = [
@@ -49,11 +52,12 @@ class BoardTop(Elaboratable):
     def __init__(self, machine, tick_us: float | None = None, variant: str = "pulse"):
         from .simulate import engine_for
         tick_us = machine.tick_us if tick_us is None else tick_us
-        per_tick = CLOCK_HZ * tick_us * 1e-6
+        per_tick = CLOCK_HZ[variant] * tick_us * 1e-6
         if abs(per_tick - round(per_tick)) > 1e-9 or round(per_tick) < 1:
             raise RetrofitError(f"{machine.name}: a tick of {tick_us:g} us is not a whole number of "
-                                f"{CLOCK_HZ / 1e6:g} MHz clocks")
+                                f"{CLOCK_HZ[variant] / 1e6:g} MHz clocks")
         self.engine = engine_for(machine, round(per_tick), variant=variant)
+        self.divq = DIVQ[variant]
 
     def elaborate(self, platform):
         m = Module()
@@ -61,7 +65,7 @@ class BoardTop(Elaboratable):
         locked, pll_clk = Signal(), Signal()
         # nextpnr carries the board's 12 MHz constraint through the PLL: no constraint of our own
         m.submodules.pll = Instance(
-            "SB_PLL40_PAD", p_FEEDBACK_PATH="SIMPLE", p_DIVR=0, p_DIVF=DIVF, p_DIVQ=4, p_FILTER_RANGE=1,
+            "SB_PLL40_PAD", p_FEEDBACK_PATH="SIMPLE", p_DIVR=0, p_DIVF=DIVF, p_DIVQ=self.divq, p_FILTER_RANGE=1,
             i_PACKAGEPIN=platform.request("clk12", dir="-").io, i_RESETB=1, i_BYPASS=0,
             o_PLLOUTGLOBAL=pll_clk, o_LOCK=locked)
         m.d.comb += [ClockSignal("sync").eq(pll_clk), ResetSignal("sync").eq(~locked)]
@@ -97,11 +101,11 @@ class BuildReport:
     def lines(self) -> list[str]:
         lc_used, lc_all = self.logic_cells
         what = "digital-integration engine" if self.variant == "di" else "pulse engine"
-        return [f"{self.board} ({self.device}), 3-axis {what} + SPI bus at {CLOCK_HZ / 1e6:g} MHz",
+        mhz = CLOCK_HZ[self.variant] / 1e6
+        return [f"{self.board} ({self.device}), 3-axis {what} + SPI bus at {mhz:g} MHz",
                 f"  LUTs {self.luts}, flip-flops {self.ffs}, RAM blocks {self.ram_blocks}, "
                 f"logic cells {lc_used}/{lc_all}",
-                f"  maximum clock {self.fmax_mhz:.1f} MHz ({'meets' if self.fmax_mhz >= CLOCK_HZ / 1e6 else 'MISSES'} "
-                f"{CLOCK_HZ / 1e6:g} MHz)",
+                f"  maximum clock {self.fmax_mhz:.1f} MHz ({'meets' if self.fmax_mhz >= mhz else 'MISSES'} {mhz:g} MHz)",
                 f"  bitstream {self.bitstream}"]
 
 

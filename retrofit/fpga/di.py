@@ -19,7 +19,8 @@ to its last rise nor ``setup`` ticks to its last turn, and only once the directi
 request's direction (the same rule as ``motion.stepshape``).
 
 Safety as :mod:`retrofit.fpga.engine`: ``stop`` drops the step pins at once and empties the FIFOs;
-``underrun`` (a time or turn record that arrives after its tick, a base pulse with no line);
+``underrun`` (a time or turn record that arrives after its tick, a base pulse with no line, a pulse
+that waits 255 ticks for the turn to its direction);
 ``fault`` (a line whose short axis has more pulses than its base axis, a turn closer than
 ``hold`` to the last rise, or one that would reverse pulses still waiting).
 """
@@ -56,6 +57,7 @@ class DiAxis(Elaboratable):
         self.dir = Signal()
         self.position = Signal(signed(24))
         self.refused = Signal()                 # out: a turn breaking hold or reversing waiting pulses
+        self.stalled = Signal()                 # out: a request waited GUARD_MAX ticks for its turn
 
     def elaborate(self, platform):
         m = Module()
@@ -83,6 +85,14 @@ class DiAxis(Elaboratable):
         rise = Signal()
         m.d.comb += rise.eq(self.tick & ~self.drop & started & (waiting != 0) & (since_rise >= t.period) & set_up
                             & (pin_dir == Mux(pending != 0, pending_dir, self.line_dir)))
+        # a request whose direction the pin does not show waits at most ``hold`` ticks for its turn
+        # record in the reference; GUARD_MAX ticks mean the record is missing or late
+        stall = Signal(range(GUARD_MAX + 1))
+        m.d.comb += self.stalled.eq(stall == GUARD_MAX)
+        with m.If(self.halt | (waiting == 0) | (pin_dir == Mux(pending != 0, pending_dir, self.line_dir))):
+            m.d.sync += stall.eq(0)
+        with m.Elif(self.tick & (stall != GUARD_MAX)):
+            m.d.sync += stall.eq(stall + 1)
         m.d.comb += [self.step.eq((high != 0) & ~self.drop),
                      self.refused.eq(self.tick & ((turning & ((since_rise < t.hold) | ((pending != 0) & (pending_dir == self.dir))))
                                                   | ((arrived != 0) & (pending != 0) & (pending_dir != self.line_dir))))]
@@ -165,7 +175,7 @@ class DiEngine(Elaboratable):
         self.rd_level = Signal(range(depth + 2))
         self.run, self.stop, self.clear = Signal(), Signal(), Signal()
         self.underrun, self.fault, self.stopped, self.halted = Signal(), Signal(), Signal(), Signal()
-        self.tick = Signal()
+        self.tick, self.tick_next = Signal(), Signal()
         self.steps = [a.step for a in self.axes]
         self.dirs = [a.dir for a in self.axes]
         self.w_rdys = [f.w_rdy for f in self.fifos]
@@ -203,7 +213,7 @@ class DiEngine(Elaboratable):
             m.d.sync += left.eq(0)
         with m.Elif(base & ~missing & ~bad):
             m.d.sync += [current.eq(line), left.eq(Mux(start, n, left) - 1)]
-        refused = []
+        refused, stalled = [], []
         for a, axis in enumerate(self.axes):
             m.submodules[f"axis{a}"] = axis
             m.d.comb += [axis.tick.eq(self.tick), axis.halt.eq(halt_q), axis.drop.eq(self.halted),
@@ -215,8 +225,9 @@ class DiEngine(Elaboratable):
             with m.If(self.rd_axis == a):
                 m.d.comb += self.rd_position.eq(axis.position)
             refused.append(axis.refused)
+            stalled.append(axis.stalled)
         m.d.comb += self.rd_level.eq(time_f.level + times.valid)
-        late = self.tick & ~self.halted & (times.late | turns.late | missing)
+        late = self.tick & ~self.halted & (times.late | turns.late | missing | Cat(*stalled).any())
         wrong = self.tick & ~self.halted & (bad | Cat(*refused).any())
         with m.If(self.stop):
             m.d.sync += [self.stopped.eq(1), latched.eq(1)]

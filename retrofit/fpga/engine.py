@@ -1,7 +1,7 @@
 """The pulse engine of 004's FPGA: per axis a FIFO of pulse records, counters that raise the step
 pin after each record's delay for its width, the direction set at the event, a position counter.
 
-All counting is in ticks: a prescaler divides the FPGA clock by ``clocks_per_tick`` (36 at 36 MHz
+All counting is in ticks: a prescaler divides the FPGA clock by ``clocks_per_tick`` (48 at 48 MHz
 for the engraver's 1 us tick); in simulation it is 1. With two or more clocks a tick the fire
 decision is registered a clock ahead of the tick (the counters only change at ticks). On each tick the engine computes the pins
 of the next tick ``n``: the head record fires when ``n`` is ``delay`` ticks after the axis's last
