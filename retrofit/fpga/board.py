@@ -27,7 +27,7 @@ from .spi import SpiBridge
 BOARDS = {"icebreaker": ("amaranth_boards.icebreaker", "ICEBreakerPlatform")}
 #: the FPGA clock: the board's 12 MHz through the PLL (DIVR 0, DIVF 63: a 768 MHz oscillator,
 #: divided by 2 ** DIVQ): the pulse engine at 48 MHz (DIVQ 4); the digital-integration engine,
-#: whose decisions are not registered (it places at about 15 MHz), at 12 MHz (DIVQ 6)
+#: whose decisions are not registered (it places at about 16 MHz), at 12 MHz (DIVQ 6)
 DIVF = 63
 DIVQ = {"pulse": 4, "di": 6}
 CLOCK_HZ = {variant: 12e6 * (DIVF + 1) / 2 ** q for variant, q in DIVQ.items()}

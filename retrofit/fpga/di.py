@@ -61,61 +61,76 @@ class DiAxis(Elaboratable):
 
     def elaborate(self, platform):
         m = Module()
-        t = self.timing
-        e = Signal(signed(COUNT_BITS + 2))
-        e_in = Mux(self.start, self.d - self.n, e)            # a new line: SHORT starts at COUNT
+        arrived = Signal(2)                      # requests placed on this tick (0, 1 or 2)
+        m.d.comb += arrived.eq(self._integrator(m))
+        self._shaper(m, arrived)
+        return m
+
+    def _integrator(self, m: Module):
+        """004's COUNT/LONG/SHORT: which base intervals this axis pulses in, and when in them."""
+        e = Signal(signed(COUNT_BITS + 2))                  # (LONG + 1) d - SHORT n
+        e_in = Mux(self.start, self.d - self.n, e)          # a new line: SHORT starts at COUNT
         e_add = Signal(signed(COUNT_BITS + 2))
-        m.d.comb += e_add.eq(e_in + self.d)
-        pulse = self.base & (e_add > 0)
-        on_base = pulse & (e_add == self.d)
+        m.d.comb += e_add.eq(e_in + self.d)                 # LONG += 1
+        pulse = self.base & (e_add > 0)                     # int(SHORT) == LONG: it pulses here
+        on_base = pulse & (e_add == self.d)                 # SHORT == LONG: on the base pulse
+        later = pulse & ~on_base                            # between base pulses: at the offset
         countdown, counting = Signal(DELAY_BITS), Signal()
         expire = self.tick & counting & (countdown == 1)
-        later = pulse & ~on_base
-        now = on_base | (later & (self.offset == 0))
-        pending, pending_dir = Signal(PENDING_BITS), Signal()
-        since_rise = Signal(range(GUARD_MAX + 1), init=GUARD_MAX)
-        since_turn = Signal(range(GUARD_MAX + 1), init=GUARD_MAX)
-        high, started = Signal(8), Signal()
-        arrived = Signal(2)
-        m.d.comb += arrived.eq(now + expire)
-        waiting = pending + arrived
-        turning = self.turn & (self.turn_dir != self.dir)
-        pin_dir = Mux(turning, self.turn_dir, self.dir)
-        set_up = 1 if t.setup == 0 else ~turning & (since_turn >= t.setup)
-        rise = Signal()
-        m.d.comb += rise.eq(self.tick & ~self.drop & started & (waiting != 0) & (since_rise >= t.period) & set_up
-                            & (pin_dir == Mux(pending != 0, pending_dir, self.line_dir)))
-        # a request whose direction the pin does not show waits at most ``hold`` ticks for its turn
-        # record in the reference; GUARD_MAX ticks mean the record is missing or late
-        stall = Signal(range(GUARD_MAX + 1))
-        m.d.comb += self.stalled.eq(stall == GUARD_MAX)
-        with m.If(self.halt | (waiting == 0) | (pin_dir == Mux(pending != 0, pending_dir, self.line_dir))):
-            m.d.sync += stall.eq(0)
-        with m.Elif(self.tick & (stall != GUARD_MAX)):
-            m.d.sync += stall.eq(stall + 1)
-        m.d.comb += [self.step.eq((high != 0) & ~self.drop),
-                     self.refused.eq(self.tick & ((turning & ((since_rise < t.hold) | ((pending != 0) & (pending_dir == self.dir))))
-                                                  | ((arrived != 0) & (pending != 0) & (pending_dir != self.line_dir))))]
         with m.If(self.halt):
-            m.d.sync += [high.eq(0), pending.eq(0), counting.eq(0)]
+            m.d.sync += counting.eq(0)
         with m.Elif(self.tick & ~self.drop):
-            m.d.sync += started.eq(1)
             with m.If(self.base):
-                m.d.sync += e.eq(Mux(pulse, e_add - self.n, e_add))
+                m.d.sync += e.eq(Mux(pulse, e_add - self.n, e_add))     # SHORT += COUNT
             with m.If(later & (self.offset != 0)):
                 m.d.sync += [countdown.eq(self.offset), counting.eq(1)]
             with m.Elif(counting):
                 m.d.sync += [countdown.eq(countdown - 1), counting.eq(countdown != 1)]
+        return on_base + (later & (self.offset == 0)) + expire
+
+    def _shaper(self, m: Module, arrived) -> None:
+        """Requests to pulses: the driver's period and set-up, the direction, the width, the count."""
+        t = self.timing
+        pending, pending_dir = Signal(PENDING_BITS), Signal()
+        since_rise = Signal(range(GUARD_MAX + 1), init=GUARD_MAX)
+        since_turn = Signal(range(GUARD_MAX + 1), init=GUARD_MAX)
+        high, started = Signal(8), Signal()
+        waiting = pending + arrived
+        turning = self.turn & (self.turn_dir != self.dir)
+        pin_dir = Mux(turning, self.turn_dir, self.dir)
+        wanted_dir = Mux(pending != 0, pending_dir, self.line_dir)      # the oldest request's
+        set_up = 1 if t.setup == 0 else ~turning & (since_turn >= t.setup)
+        rise = Signal()
+        m.d.comb += rise.eq(self.tick & ~self.drop & started & (waiting != 0) & (since_rise >= t.period)
+                            & set_up & (pin_dir == wanted_dir))
+        reversing = (pending != 0) & (pending_dir == self.dir)         # a turn under waiting requests
+        mixed = (arrived != 0) & (pending != 0) & (pending_dir != self.line_dir)
+        m.d.comb += [self.step.eq((high != 0) & ~self.drop),
+                     self.refused.eq(self.tick & ((turning & ((since_rise < t.hold) | reversing)) | mixed
+                                                  | (waiting >= (1 << PENDING_BITS))))]
+        self._stall(m, (waiting != 0) & (pin_dir != wanted_dir))
+        with m.If(self.halt):
+            m.d.sync += [high.eq(0), pending.eq(0)]
+        with m.Elif(self.tick & ~self.drop):
+            m.d.sync += [started.eq(1), pending.eq(waiting - rise), self.dir.eq(pin_dir)]
             with m.If(arrived != 0):
                 m.d.sync += pending_dir.eq(self.line_dir)
-            m.d.sync += [pending.eq(waiting - rise), self.dir.eq(pin_dir)]
             self._count(m, since_rise, rise)
             self._count(m, since_turn, turning)
             with m.If(rise):
                 m.d.sync += [high.eq(self.width), self.position.eq(self.position + Mux(pin_dir, 1, -1))]
             with m.Elif(high != 0):
                 m.d.sync += high.eq(high - 1)
-        return m
+
+    def _stall(self, m: Module, stuck) -> None:
+        """A request the direction pin does not serve waits at most ``hold`` ticks for its turn in
+        the reference: GUARD_MAX ticks mean the turn record is missing or late (``stalled``)."""
+        stall = Signal(range(GUARD_MAX + 1))
+        m.d.comb += self.stalled.eq(stall == GUARD_MAX)
+        with m.If(self.halt | ~stuck):
+            m.d.sync += stall.eq(0)
+        with m.Elif(self.tick & (stall != GUARD_MAX)):
+            m.d.sync += stall.eq(stall + 1)
 
     @staticmethod
     def _count(m, counter, restart):
