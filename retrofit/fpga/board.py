@@ -30,7 +30,8 @@ BOARDS = {"icebreaker": ("amaranth_boards.icebreaker", "ICEBreakerPlatform")}
 #: whose decisions are not registered (it places at about 16 MHz), at 12 MHz (DIVQ 6)
 DIVF = 63
 DIVQ = {"pulse": 4, "di": 6}
-CLOCK_HZ = {variant: 12e6 * (DIVF + 1) / 2 ** q for variant, q in DIVQ.items()}
+CLOCKS_HZ = {variant: 12e6 * (DIVF + 1) / 2 ** q for variant, q in DIVQ.items()}
+CLOCK_HZ = CLOCKS_HZ["pulse"]
 
 _LVCMOS = Attrs(IO_STANDARD="SB_LVCMOS")
 RESOURCES = [
@@ -52,10 +53,10 @@ class BoardTop(Elaboratable):
     def __init__(self, machine, tick_us: float | None = None, variant: str = "pulse"):
         from .simulate import engine_for
         tick_us = machine.tick_us if tick_us is None else tick_us
-        per_tick = CLOCK_HZ[variant] * tick_us * 1e-6
+        per_tick = CLOCKS_HZ[variant] * tick_us * 1e-6
         if abs(per_tick - round(per_tick)) > 1e-9 or round(per_tick) < 1:
             raise RetrofitError(f"{machine.name}: a tick of {tick_us:g} us is not a whole number of "
-                                f"{CLOCK_HZ[variant] / 1e6:g} MHz clocks")
+                                f"{CLOCKS_HZ[variant] / 1e6:g} MHz clocks")
         self.engine = engine_for(machine, round(per_tick), variant=variant)
         self.divq = DIVQ[variant]
 
@@ -101,7 +102,7 @@ class BuildReport:
     def lines(self) -> list[str]:
         lc_used, lc_all = self.logic_cells
         what = "digital-integration engine" if self.variant == "di" else "pulse engine"
-        mhz = CLOCK_HZ[self.variant] / 1e6
+        mhz = CLOCKS_HZ[self.variant] / 1e6
         return [f"{self.board} ({self.device}), 3-axis {what} + SPI bus at {mhz:g} MHz",
                 f"  LUTs {self.luts}, flip-flops {self.ffs}, RAM blocks {self.ram_blocks}, "
                 f"logic cells {lc_used}/{lc_all}",
