@@ -41,6 +41,14 @@ def test_di_pins_equal_the_reference_on_a_short_move_with_a_reversal():
     assert len(lines) == 2 and len(times) == 8 + 4       # one time record per base pulse (X, then X)
 
 
+def test_di_pins_equal_the_reference_when_the_fpga_clock_is_three_ticks():
+    """On a board the tick is many clocks (12 at 12 MHz): the FIFO heads refill between ticks."""
+    plan, frames = plan_and_frames("G1 X0.05 Y0.025 F3000\nG1 X0.025 Y0.05\n")
+    run, diff = di_equals(plan, frames, clocks_per_tick=3)
+    assert diff is None, diff
+    assert run.positions == [2, 4, 0] and run.cycles == 3 * (frames.end_tick - 1) + 1
+
+
 def test_a_3_to_2_line_under_acceleration_needs_the_processors_offsets():
     """Y pulses at SHORT = 1.5, 4.5, ... base intervals: the reference times each on the velocity
     profile, so spacing it evenly between its base pulses (004's (SHORT - LONG) / f) misses ticks;
