@@ -80,9 +80,10 @@ def test_underrun_stops_every_axis_and_latches():
     assert not step_y[run.fault_tick + 1:].any() and not step_x[run.fault_tick + 1:].any()
 
 
-def test_stop_drops_the_step_pins_in_the_same_tick_and_empties_the_fifos():
+@pytest.mark.parametrize("clocks", [1, 3], ids=["one-clock-a-tick", "registered"])
+def test_stop_drops_the_step_pins_in_the_same_tick_and_empties_the_fifos(clocks):
     words = [records((1, 1, 0), *[(10, 1, 8)] * 10), records(*[(11, 0, 8)] * 10), []]
-    run = simulate(COARSE, words, 120, stop_tick=33)           # in X's fourth pulse
+    run = simulate(COARSE, words, 120, clocks_per_tick=clocks, stop_tick=33)    # in X's fourth pulse
     step_x, _ = pin_levels(COARSE, run.frames, 0)
     assert step_x[31:33].all() and not step_x[33:].any()       # cut at once, never again
     assert run.positions == [3, -2, 0]                          # Y's rise due at 33 never came

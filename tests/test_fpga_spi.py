@@ -6,11 +6,11 @@ from amaranth.sim import Simulator
 
 from retrofit.fpga.engine import AxisTiming, PulseEngine
 from retrofit.fpga.record import pack
-from retrofit.fpga.spi import OP_CONTROL, OP_RECORD, OP_SELECT, SpiBridge, word
+from retrofit.fpga.spi import OP_CONTROL, OP_RECORD, OP_SELECT, SpiBridge, word, word_bits
 
 
-def spi_session(words, after_cycles=60, depth=4):
-    eng = PulseEngine([AxisTiming(4, 2, 2)] * 2, clocks_per_tick=1, depth=depth)
+def spi_session(words, after_cycles=60, depth=4, eng=None):
+    eng = eng or PulseEngine([AxisTiming(4, 2, 2)] * 2, clocks_per_tick=1, depth=depth)
     top = Module()
     spi = SpiBridge(eng)
     top.submodules.eng, top.submodules.spi = eng, spi
@@ -24,7 +24,7 @@ def spi_session(words, after_cycles=60, depth=4):
             ctx.set(spi.cs_n, 0)
             await ctx.tick().repeat(4)
             got = 0
-            for bit in range(31, -1, -1):
+            for bit in range(spi.word_bits - 1, -1, -1):
                 ctx.set(spi.copi, w >> bit & 1)
                 await ctx.tick().repeat(3)
                 ctx.set(spi.sck, 1)
@@ -59,3 +59,18 @@ def test_a_record_to_a_full_fifo_stops_the_engine():
     words = [word(OP_RECORD, 0, pack(1, 0, 1))] * 6 + [word(OP_SELECT, 0)]   # room for 4 + the head
     replies, steps = spi_session(words, after_cycles=5, depth=4)
     assert replies[-1] >> 31 == 1 and replies[-1] >> 24 & 0x1F == 0   # stopped, FIFO emptied
+
+
+def test_line_and_time_records_over_spi_drive_the_digital_integration_engine():
+    from retrofit.fpga.di import DiEngine
+    from retrofit.fpga.lines import LINE, TIME, TURN, LineLayout
+    eng, lay = DiEngine([AxisTiming(4, 2, 2)] * 2, [2, 2], depth=4), LineLayout(2)
+    bits = word_bits(eng)                                              # 56 for two axes
+    line = lay.pack(lay.line, n=2, d0=2, d1=1, dir0=1, dir1=1)       # X 2 pulses, Y 1 (on X's second)
+    words = [word(OP_SELECT, 1, bits=bits), word(OP_RECORD, LINE, line, bits),
+             *[word(OP_RECORD, TIME, lay.pack(lay.time, delay=d), bits) for d in (3, 10)],
+             word(OP_RECORD, TURN, lay.pack(lay.turn, delay=0, turn0=1, turn1=1, dir0=1, dir1=1), bits),
+             word(OP_CONTROL, payload=0b100, bits=bits), None, word(OP_CONTROL, payload=0b100, bits=bits)]
+    replies, _ = spi_session(words, eng=eng)
+    reply = replies[-1] >> (bits - 32)                                 # the reply is the top 32 bits
+    assert reply & 0xFFFFFF == 1 and reply >> 29 == 0                  # Y +1, no flag

@@ -17,6 +17,9 @@ def add_commands(sub) -> None:
     b = fsub.add_parser("build", help="synthesise, place and route; print LUTs, flip-flops, RAM blocks, fmax")
     b.add_argument("--board", default="icebreaker", help="board from amaranth-boards (known: icebreaker)")
     machine_option(b, "engraver", "machine whose axes and driver timing the engine gets")
+    b.add_argument("--variant", choices=("pulse", "di"), default="pulse",
+                   help="pulse: a record per pulse from the processor; di: line records, the digital "
+                        "integration in the gateware (docs/fpga.md)")
     b.add_argument("--build-dir", type=Path, default=None,
                    help="where the build files and bitstream go (default: the user's cache folder)")
     b.set_defaults(func=cmd_build)
@@ -27,7 +30,7 @@ def cmd_build(args) -> int:
     from ..machine.config import load_machine
     from ..outputs.pacer_build import cache_dir
     machine = load_machine(args.machine)
-    where = args.build_dir or cache_dir() / "fpga" / f"{args.board}-{machine.name}"
-    report = build(machine, args.board, where)
+    where = args.build_dir or cache_dir() / "fpga" / f"{args.board}-{machine.name}-{args.variant}"
+    report = build(machine, args.board, where, args.variant)
     print("\n".join(report.lines()))
     return 0

@@ -32,9 +32,18 @@ class GateRun:
     fault_tick: int | None = None
 
 
-def engine_for(machine, clocks_per_tick: int = 1, depth: int = 16) -> PulseEngine:
-    """The pulse engine for a machine's axes (their driver timing as guards)."""
-    return PulseEngine([AxisTiming.of(a) for a in machine.axes], clocks_per_tick, depth)
+#: the two splits of 004's work: ``pulse`` (a record per pulse) and ``di`` (line records, the
+#: digital integration in the gateware: ``retrofit.fpga.di``)
+VARIANTS = ("pulse", "di")
+
+
+def engine_for(machine, clocks_per_tick: int = 1, depth: int = 16, variant: str = "pulse"):
+    """The engine of ``variant`` for a machine's axes (their driver timing as guards)."""
+    timings = [AxisTiming.of(a) for a in machine.axes]
+    if variant == "di":
+        from .di import DiEngine
+        return DiEngine(timings, [a.pulse_high_ticks for a in machine.axes], clocks_per_tick, depth)
+    return PulseEngine(timings, clocks_per_tick, depth)
 
 
 class GateSim:
@@ -45,21 +54,21 @@ class GateSim:
     """
 
     def __init__(self, machine, clocks_per_tick: int = 1, stop_tick: int | None = None,
-                 late_feed: dict | None = None, depth: int = 16):
-        self.dut = dut = engine_for(machine, clocks_per_tick, depth)
+                 late_feed: dict | None = None, depth: int = 16, variant: str = "pulse"):
+        self.dut = dut = engine_for(machine, clocks_per_tick, depth, variant)
         self.pins, self.n, self.k = PinMap(machine), len(machine.axes), clocks_per_tick
+        self.nq = nq = len(dut.w_rdys)          # the FIFOs the host writes (per axis, or time/line/turn)
         self.stop_tick, self.late_feed, self.depth = stop_tick, late_feed or {}, depth
-        self.queues: list[list[int]] = [[] for _ in range(self.n)]
-        self.heads = [0] * self.n
+        self.queues: list[list[int]] = [[] for _ in range(nq)]
+        self.heads = [0] * nq
         self.ticks: list[int] = []
         self.values: list[int] = []
         self.tick, self.cycles, self.fault_tick = 0, 0, None
         self._limit = 0
         top = Module()
         top.submodules.engine = dut
-        self.watch = Signal(3 * self.n + 2)   # step pins, dir pins, FIFOs with room, underrun, fault
-        top.d.comb += self.watch.eq(Cat(*dut.steps, *dut.dirs, *[a.fifo.w_rdy for a in dut.axes],
-                                        dut.underrun, dut.fault))
+        self.watch = Signal(2 * self.n + nq + 2)   # step pins, dir pins, FIFOs with room, underrun, fault
+        top.d.comb += self.watch.eq(Cat(*dut.steps, *dut.dirs, *dut.w_rdys, dut.underrun, dut.fault))
         self.sim = Simulator(top)
         self.sim.add_clock(1e-6 / clocks_per_tick)
         self.sim.add_testbench(self._bench)
@@ -85,9 +94,9 @@ class GateSim:
 
     def _feed(self, ctx, tick: int, seen: int) -> None:
         """Write one record (if any axis has room and something to send) before the next edge."""
-        dut, n = self.dut, self.n
-        for k in range(n):
-            a = (tick + k) % n
+        dut, n, nq = self.dut, self.n, self.nq
+        for k in range(nq):
+            a = (tick + k) % nq
             held = a in self.late_feed and self.heads[a] >= 1 and tick < self.late_feed[a]
             if self.heads[a] < len(self.queues[a]) and not held and seen >> (2 * n + a) & 1:
                 ctx.set(dut.wr_axis, a)
@@ -99,7 +108,7 @@ class GateSim:
 
     async def _bench(self, ctx):
         dut, n, k = self.dut, self.n, self.k
-        for _ in range(self.depth * n + 2):                   # prime the FIFOs
+        for _ in range(self.depth * self.nq + 2):             # prime the FIFOs
             self._feed(ctx, 0, ctx.get(self.watch))
             await ctx.tick()
         ctx.set(dut.run, 1)
@@ -121,18 +130,20 @@ class GateSim:
                     self.ticks.append(self.tick)
                     self.values.append(value)
                     last = value
-            if self.fault_tick is None and seen >> (3 * n):
+            if self.fault_tick is None and seen >> (2 * n + self.nq):
                 self.fault_tick = self.tick
             self.tick += 1
             self.status = {"positions": [ctx.get(a.position) for a in dut.axes],
-                           "underrun": bool(seen >> (3 * n) & 1), "fault": bool(seen >> (3 * n + 1) & 1),
+                           "underrun": bool(seen >> (2 * n + self.nq) & 1),
+                           "fault": bool(seen >> (2 * n + self.nq + 1) & 1),
                            "cycles": self.cycles} if self.tick == self._limit else self.status
 
 
 def simulate(machine, words: list[list[int]], end_tick: int, clocks_per_tick: int = 1,
-             stop_tick: int | None = None, late_feed: dict | None = None, depth: int = 16) -> GateRun:
-    """Run the engine for ``end_tick`` ticks on per-axis records ``words``; its pins as frames."""
-    gate = GateSim(machine, clocks_per_tick, stop_tick, late_feed, depth)
+             stop_tick: int | None = None, late_feed: dict | None = None, depth: int = 16,
+             variant: str = "pulse") -> GateRun:
+    """Run the engine for ``end_tick`` ticks on records ``words`` (per FIFO); its pins as frames."""
+    gate = GateSim(machine, clocks_per_tick, stop_tick, late_feed, depth, variant)
     gate.add(words)
     return gate.result(end_tick)
 
@@ -155,4 +166,12 @@ def gateware_equals(machine, frames: PortFrames, clocks_per_tick: int = 1) -> tu
     """The engine fed the records read from ``frames``: its run, and where its pins first differ."""
     from .host import compile_records
     run = simulate(machine, compile_records(machine, frames), frames.end_tick, clocks_per_tick)
+    return run, first_difference(frames, run.frames)
+
+
+def di_equals(plan, frames: PortFrames, clocks_per_tick: int = 1) -> tuple[GateRun, str | None]:
+    """The digital-integration engine fed ``plan``'s line records: its run, and where its pins
+    first differ from ``frames`` (the plan's run)."""
+    from .lines import compile_lines
+    run = simulate(plan.machine, compile_lines(plan, frames), frames.end_tick, clocks_per_tick, variant="di")
     return run, first_difference(frames, run.frames)

@@ -3,7 +3,7 @@ as the bridge board of 004 would wire the processor to the FPGA.
 
 SPI rather than a parallel FIFO bus because it needs four wires on any board (the iCEBreaker's
 PMOD, a Raspberry Pi or a microcontroller as the host) and a record is one 32-bit word: at a
-9 MHz SPI clock (a quarter of 36 MHz) that is 281 250 records a second, more than the engraver's
+12 MHz SPI clock (a quarter of 48 MHz) that is 375 000 records a second, more than the engraver's
 three axes need (3 x 4 800 steps a second at 60 mm/s and 80 steps/mm).
 
 Words from the host (bits 31..29 the operation):
@@ -33,6 +33,7 @@ class SpiBridge(Elaboratable):
 
     def __init__(self, engine):
         self.engine = engine
+        self.word_bits = word_bits(engine)
         self.sck, self.copi, self.cs_n = Signal(), Signal(), Signal(init=1)
         self.cipo = Signal()
         self.stop_in = Signal()               # the stop pin, already active-high
@@ -45,22 +46,28 @@ class SpiBridge(Elaboratable):
                          FFSynchronizer(self.cs_n, cs_n, init=1)]
         sck_was, cs_was = Signal(), Signal(init=1)
         m.d.sync += [sck_was.eq(sck), cs_was.eq(cs_n)]
-        shift_in, shift_out, count = Signal(32), Signal(32), Signal(6)
+        w = self.word_bits
+        shift_in, shift_out, count = Signal(w), Signal(w), Signal(range(w + 1))
         held_stop, run, select = Signal(), Signal(), Signal(2)
         level = Signal(5)
         m.d.comb += level.eq(eng.rd_level)
         reply = Cat(eng.rd_position[:24], level, eng.underrun, eng.fault, eng.stopped)
-        m.d.comb += [self.cipo.eq(shift_out[31]), eng.rd_axis.eq(select), eng.run.eq(run),
-                     eng.stop.eq(held_stop | self.stop_in | self.lost),
-                     eng.wr_axis.eq(shift_in[27:29]), eng.wr_data.eq(shift_in[:25])]
+        m.d.comb += [self.cipo.eq(shift_out[w - 1]), eng.rd_axis.eq(select), eng.run.eq(run),
+                     eng.wr_axis.eq(shift_in[w - 5:w - 3]), eng.wr_data.eq(shift_in[:len(eng.wr_data)])]
         with m.If(cs_was & ~cs_n):                                 # selected: a word begins
-            m.d.sync += [count.eq(0), shift_out.eq(reply)]
+            m.d.sync += [count.eq(0), shift_out.eq(reply << (w - 32))]
         with m.Elif(~cs_n & sck & ~sck_was):                       # rising SCK: sample COPI
-            m.d.sync += [shift_in.eq(Cat(copi, shift_in[:31])), count.eq(count + 1)]
+            m.d.sync += [shift_in.eq(Cat(copi, shift_in[:w - 1])), count.eq(count + 1)]
         with m.Elif(~cs_n & ~sck & sck_was):                       # falling SCK: next bit out
             m.d.sync += shift_out.eq(shift_out << 1)
-        done = ~cs_was & cs_n & (count == 32)
-        op = shift_in[29:32]
+        # the stop sources are registers; their OR is one more, so the engine's halt is one gate
+        stop = Signal()
+        m.d.sync += stop.eq(held_stop | self.stop_in | self.lost)
+        m.d.comb += eng.stop.eq(stop)
+        # a whole word ended (deselected after w bits), acted on a clock later from a register
+        done = Signal()
+        m.d.sync += done.eq(~cs_was & cs_n & (count == w))
+        op = shift_in[w - 3:w]
         m.d.comb += [eng.wr_en.eq(done & (op == OP_RECORD)), eng.clear.eq(done & (op == OP_CONTROL) & shift_in[1])]
         with m.If(done & (op == OP_RECORD) & ~eng.wr_rdy & ~eng.halted):
             m.d.sync += self.lost.eq(1)
@@ -69,10 +76,16 @@ class SpiBridge(Elaboratable):
             with m.If(shift_in[1]):
                 m.d.sync += self.lost.eq(0)
         with m.If(done & (op == OP_SELECT)):
-            m.d.sync += select.eq(shift_in[27:29])
+            m.d.sync += select.eq(shift_in[w - 5:w - 3])
         return m
 
 
-def word(op: int, axis: int = 0, payload: int = 0) -> int:
-    """A host word (for tests and a host driver)."""
-    return (op << 29) | (axis << 27) | payload
+def word_bits(engine) -> int:
+    """32 for the pulse engine; the digital-integration engine's wider records make its words
+    longer (whole bytes): operation and selector stay the top five bits, the reply the top 32."""
+    return max(32, -(-(5 + len(engine.wr_data)) // 8) * 8)
+
+
+def word(op: int, axis: int = 0, payload: int = 0, bits: int = 32) -> int:
+    """A host word of ``bits`` bits (``SpiBridge.word_bits``; for tests and a host driver)."""
+    return (op << (bits - 3)) | (axis << (bits - 5)) | payload
