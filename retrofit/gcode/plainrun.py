@@ -48,13 +48,13 @@ def take_run(tr, lines, pc: int, file: str) -> int:
     names = tr.names
     k = len(table)
     axes = [_AXES[j] for j in range(3) if not np.isnan(table[:, 1 + j]).all()]
-    if any(a not in names or a in s.rotary for a in axes) or not (np.abs(np.nan_to_num(table)) <= MAX_VALUE).all():
+    if any(a not in names or a in s.rotary for a in axes) or (np.abs(table) > MAX_VALUE).any():
         return 0
     feeds = table[:, 4]
     if (feeds < 0.0).any():
         return 0
     modes = _filled(table[:, 0], -1.0 if s.motion is None else float(s.motion))
-    if not np.isin(modes, (0.0, 1.0)).all():
+    if not ((modes == 0.0) | (modes == 1.0)).all():
         return 0
     scale = MM_PER_INCH if s.inch else 1.0
     given = ~np.isnan(feeds)
