@@ -130,7 +130,7 @@ def _emit(tr, lines, pc: int, file: str, modes, feed_mm, ends, moving) -> None:
     numbers = np.frombuffer(lines.numbers, kind, k, pc * lines.numbers.itemsize)
     at_lines = numbers[at].tolist()
     axes = list(zip(*[zip(repeat(n), ends[n][at].tolist()) for n in names]))
-    moves = list(map(PMov, axes))
+    moves: list[FMov | PMov] = list(map(PMov, axes))
     feeding = modes[at] == 1.0
     for j in np.flatnonzero(~feeding).tolist():
         moves[j] = FMov(axes[j])
