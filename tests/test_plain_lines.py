@@ -97,7 +97,7 @@ def test_the_scanner_reads_a_run_of_lines_as_the_pattern_does(compiled, monkeypa
         pytest.skip("kernels do not run compiled here (no Numba)")
     for line in SPELLINGS:
         lines = LazyLines(f"X0 Y0\n{line}\nX1 Y1\n")
-        monkeypatch.setattr(plainscan, "compiled", lambda work: compiled)
+        monkeypatch.setattr(plainscan, "_scanner_ready", lambda work: compiled)
         got = plainrun._table(lines, 0)
         want = plainrun._read(lines, 0, len(lines))
         python = np.empty((len(lines), 5))
@@ -110,3 +110,17 @@ def test_the_scanner_reads_a_run_of_lines_as_the_pattern_does(compiled, monkeypa
             assert len(table) == (1 if long and scanned else len(want)), line
             assert np.array_equal(table, want[:len(table)], equal_nan=True), line
             assert np.array_equal(np.signbit(table), np.signbit(want[:len(table)])), line
+
+
+def test_a_kernel_module_built_before_the_scanner_leaves_the_run_to_the_pattern(monkeypatch):
+    """An ahead-of-time module without the scanner (``retrofit kernels`` not run again since) would
+    load Numba at the first run of plain lines: the pattern reads it instead."""
+    from retrofit.gcode import plainscan
+    from retrofit.motion import _aot
+    scan = getattr(plainscan.scan_plain, "py_func", plainscan.scan_plain)
+    guard = _aot.Library(None, {}).guard(scan, lambda func: pytest.fail("Numba's JIT was asked for"))
+    monkeypatch.setattr(plainscan, "compiled", lambda work: True)
+    monkeypatch.setattr(plainscan, "scan_plain", guard)
+    assert not plainscan._scanner_ready(10)
+    prog = compile_program("G21 G90 G1 F500\n" + "\n".join(zigzag(20)) + "\nM2\n", MILL, "p.ngc")
+    assert prog.lines[-1] == 21

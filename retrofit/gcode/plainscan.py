@@ -96,7 +96,7 @@ def plain_table(text: str, starts, stops, first: int, last: int, read_by_pattern
     """The (G, X, Y, Z, F) table of the plain lines ``first..last-1`` (indexes into ``starts`` /
     ``stops``, offsets into the ASCII ``text``), up to the first other line; ``read_by_pattern()``
     where kernels do not run compiled."""
-    if last - first < 2 or not compiled(len(starts)):
+    if last - first < 2 or not _scanner_ready(len(starts)):
         return read_by_pattern()
     kind = np.int32 if starts.typecode == "i" else np.int64
     begin, stop = starts[first], stops[last - 1]
@@ -106,3 +106,12 @@ def plain_table(text: str, starts, stops, first: int, last: int, read_by_pattern
     table = np.empty((last - first, 5))
     rows = scan_plain(buf, lo, hi, table)
     return table[:rows]
+
+
+def _scanner_ready(work: int) -> bool:
+    """Whether the scanner runs compiled without loading Numba for it: an ahead-of-time module
+    built before the scanner was (``retrofit kernels`` not run again) leaves the pattern to it."""
+    if not compiled(work):
+        return False
+    current = scan_plain                    # the compiled stand-in, once kernels run compiled
+    return hasattr(current, "signatures") or bool(getattr(current, "exports", True))
