@@ -32,6 +32,7 @@ RUN_LINES = 512
 _NUM = r"([-+]?(?:\d+\.?\d*|\.\d+))"
 _LINE = re.compile(rf"(?:G0?([01]) ?)?(?:X{_NUM} ?)?(?:Y{_NUM} ?)?(?:Z{_NUM} ?)?(?:F{_NUM})?")
 _AXES = "XYZ"
+_RUN_WORDS = "GXYZF"
 
 
 def take_run(tr, lines, pc: int, file: str) -> int:
@@ -42,6 +43,9 @@ def take_run(tr, lines, pc: int, file: str) -> int:
             or s.css is not None or s.inverse_time or s.per_rev or (tr.comp.geometry is not None
                                                                    and tr.comp.geometry.queue)):
         return 0
+    if any(letter not in _RUN_WORDS or (letter == "G" and value not in (0.0, 1.0))
+           for letter, value in lines[pc].words):
+        return 0                                  # (an arc, a tool change...: line by line)
     table = _table(lines, pc)                     # G, X, Y, Z, F
     if len(table) < 2:
         return 0

@@ -24,6 +24,8 @@ from ..motion._jit import compiled, kernel
 _LETTERS = (71, 88, 89, 90, 70)
 #: the most digits of a number read exactly by one division
 _DIGITS = 15
+#: lines scanned in the first piece of a run (then four times as many each time)
+FIRST_PIECE = 64
 
 
 @kernel
@@ -95,17 +97,25 @@ def scan_plain(buf, starts, stops, table):
 def plain_table(text: str, starts, stops, first: int, last: int, read_by_pattern):
     """The (G, X, Y, Z, F) table of the plain lines ``first..last-1`` (indexes into ``starts`` /
     ``stops``, offsets into the ASCII ``text``), up to the first other line; ``read_by_pattern()``
-    where kernels do not run compiled."""
+    where kernels do not run compiled. The lines are scanned in pieces growing from
+    :data:`FIRST_PIECE` lines, so a short run copies little of the text."""
     if last - first < 2 or not _scanner_ready(len(starts)):
         return read_by_pattern()
     kind = np.int32 if starts.typecode == "i" else np.int64
-    begin, stop = starts[first], stops[last - 1]
-    buf = np.frombuffer(text[begin:stop].encode("ascii"), np.uint8)
-    lo = np.frombuffer(starts, kind, last - first, first * starts.itemsize) - begin
-    hi = np.frombuffer(stops, kind, last - first, first * stops.itemsize) - begin
     table = np.empty((last - first, 5))
-    rows = scan_plain(buf, lo, hi, table)
-    return table[:rows]
+    done, size = first, FIRST_PIECE
+    while done < last:
+        end = min(done + size, last)
+        begin = starts[done]
+        buf = np.frombuffer(text[begin:stops[end - 1]].encode("ascii"), np.uint8)
+        lo = np.frombuffer(starts, kind, end - done, done * starts.itemsize) - begin
+        hi = np.frombuffer(stops, kind, end - done, done * stops.itemsize) - begin
+        rows = scan_plain(buf, lo, hi, table[done - first:end - first])
+        done += rows
+        if done < end:
+            break
+        size *= 4
+    return table[:done - first]
 
 
 def _scanner_ready(work: int) -> bool:
