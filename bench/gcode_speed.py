@@ -7,7 +7,8 @@ Writes a CAM program shaped like Fusion 360 / FreeCAD output (a preamble, operat
 with I J, ``G0`` retracts) and, in one run, reads it with:
 
 * ``retrofit.gcode`` -- the whole interpreter: modal state, offsets, soft limits, arcs into
-  chords, commands out;
+  chords, commands out; and again with runs of plain lines read by the pattern instead of the
+  compiled scanner (``retrofit/gcode/plainscan.py``);
 * a naive regex reader -- every word of every line to a float, no semantics at all (the floor
   any Python reader pays);
 * ``gcodeparser`` and ``pygcode`` from PyPI where installed (``pip install gcodeparser pygcode``);
@@ -80,6 +81,17 @@ def naive(text: str) -> int:
     return count
 
 
+def by_pattern(text: str, machine) -> int:
+    """The interpreter with the compiled scanner of plain lines turned off."""
+    from retrofit.gcode import plainscan
+    ready = plainscan._scanner_ready
+    plainscan._scanner_ready = lambda work: False
+    try:
+        return len(compile_program(text, machine, "bench.ngc").commands)
+    finally:
+        plainscan._scanner_ready = ready
+
+
 def with_gcodeparser(text: str) -> int:
     import gcodeparser
     return sum(1 for _ in gcodeparser.parse_gcode_lines(text))
@@ -125,6 +137,8 @@ def readers(text: str, machine):
     """(name, function, what it does) of every reader timed, retrofit first."""
     yield "retrofit.gcode", lambda t: len(compile_program(t, machine, "bench.ngc").commands), \
         "interpreter: modal state, offsets, limits, arcs -> {} commands"
+    yield "retrofit, pattern", lambda t: by_pattern(t, machine), \
+        "the same, runs of plain lines read by the pattern, not the compiled scanner ({} commands)"
     yield "naive regex", naive, "words to floats only, no semantics ({} words)"
     for name, fn, what in (("gcodeparser", with_gcodeparser, "parse; yields {} command lines "
                             "(axis-only lines dropped)"),

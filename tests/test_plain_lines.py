@@ -2,6 +2,9 @@
 pattern and arrays, a single plain line without a block object): the same commands, lines and
 refusals as the full translator."""
 
+import re
+
+import numpy as np
 import pytest
 
 from retrofit.errors import GcodeError
@@ -44,6 +47,8 @@ PROGRAMS = {
     "huge-value": ["G21 G90 G1 F500"] + zigzag(10) + ["X1e10"] + zigzag(5),
     "axis-not-on-machine": ["G21 G90 G1 F500"] + zigzag(10) + ["X1 A5"],
     "word-twice": ["G21 G90 G1 F500"] + zigzag(10) + ["X1 X2"],
+    "spellings": ["G21 G90 F500", "G01 X1.5 Y2.", "G1X2Y3Z-0", "X.5 Y+3 ", "G00 X1", "G0", "G1 Z-00012.340 ",
+                  "X10.000000000000001 Y1", "X10.5 Y1.25 F.5", "X2 Y3 F100 ", "X3", "G001 X1"],
 }
 
 
@@ -74,3 +79,48 @@ def test_a_run_is_taken_at_once_and_names_every_line(monkeypatch):
     assert [t for t in taken if t] == [100]                # the 100 lines in one run
     assert prog.lines[-1] == 101 and sorted(set(prog.lines)) == list(range(2, 102))
     assert plainrun.RUN_LINES >= 100
+
+
+#: lines of every spelling the plain pattern may or may not read, each between two plain lines
+SPELLINGS = ["G0 X1", "G00 X1.5 Y-2.", "G01 X.5 Y+3 Z-0 F100", "G1X1Y2Z3F4", "X1 ", "X1  Y2", "G1 F5 ",
+             "G001 X1", "G10 X1", "G2 X1", "X1.2.3", "X12345678901234.5", "X1234567890123456",
+             "X0.000000000000001", "Y1 X2", "X1 X2", "X-.25 Y0.000001", "F.5", "G0", "G1 ", "Z-00012.34000",
+             "x1", "X", "X-", "X.", "X+-1", "X 1", "F1 X2", "X9007199254740993", "Z-0.1e3"]
+
+
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled-scanner", "pattern"])
+def test_the_scanner_reads_a_run_of_lines_as_the_pattern_does(compiled, monkeypatch):
+    from retrofit.gcode import plainscan
+    from retrofit.gcode.lazylines import LazyLines
+    from retrofit.motion import _jit
+    if compiled and not _jit.compiled():
+        pytest.skip("kernels do not run compiled here (no Numba)")
+    for line in SPELLINGS:
+        lines = LazyLines(f"X0 Y0\n{line}\nX1 Y1\n")
+        monkeypatch.setattr(plainscan, "_scanner_ready", lambda work: compiled)
+        got = plainrun._table(lines, 0)
+        want = plainrun._read(lines, 0, len(lines))
+        python = np.empty((len(lines), 5))
+        scan = getattr(plainscan.scan_plain, "py_func", plainscan.scan_plain)
+        rows = scan(np.frombuffer(lines.text.encode(), np.uint8), np.array(lines.starts),
+                    np.array(lines.stops), python)
+        long = any(len(re.sub(r"\D", "", number)) > 15 for number in re.findall(r"[\d.]+", line))
+        # a number of more than 15 digits ends the scanner's run: that line is read line by line
+        for table, scanned in ((got, compiled), (python[:rows], True)):
+            assert len(table) == (1 if long and scanned else len(want)), line
+            assert np.array_equal(table, want[:len(table)], equal_nan=True), line
+            assert np.array_equal(np.signbit(table), np.signbit(want[:len(table)])), line
+
+
+def test_a_kernel_module_built_before_the_scanner_leaves_the_run_to_the_pattern(monkeypatch):
+    """An ahead-of-time module without the scanner (``retrofit kernels`` not run again since) would
+    load Numba at the first run of plain lines: the pattern reads it instead."""
+    from retrofit.gcode import plainscan
+    from retrofit.motion import _aot
+    scan = getattr(plainscan.scan_plain, "py_func", plainscan.scan_plain)
+    guard = _aot.Library(None, {}).guard(scan, lambda func: pytest.fail("Numba's JIT was asked for"))
+    monkeypatch.setattr(plainscan, "compiled", lambda work: True)
+    monkeypatch.setattr(plainscan, "scan_plain", guard)
+    assert not plainscan._scanner_ready(10)
+    prog = compile_program("G21 G90 G1 F500\n" + "\n".join(zigzag(20)) + "\nM2\n", MILL, "p.ngc")
+    assert prog.lines[-1] == 21

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from test_stream_reversal import lathe, x_dir_turns
 
+from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
 from retrofit.gcode.readahead import ReadAhead
 from retrofit.machine.config import load_machine
@@ -25,8 +26,9 @@ FIELDS = PlanArrays.__dataclass_fields__
 
 @pytest.fixture(autouse=True)
 def reading_ahead(monkeypatch):
-    """Reading ahead is asked for (RETROFIT_READ_AHEAD=1), here and in the runs these tests start."""
-    monkeypatch.setenv("RETROFIT_READ_AHEAD", "1")
+    """Reading ahead is the default (RETROFIT_READ_AHEAD=0 turns it off), here and in the runs
+    these tests start."""
+    monkeypatch.delenv("RETROFIT_READ_AHEAD", raising=False)
 
 def job(moves: int = 400) -> str:
     """An engraving-like job: plunge, a zigzag of short moves with arcs and dwells, retract."""
@@ -150,3 +152,39 @@ def test_a_program_timing_an_output_on_the_moves_so_far_is_read_whole():
     assert ahead.plan is not None and ahead.line_of is None          # and read it whole
     assert ahead.io is not None and ahead.io == whole.io
     assert ahead.report["axes"] == whole.report["axes"]
+
+
+def run_warned(text: str, capsys):
+    """A run of ``text`` on the rs274 mill (a feed above its fastest is warned); (run or error,
+    stderr)."""
+    from pathlib import Path
+    from types import SimpleNamespace
+
+    from retrofit.run.program import STAGE_WEIGHTS, run_program
+    from retrofit.run.progress import silent
+    opts = SimpleNamespace(backlash_comp=True, reference=False, controller=False, urls=["sim://"],
+                           keep_frames=False, keep_commands=False)
+    try:
+        got = run_program(text, "w.ngc", load_machine(Path(__file__).parent / "gcode" / "rs274-mill.toml"),
+                          opts, silent(STAGE_WEIGHTS))
+    except GcodeError as exc:
+        got = exc
+    return got, capsys.readouterr().err
+
+
+WARNED = "w.ngc:1: warning: F90000 is above machine rs274-mill's fastest feed 3000 mm/min"
+MOVES = "G21 G90 G1 F90000\n" + "".join(f"X{i % 9 + 1} Y{i % 4 + 1}\n" for i in range(3000))
+
+
+def test_a_warning_is_printed_as_its_line_is_read_before_a_late_refusal(capsys):
+    got, err = run_warned(MOVES + "G1 X[1/0]\nM2\n", capsys)
+    assert isinstance(got, GcodeError) and "w.ngc:3002" in str(got)
+    assert [line for line in err.splitlines() if "warning" in line][0].startswith(WARNED)
+
+
+def test_a_program_read_whole_after_reading_ahead_warns_once(capsys, monkeypatch):
+    for ahead in ("1", "0"):
+        monkeypatch.setenv("RETROFIT_READ_AHEAD", ahead)
+        run, err = run_warned(MOVES + "M64 P1\nG1 X20 F100\nM2\n", capsys)   # M64: read whole
+        assert run.plan is not None and run.line_of is None
+        assert [line[:len(WARNED)] for line in err.splitlines() if "warning" in line] == [WARNED]

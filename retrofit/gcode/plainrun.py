@@ -16,12 +16,14 @@ or a feed above the machine's fastest (lowered, with a warning) is left to them 
 from __future__ import annotations
 
 import re
+from itertools import repeat
 
 import numpy as np
 
 from ..commands import FMov, PFdr, PMov
 from .blocks import MAX_VALUE
 from .feedcap import ceiling_mm_min
+from .plainscan import plain_table
 from .state import MM_PER_INCH, clean_mm_list
 from .validate import _limits
 
@@ -30,6 +32,7 @@ RUN_LINES = 512
 _NUM = r"([-+]?(?:\d+\.?\d*|\.\d+))"
 _LINE = re.compile(rf"(?:G0?([01]) ?)?(?:X{_NUM} ?)?(?:Y{_NUM} ?)?(?:Z{_NUM} ?)?(?:F{_NUM})?")
 _AXES = "XYZ"
+_RUN_WORDS = "GXYZF"
 
 
 def take_run(tr, lines, pc: int, file: str) -> int:
@@ -40,24 +43,22 @@ def take_run(tr, lines, pc: int, file: str) -> int:
             or s.css is not None or s.inverse_time or s.per_rev or (tr.comp.geometry is not None
                                                                    and tr.comp.geometry.queue)):
         return 0
-    words = _read(lines, pc)
-    if len(words) < 2:
+    if any(letter not in _RUN_WORDS or (letter == "G" and value not in (0.0, 1.0))
+           for letter, value in lines[pc].words):
+        return 0                                  # (an arc, a tool change...: line by line)
+    table = _table(lines, pc)                     # G, X, Y, Z, F
+    if len(table) < 2:
         return 0
     names = tr.names
-    k = len(words)
-    table = np.full((k, 5), np.nan)              # G, X, Y, Z, F
-    for i, row in enumerate(words):
-        for j, text in enumerate(row):
-            if text:
-                table[i, j] = float(text)
+    k = len(table)
     axes = [_AXES[j] for j in range(3) if not np.isnan(table[:, 1 + j]).all()]
-    if any(a not in names or a in s.rotary for a in axes) or not (np.abs(np.nan_to_num(table)) <= MAX_VALUE).all():
+    if any(a not in names or a in s.rotary for a in axes) or (np.abs(table) > MAX_VALUE).any():
         return 0
     feeds = table[:, 4]
     if (feeds < 0.0).any():
         return 0
     modes = _filled(table[:, 0], -1.0 if s.motion is None else float(s.motion))
-    if not np.isin(modes, (0.0, 1.0)).all():
+    if not ((modes == 0.0) | (modes == 1.0)).all():
         return 0
     scale = MM_PER_INCH if s.inch else 1.0
     given = ~np.isnan(feeds)
@@ -91,21 +92,27 @@ def take_run(tr, lines, pc: int, file: str) -> int:
     return k
 
 
-def _read(lines, pc: int) -> list[tuple]:
-    """The word texts (G, X, Y, Z, F) of the plain lines from ``pc``, up to the first other line."""
+def _table(lines, pc: int) -> np.ndarray:
+    """The words (G, X, Y, Z, F; NaN: absent) of the plain lines from ``pc``, up to the first
+    other line: by the compiled scanner (:mod:`.plainscan`) or the pattern, one table."""
     text = lines.text
     if text is None:
-        return []
+        return np.empty((0, 5))
     last = min(pc + RUN_LINES, len(lines))
-    starts, stops = lines.starts, lines.stops
+    return plain_table(text, lines.starts, lines.stops, pc, last, lambda: _read(lines, pc, last))
+
+
+def _read(lines, pc: int, last: int) -> np.ndarray:
+    """:func:`_table` by the pattern, line by line."""
+    text, starts, stops = lines.text, lines.starts, lines.stops
     out = []
     match = _LINE.fullmatch
     for i in range(pc, last):
         m = match(text, starts[i], stops[i])
         if m is None or m.end() == m.start():
             break
-        out.append(m.groups())
-    return out
+        out.append([np.nan if word is None else float(word) for word in m.groups()])
+    return np.array(out, np.float64).reshape(len(out), 5)
 
 
 def _filled(values: np.ndarray, before: float) -> np.ndarray:
@@ -117,29 +124,37 @@ def _filled(values: np.ndarray, before: float) -> np.ndarray:
 
 
 def _emit(tr, lines, pc: int, file: str, modes, feed_mm, ends, moving) -> None:
-    """The run's commands, in order, with their lines; the state's position and feed sent."""
-    s, names = tr.state, tr.names
-    rows = list(zip(*(ends[n].tolist() for n in names)))
-    numbers = lines.numbers
-    commands, out_lines = tr.commands, tr.lines
-    sent = s.feed_sent
-    count = 0
-    for i, (mode, feed, move) in enumerate(zip(modes.tolist(), feed_mm.tolist(), moving.tolist())):
-        if not move:
-            continue
-        line = numbers[pc + i]
-        if mode == 1.0 and sent != feed:
-            commands.append(PFdr(feed))
-            out_lines.append(line)
-            count += 1
-            sent = feed
-        commands.append((PMov if mode == 1.0 else FMov)(tuple(zip(names, rows[i]))))
-        out_lines.append(line)
-        count += 1
-    tr.files.extend([file] * count)
-    s.feed_sent = sent
-    last = rows[-1]
+    """The run's commands, in order, with their lines; the state's position and feed sent.
+
+    The moves are made a column at a time (one PMOV per moving line, FMOV under G0); a PFDR goes
+    before a feed move whose feed differs from the last one sent, as line by line."""
+    s, names, k = tr.state, tr.names, len(modes)
+    at = np.flatnonzero(moving)
+    kind = np.int32 if lines.numbers.typecode == "i" else np.int64
+    numbers = np.frombuffer(lines.numbers, kind, k, pc * lines.numbers.itemsize)
+    at_lines = numbers[at].tolist()
+    axes = list(zip(*[zip(repeat(n), ends[n][at].tolist()) for n in names]))
+    moves: list[FMov | PMov] = list(map(PMov, axes))
+    feeding = modes[at] == 1.0
+    for j in np.flatnonzero(~feeding).tolist():
+        moves[j] = FMov(axes[j])
+    fed = np.flatnonzero(feeding)
+    feeds = feed_mm[at][fed]
+    before = np.concatenate(([np.nan if s.feed_sent is None else s.feed_sent], feeds[:-1]))
+    changed = feeds != before
+    done = 0
+    for j, feed in zip(fed[changed].tolist(), feeds[changed].tolist()):
+        tr.commands.extend(moves[done:j])
+        tr.lines.extend(at_lines[done:j])
+        tr.commands.append(PFdr(feed))
+        tr.lines.append(at_lines[j])
+        done = j
+    tr.commands.extend(moves[done:])
+    tr.lines.extend(at_lines[done:])
+    tr.files.extend([file] * (len(moves) + int(changed.sum())))
+    if len(feeds):
+        s.feed_sent = float(feeds[-1])
     end = dict(s.position)
-    end.update(zip(names, last))
+    end.update((n, float(ends[n][-1])) for n in names)
     s.position = end
-    tr._line, tr._file = numbers[pc + len(rows) - 1], file
+    tr._line, tr._file = int(numbers[-1]), file

@@ -145,6 +145,7 @@ class Library:
             return compiled(*args)
         call.__name__, call.__qualname__, call.__doc__ = func.__name__, func.__qualname__, func.__doc__
         call.__module__, call.__wrapped__, call.py_func = func.__module__, func, func   # py_func: as Numba's
+        call.exports = exports          # empty: every call hands the process over to Numba's JIT
         return call
 
 

@@ -87,17 +87,16 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
     machine is about to move, e.g. to mark a tool change under way in the spindle record)."""
     from ..atc.front import expand_host_commands
     from ..gcode import compile_program
-    run = Run(machine, name)
+    run, warned = Run(machine, name), 0          # messages already printed by a read-ahead try
     from .stream import ReadWhole, reads_ahead, run_read_ahead
     if reads_ahead(machine, opts, opts.urls):
         try:         # 1-4 a window at a time, from the first line (retrofit.run.stream)
-            run_read_ahead(run, text, opts, progress, tool_table, spindle_tool)
-            print_warnings(run.program.messages)
+            run_read_ahead(run, text, opts, progress, tool_table, spindle_tool)   # warns as it reads
             from .summary import run_report
             run.report = run_report(run)
             return run
-        except ReadWhole:
-            run = Run(machine, name)
+        except ReadWhole as exc:
+            run, warned = Run(machine, name), exc.warned
     # 1. program: G-code -> commands (G38 probing moves made as the program is read: on the
     #    controller at the far end of the link when the run drives one, else on the simulated
     #    machine); TOOL and PAUS -> the changer's sequences and pauses
@@ -107,7 +106,7 @@ def run_program(text: str, name: str, machine: Machine, opts, progress, wait=Non
                                       spindle_tool=spindle_tool, probe=prober,
                                       dialect=getattr(opts, "dialect", None),
                                       on_progress=lambda done: progress.fraction("compile", done))
-        print_warnings(run.program.messages)
+        print_warnings(run.program.messages[warned:])
         opened = prober.handoff() if hasattr(prober, "handoff") and prober.moves else None
         if prober is not None and prober.moves and opened is None:
             refuse_real_probing(opts.urls, name)

@@ -32,11 +32,10 @@ class ReadWhole(Exception):
 
 
 def reads_ahead(machine, opts, urls) -> bool:
-    """Whether the run may be read ahead (see the module doc). Only with RETROFIT_READ_AHEAD=1 for
-    now: a run interrupted late on a busy computer has left a report unlike the whole run's, so
-    every program is read whole first unless asked."""
+    """Whether the run may be read ahead (see the module doc): every run it can serve, unless
+    RETROFIT_READ_AHEAD=0 asks for the whole-program way (to compare the two)."""
     import os
-    if os.environ.get("RETROFIT_READ_AHEAD", "0") != "1":
+    if os.environ.get("RETROFIT_READ_AHEAD", "1") == "0":
         return False
     from ..outputs import OutputURL
     from .program import STREAM_SCHEMES
@@ -76,8 +75,11 @@ def run_read_ahead(run, text: str, opts, progress, tool_table=None, spindle_tool
     try:
         run.sim = stream_outputs(run, opts.urls, progress, blocks=(machine, feed.blocks()),
                                  on_index=lambda index: progress.whole(feed.share_done(index, lines)))
-    except (NeedsWholeProgram, NotInBlocks) as exc:
-        raise ReadWhole(str(exc)) from None
+    except (NeedsWholeProgram, NotInBlocks, ReadWhole) as exc:
+        again = ReadWhole(str(exc))
+        again.warned = feed.warned          # the whole-program way prints only the messages after
+        raise again from None
+    feed.warn()
     run.command_count = reader.count
     for stage in ("compile", "plan", "execute"):
         progress.done(stage)
@@ -92,12 +94,21 @@ class _Feed:
         self.lines = array("i")            # program line of every command after host commands
         self.move_t0s: list[np.ndarray] = []
         self.move_lines: list[np.ndarray] = []
+        self.warned = 0                    # the program's messages printed so far
+
+    def warn(self) -> None:
+        """Print the WARNING messages of the lines read since the last call, as they are read."""
+        from .program import print_warnings
+        messages = self.reader.messages
+        print_warnings(messages[self.warned:])
+        self.warned = len(messages)
 
     def blocks(self):
         """(PlanArrays, None) while the program goes on, (PlanArrays, end time) at its end."""
         from ..motion.columns import _empty
         planner = self.planner
         for commands, lines, _ in self.reader.batches():
+            self.warn()
             planner_commands = self._expand(commands, lines)
             try:
                 planner.add(planner_commands)
