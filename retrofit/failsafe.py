@@ -41,6 +41,10 @@ class Terminated(BaseException):
         return 128 + self.signum
 
 
+#: what a signal raised into the command (one at most: the ones after it are ignored)
+_ENDED: list[BaseException] = []
+
+
 def _ignore_the_rest() -> None:
     for sig in ENDING + (signal.SIGINT,):
         signal.signal(sig, signal.SIG_IGN)
@@ -48,12 +52,22 @@ def _ignore_the_rest() -> None:
 
 def _raise(signum, frame) -> None:
     _ignore_the_rest()
-    raise Terminated(signum)
+    _ENDED.append(Terminated(signum))
+    raise _ENDED[-1]
 
 
-def _ctrl_c(signum, frame) -> None:
+def ctrl_c(signum, frame) -> None:
+    """SIGINT's handler: KeyboardInterrupt, once, and remembered (:func:`ended_by`)."""
     _ignore_the_rest()
-    raise KeyboardInterrupt
+    _ENDED.append(KeyboardInterrupt())
+    raise _ENDED[-1]
+
+
+def ended_by() -> BaseException | None:
+    """The KeyboardInterrupt or :class:`Terminated` a signal raised into this process, if one did:
+    a library may catch it where it lands and raise an error of its own instead (matplotlib, cut
+    short while drawing, says "Invalid bounding box"); the command was stopped all the same."""
+    return _ENDED[0] if _ENDED else None
 
 
 @contextmanager
@@ -68,12 +82,12 @@ def signals_raise() -> Iterator[None]:
     for sig in ENDING:
         signal.signal(sig, _raise)
     if old[signal.SIGINT] is signal.default_int_handler:
-        signal.signal(signal.SIGINT, _ctrl_c)
+        signal.signal(signal.SIGINT, ctrl_c)
     try:
         yield
     finally:
         for sig, handler in old.items():
-            if signal.getsignal(sig) in (_raise, _ctrl_c):     # (after a signal: ignored, stays so)
+            if signal.getsignal(sig) in (_raise, ctrl_c):     # (after a signal: ignored, stays so)
                 signal.signal(sig, handler)
 
 

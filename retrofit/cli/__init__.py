@@ -78,6 +78,11 @@ def main(argv: list[str] | None = None) -> int:
     """
     if argv is None:
         sys.unraisablehook = _deliver_ctrl_c
+        import signal
+
+        from ..failsafe import ctrl_c
+        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+            signal.signal(signal.SIGINT, ctrl_c)         # a Ctrl-C is remembered (_stopped)
     try:
         return _command(argv)
     finally:
@@ -116,6 +121,9 @@ def _command(argv: list[str] | None) -> int:
             return 2
         return args.func(args) or 0
     except RetrofitError as exc:
+        code = _stopped()
+        if code is not None:
+            return code
         print(f"retrofit: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
@@ -130,6 +138,26 @@ def _command(argv: list[str] | None) -> int:
         import os
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
+    except Exception:
+        code = _stopped()
+        if code is None:
+            raise
+        return code
+
+
+def _stopped() -> int | None:
+    """The exit code of a command a Ctrl-C or an ending signal stopped although the error that
+    reached here is another (a library turned the interruption into an error of its own), after
+    saying so; None when no signal came."""
+    from ..failsafe import Terminated, ended_by
+    cause = ended_by()
+    if isinstance(cause, KeyboardInterrupt):
+        _say_stopped("interrupted")
+        return 130
+    if isinstance(cause, Terminated):
+        _say_stopped(f"stopped by {cause.name}")
+        return cause.exit_code
+    return None
 
 
 def _say_stopped(what: str) -> None:
