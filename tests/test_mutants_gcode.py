@@ -1,0 +1,44 @@
+"""G-code paths checked where a mutation run found them unchecked (bench/mutation.py): a plain
+cylinder roughed in layers, an entry arc under cutter compensation, where a roughing level
+meets an arc of a Fanuc profile."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from retrofit.gcode import compile_program
+from retrofit.gcode.fanuc_cycles import _crossing
+from retrofit.gcode.lathepasses import Segment, rough
+from retrofit.machine.config import load_machine
+from retrofit.machine.tooltable import ToolTable
+
+HERE = Path(__file__).resolve().parent / "gcode"
+
+
+def test_a_cylinder_whose_profile_starts_and_ends_at_one_x_is_roughed_in_layers():
+    # from Z2 X12 down to a cylinder at X10 from Z0 to Z-10, 1.5 per layer: layers at X12 and
+    # X10.5 (9 would pass the profile), then the contour along X10 and out to X12 at Z-10
+    start = (2.0, 12.0)
+    profile = [Segment("line", start, (0.0, 10.0)), Segment("line", (0.0, 10.0), (-10.0, 10.0))]
+    feeds = [m.end for m in rough(profile, start, depth=1.5, retract=0.5) if m.kind == "feed"]
+    assert feeds == [(-10.0, 12.0), (-10.0, 10.5), (-10.0, 10.0), (-10.0, 12.0)]
+
+
+@pytest.mark.parametrize("side, end_x", [("G41.1", 19.0), ("G42.1", 21.0)], ids=["inside", "outside"])
+def test_an_entry_arc_ends_one_tool_radius_off_the_programmed_end(side, end_x):
+    # a CCW half circle from X0 to X20 around X10: with the tool on its left (G41) it runs
+    # inside the arc and ends 1 mm (D2: radius 1) towards the centre, on its right outside
+    mill = load_machine(HERE / "rs274-mill.toml")
+    prog = compile_program(f"G0 X0 Y0\n{side} D2\nG3 X20 Y0 I10 J0 F100\nG40 G1 X20 Y-10\nM2\n", mill,
+                           tool_table=ToolTable.load(HERE / "tool.tbl"))
+    points = [tuple(v for _, v in c.axes)[:2] for c in prog.commands if hasattr(c, "axes")]
+    assert points[-2] == pytest.approx((end_x, 0.0))
+    assert points[-1] == pytest.approx((20.0, -10.0))
+
+
+def test_a_roughing_level_meets_an_arc_of_the_profile_on_the_arc():
+    # a quarter circle of radius 10 around (0, 0) from (0, 10) to (10, 0): depth 6 is met at 8
+    assert _crossing([(3, (0.0, 10.0), (10.0, 0.0), (0.0, 0.0))], 6.0) == pytest.approx(8.0)
+    assert _crossing([(1, (0.0, 0.0), (10.0, 20.0), None)], 5.0) == pytest.approx(10.0)
