@@ -32,19 +32,19 @@ from cosmic_ray.mutating import mutate_and_test
 from cosmic_ray.work_item import TestOutcome, WorkerOutcome
 
 ROOT = Path(__file__).resolve().parent.parent
-TESTS = {
-    "motion": ["tests/test_bresenham.py", "tests/test_dda.py", "tests/test_profile.py", "tests/test_stepgen.py",
-               "tests/test_arcs.py", "tests/test_plan_arrays.py", "tests/test_stream.py",
-               "tests/test_fast_equals_reference.py", "tests/test_mutants_motion.py"],
-    "gcode": ["tests/test_gcode.py", "tests/test_gcode_modal.py", "tests/test_spindle_modes.py",
-              "tests/test_gcode_language.py", "tests/test_gcode_cutter.py", "tests/test_splines.py",
-              "tests/test_lathe_passes.py", "tests/test_fanuc_dialect.py", "tests/test_gcode_g76.py",
-              "tests/test_mutation_survivors.py", "tests/test_mutants_gcode.py"],
-    "controller": ["tests/test_controller_pipeline.py", "tests/test_controller_equivalence.py",
-                   "tests/test_controller_kernels.py", "tests/test_mutation_survivors.py",
-                   "tests/test_mutants_controller.py"],
-    "link": ["tests/test_link.py", "tests/test_link_hardening.py", "tests/test_mutants_link.py"],
-    "backlash": ["tests/test_backlash.py", "tests/test_backlash_units.py"],
+TESTS = {     # the new unit tests first: a mutant they kill stops the run early (-x)
+    "motion": ["tests/test_mutants_motion.py", "tests/test_bresenham.py", "tests/test_dda.py",
+               "tests/test_profile.py", "tests/test_stepgen.py", "tests/test_arcs.py", "tests/test_plan_arrays.py",
+               "tests/test_stream.py", "tests/test_fast_equals_reference.py"],
+    "gcode": ["tests/test_mutants_gcode.py", "tests/test_mutation_survivors.py", "tests/test_gcode.py",
+              "tests/test_gcode_modal.py", "tests/test_spindle_modes.py", "tests/test_gcode_language.py",
+              "tests/test_gcode_cutter.py", "tests/test_splines.py", "tests/test_lathe_passes.py",
+              "tests/test_fanuc_dialect.py", "tests/test_gcode_g76.py"],
+    "controller": ["tests/test_mutants_controller.py", "tests/test_mutation_survivors.py",
+                   "tests/test_controller_pipeline.py", "tests/test_controller_equivalence.py",
+                   "tests/test_controller_kernels.py", "tests/test_homing.py", "tests/test_threading.py"],
+    "link": ["tests/test_mutants_link.py", "tests/test_link.py", "tests/test_link_hardening.py"],
+    "backlash": ["tests/test_backlash_units.py", "tests/test_backlash.py"],
 }
 #: modules that are not the package's logic (compiled-kernel plumbing, benches inside the package)
 EXCLUDED = {"_aot.py", "_aot_build.py", "_jit.py", "faultbench.py"}
