@@ -43,7 +43,8 @@ TESTS = {     # the new unit tests first: a mutant they kill stops the run early
     "controller": ["tests/test_mutants_controller.py", "tests/test_mutation_survivors.py",
                    "tests/test_controller_pipeline.py", "tests/test_controller_equivalence.py",
                    "tests/test_controller_kernels.py", "tests/test_homing.py", "tests/test_threading.py"],
-    "link": ["tests/test_mutants_link.py", "tests/test_link.py", "tests/test_link_hardening.py"],
+    "link": ["tests/test_mutants_link.py", "tests/test_link.py", "tests/test_link_hardening.py",
+             "tests/test_protocol_table.py"],
     "backlash": ["tests/test_backlash_units.py", "tests/test_backlash.py"],
 }
 #: modules that are not the package's logic (compiled-kernel plumbing, benches inside the package)
