@@ -42,3 +42,19 @@ def test_a_roughing_level_meets_an_arc_of_the_profile_on_the_arc():
     # a quarter circle of radius 10 around (0, 0) from (0, 10) to (10, 0): depth 6 is met at 8
     assert _crossing([(3, (0.0, 10.0), (10.0, 0.0), (0.0, 0.0))], 6.0) == pytest.approx(8.0)
     assert _crossing([(1, (0.0, 0.0), (10.0, 20.0), None)], 5.0) == pytest.approx(10.0)
+
+
+def test_g71_1_leaves_a_groove_that_g71_and_g71_2_rough():
+    # a shaft at X6 with a groove down to X4 from Z-5 to Z-8: G71 roughs it with the rest,
+    # G71.1 leaves pockets alone, G71.2 roughs only the pockets
+    lathe = load_machine("chivu-lathe")
+    in_groove, moves = {}, {}
+    for g in ("G71", "G71.1", "G71.2"):
+        text = ("G18 G21 G90 G94 G8\nF200\nO100 SUB\nG0 X4 Z1\nG1 X6 Z0\nZ-5\nX4\nZ-8\nX6\nZ-12\nX10\n"
+                f"O100 ENDSUB\nG0 X12 Z3\n{g} Q100 X12 Z3 D0 I1 R0.5\nM2\n")
+        points = [dict(c.axes) for c in compile_program(text, lathe, file="g71.ngc").commands
+                  if hasattr(c, "axes")]
+        moves[g] = len(points)
+        in_groove[g] = any(-8 < p.get("Z", 0) < -5 and p.get("X", 99) < 6 for p in points)
+    assert in_groove == {"G71": True, "G71.1": False, "G71.2": True}
+    assert moves["G71.2"] < moves["G71.1"] < moves["G71"]
