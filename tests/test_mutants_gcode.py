@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
 from retrofit.gcode.fanuc_cycles import _crossing
 from retrofit.gcode.lathepasses import Segment, rough
@@ -58,3 +59,13 @@ def test_g71_1_leaves_a_groove_that_g71_and_g71_2_rough():
         in_groove[g] = any(-8 < p.get("Z", 0) < -5 and p.get("X", 99) < 6 for p in points)
     assert in_groove == {"G71": True, "G71.1": False, "G71.2": True}
     assert moves["G71.2"] < moves["G71.1"] < moves["G71"]
+
+
+def test_after_g40_only_the_first_move_must_be_straight():
+    # the straight move out of compensation ends the rule: the arc after it is cut
+    mill = load_machine(HERE / "rs274-mill.toml")
+    text = "G0 X0 Y0\nG41.1 D2\nG1 X20 Y0 F100\nG40 G1 X20 Y-10\nG2 X20 Y-30 I0 J-10\nM2\n"
+    points = [tuple(v for _, v in c.axes)[:2] for c in compile_program(text, mill).commands if hasattr(c, "axes")]
+    assert points[-1] == pytest.approx((20.0, -30.0))
+    with pytest.raises(GcodeError, match=":5: G2: the move just after G40 must be straight"):
+        compile_program(text.replace("G40 G1 X20 Y-10\n", "G40\n").replace("M2", "G1 X0\nM2"), mill)
