@@ -69,3 +69,10 @@ def test_after_g40_only_the_first_move_must_be_straight():
     assert points[-1] == pytest.approx((20.0, -30.0))
     with pytest.raises(GcodeError, match=":5: G2: the move just after G40 must be straight"):
         compile_program(text.replace("G40 G1 X20 Y-10\n", "G40\n").replace("M2", "G1 X0\nM2"), mill)
+
+
+def test_an_if_block_is_not_a_subroutine_of_its_number():
+    lathe = load_machine("chivu-lathe")
+    text = "G18 G21 G90\no100 if [1 GT 0]\nG0 X1 Z1\no100 endif\no100 call\nM2\n"
+    with pytest.raises(GcodeError, match="t.ngc:5: o100 call: unknown subroutine o100"):
+        compile_program(text, lathe, file="t.ngc")
