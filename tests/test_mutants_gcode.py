@@ -1,6 +1,7 @@
 """G-code paths checked where a mutation run found them unchecked (bench/mutation.py): a plain
 cylinder roughed in layers, an entry arc under cutter compensation, where a roughing level
-meets an arc of a Fanuc profile."""
+meets an arc of a Fanuc profile, G71.1's pockets, the move after G40, an if block's number, G74's
+pecks, a G96 move across the axis."""
 
 from __future__ import annotations
 
@@ -11,7 +12,9 @@ import pytest
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
 from retrofit.gcode.fanuc_cycles import _crossing
+from retrofit.gcode.fanuc_fixed import pecking
 from retrofit.gcode.lathepasses import Segment, rough
+from retrofit.gcode.spindle import css_breaks
 from retrofit.machine.config import load_machine
 from retrofit.machine.tooltable import ToolTable
 
@@ -76,3 +79,16 @@ def test_an_if_block_is_not_a_subroutine_of_its_number():
     text = "G18 G21 G90\no100 if [1 GT 0]\nG0 X1 Z1\no100 endif\no100 call\nM2\n"
     with pytest.raises(GcodeError, match="t.ngc:5: o100 call: unknown subroutine o100"):
         compile_program(text, lathe, file="t.ngc")
+
+
+def test_g74_pecks_q_deep_and_backs_off_between_pecks():
+    # from Z0 to Z-6, Q2 pecks and 0.5 back after each but the last, then out to the start
+    path = pecking((0.0, 0.0), 0.0, -6.0, 0.0, 2.0, 0.5, 0.0, True)
+    assert [(kind, p[1]) for kind, p, _ in path] == [(0, 0.0), (1, -2.0), (0, -1.5), (1, -4.0), (0, -3.5),
+                                                     (1, -6.0), (0, 0.0)]
+
+
+def test_a_g96_move_across_the_axis_is_split_where_it_crosses():
+    # 100 m/min capped at 1000 rpm: below a radius of 15.9 mm the speed is the cap, so a move
+    # from X5 to X-15 is cut only where it crosses X0, a quarter of the way
+    assert css_breaks(5.0, -15.0, (100.0, 1000.0)) == [0.25, 1.0]
