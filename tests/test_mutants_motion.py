@@ -1,5 +1,5 @@
 """Motion's pure functions checked where a mutation run found them unchecked (bench/mutation.py):
-the pulses a window of a 004 (DDA) move requests, the speed a sharp corner is taken at, ..."""
+the pulses a window of a 004 (DDA) move requests, the speed a sharp corner is taken at, the ticks of a ramp from a moving start."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 
 from retrofit.motion.fast import move_requests
 from retrofit.motion.lookahead import Kinematics, junction_speed
-from retrofit.motion.profile import trapezoid
+from retrofit.motion.profile import ticks_at, trapezoid
 
 
 def dda_requests(delta, windows, length_mm=6.0, rate=1000.0):
@@ -49,3 +49,11 @@ def test_a_corner_sharper_than_a_right_angle_is_taken_slow_but_not_stopped():
     assert junction_speed(along(0), along(90), 0.01) == pytest.approx(math.sqrt(100 * 0.01 * s45 / (1 - s45)))
     assert junction_speed(along(0), along(180), 0.01) == 0.0           # a reversal stops
     assert junction_speed(along(0), along(0), 0.01) == 50.0            # straight on: the feed
+
+
+def test_steps_while_speeding_up_from_a_moving_start_fall_on_the_ramp():
+    # from 2 mm/s at 4 mm/s2 (cruise 10 mm/s from 12 mm on): s = 2 t + 2 t^2, so the place 6 mm
+    # is reached at t = (sqrt(4 + 48) - 2) / 4 s and 0.5 mm at (sqrt(8) - 2) / 4 s; 1000 ticks/s
+    out = np.zeros(2, np.int64)
+    ticks_at(np.array([0.5, 6.0]), trapezoid(20.0, 2.0, 10.0, 2.0, 4.0), 0.0, 1000.0, out)
+    assert out.tolist() == [round((math.sqrt(8) - 2) / 4 * 1000), round((math.sqrt(52) - 2) / 4 * 1000)]
