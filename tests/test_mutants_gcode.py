@@ -1,10 +1,11 @@
 """G-code paths checked where a mutation run found them unchecked (bench/mutation.py): a plain
 cylinder roughed in layers, an entry arc under cutter compensation, where a roughing level
 meets an arc of a Fanuc profile, G71.1's pockets, the move after G40, an if block's number, G74's
-pecks, a G96 move across the axis."""
+pecks, a G96 move across the axis, two arcs at an inside corner."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pytest
@@ -92,3 +93,14 @@ def test_a_g96_move_across_the_axis_is_split_where_it_crosses():
     # 100 m/min capped at 1000 rpm: below a radius of 15.9 mm the speed is the cap, so a move
     # from X5 to X-15 is cut only where it crosses X0, a quarter of the way
     assert css_breaks(5.0, -15.0, (100.0, 1000.0)) == [0.25, 1.0]
+
+
+def test_two_arcs_meeting_at_an_inside_corner_end_where_their_offsets_cross():
+    # CCW around (0, 0) to (10, 0), then CCW around (10, -10): a corner to the left, inside for
+    # the tool on the left (radius 1); the offset circles of radius 9 cross at
+    # (5, -5) + sqrt(81 - 50) (1, 1) / sqrt(2)
+    mill = load_machine(HERE / "rs274-mill.toml")
+    text = "G0 X0 Y-20\nG41.1 D2\nG1 X0 Y-10 F100\nG3 X10 Y0 I0 J10\nG3 X0 Y-10 I0 J-10\nG40 G1 X-10 Y-20\nM2\n"
+    points = [tuple(v for _, v in c.axes)[:2] for c in compile_program(text, mill).commands if hasattr(c, "axes")]
+    corner = 5 + math.sqrt(31 / 2)
+    assert any(p == pytest.approx((corner, corner - 10)) for p in points)
