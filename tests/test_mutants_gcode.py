@@ -1,7 +1,7 @@
 """G-code paths checked where a mutation run found them unchecked (bench/mutation.py): a plain
 cylinder roughed in layers, an entry arc under cutter compensation, where a roughing level
 meets an arc of a Fanuc profile, G71.1's pockets, the move after G40, an if block's number, G74's
-pecks, a G96 move across the axis, two arcs at an inside corner."""
+pecks, a G96 move across the axis, two arcs at an inside corner, a dip roughed between its sides."""
 
 from __future__ import annotations
 
@@ -104,3 +104,16 @@ def test_two_arcs_meeting_at_an_inside_corner_end_where_their_offsets_cross():
     points = [tuple(v for _, v in c.axes)[:2] for c in compile_program(text, mill).commands if hasattr(c, "axes")]
     corner = 5 + math.sqrt(31 / 2)
     assert any(p == pytest.approx((corner, corner - 10)) for p in points)
+
+
+def test_a_dip_in_the_profile_is_roughed_in_layers_between_its_two_sides():
+    # X5 from Z0, a dip from Z-2 to Z-8 (an arc of radius 3.125 around Z-5 X5.875, bottom at
+    # X2.75), X5 on to Z-12, out to X12: layers 0.7 apart from X12, so in the dip X4.3, X3.6, X2.9
+    start = (2.0, 12.0)
+    profile = [Segment("line", start, (0.0, 5.0)), Segment("line", (0.0, 5.0), (-2.0, 5.0)),
+               Segment("cw", (-2.0, 5.0), (-8.0, 5.0), (-5.0, 5.875)),
+               Segment("line", (-8.0, 5.0), (-12.0, 5.0)), Segment("line", (-12.0, 5.0), (-12.0, 12.0))]
+    moves = rough(profile, start, depth=0.7, retract=0.5)
+    in_dip = sorted({round(m.end[1], 6) for m in moves if m.kind == "feed" and -8.0 < m.end[0] < -2.0})
+    assert in_dip == [2.9, 3.6, 4.3]
+    assert min(m.end[1] for m in moves) >= 2.75 - 1e-9
