@@ -35,7 +35,7 @@ ROOT = Path(__file__).resolve().parent.parent
 TESTS = {     # the new unit tests first: a mutant they kill stops the run early (-x)
     "motion": ["tests/test_mutants_motion.py", "tests/test_bresenham.py", "tests/test_dda.py",
                "tests/test_profile.py", "tests/test_stepgen.py", "tests/test_arcs.py", "tests/test_plan_arrays.py",
-               "tests/test_stream.py", "tests/test_fast_equals_reference.py"],
+               "tests/test_stream.py", "tests/test_fast_equals_reference.py", "tests/test_lab_12.py"],
     "gcode": ["tests/test_mutants_gcode.py", "tests/test_mutation_survivors.py", "tests/test_gcode.py",
               "tests/test_gcode_modal.py", "tests/test_spindle_modes.py", "tests/test_gcode_language.py",
               "tests/test_gcode_cutter.py", "tests/test_splines.py", "tests/test_lathe_passes.py",
