@@ -8,12 +8,17 @@ the files named there) is tried again with the whole set, which gives both figur
     python3 bench/mutation.py [--per-package 8] [--seed 1] [--before tests/test_x.py ...]
     python3 bench/mutation.py --packages gcode --focus retrofit/gcode/params.py:28 ...   # given lines
 
-Prints one line per mutant and a table per package; docs/testing.md holds the figures measured.
+A mutant inside an annotation (never run, modules with ``from __future__ import annotations``)
+or listed in ``bench/mutation_equivalent.txt`` (with the reason) is equivalent: reported, and left
+out of the rates. Prints one line per mutant and a table per package; docs/testing.md holds the
+figures measured.
 """
 
 from __future__ import annotations
 
 import argparse
+import ast
+import functools
 import os
 import random
 import shutil
@@ -27,20 +32,26 @@ from cosmic_ray.mutating import mutate_and_test
 from cosmic_ray.work_item import TestOutcome, WorkerOutcome
 
 ROOT = Path(__file__).resolve().parent.parent
-TESTS = {
-    "motion": ["tests/test_bresenham.py", "tests/test_dda.py", "tests/test_profile.py", "tests/test_stepgen.py",
-               "tests/test_arcs.py", "tests/test_plan_arrays.py", "tests/test_stream.py",
-               "tests/test_fast_equals_reference.py"],
-    "gcode": ["tests/test_gcode.py", "tests/test_gcode_modal.py", "tests/test_spindle_modes.py",
-              "tests/test_mutation_survivors.py"],
-    "controller": ["tests/test_controller_pipeline.py", "tests/test_controller_equivalence.py",
-                   "tests/test_controller_kernels.py", "tests/test_mutation_survivors.py"],
-    "link": ["tests/test_link.py", "tests/test_link_hardening.py"],
-    "backlash": ["tests/test_backlash.py", "tests/test_backlash_units.py"],
+TESTS = {     # the new unit tests first: a mutant they kill stops the run early (-x)
+    "motion": ["tests/test_mutants_motion.py", "tests/test_bresenham.py", "tests/test_dda.py",
+               "tests/test_profile.py", "tests/test_stepgen.py", "tests/test_arcs.py", "tests/test_plan_arrays.py",
+               "tests/test_stream.py", "tests/test_fast_equals_reference.py", "tests/test_lab_12.py"],
+    "gcode": ["tests/test_mutants_gcode.py", "tests/test_mutation_survivors.py", "tests/test_gcode.py",
+              "tests/test_gcode_modal.py", "tests/test_spindle_modes.py", "tests/test_gcode_language.py",
+              "tests/test_gcode_cutter.py", "tests/test_splines.py", "tests/test_lathe_passes.py",
+              "tests/test_fanuc_dialect.py", "tests/test_gcode_g76.py"],
+    "controller": ["tests/test_mutants_controller.py", "tests/test_mutation_survivors.py",
+                   "tests/test_controller_pipeline.py", "tests/test_controller_equivalence.py",
+                   "tests/test_controller_kernels.py", "tests/test_homing.py", "tests/test_threading.py"],
+    "link": ["tests/test_mutants_link.py", "tests/test_link.py", "tests/test_link_hardening.py",
+             "tests/test_protocol_table.py"],
+    "backlash": ["tests/test_backlash_units.py", "tests/test_backlash.py"],
 }
 #: modules that are not the package's logic (compiled-kernel plumbing, benches inside the package)
 EXCLUDED = {"_aot.py", "_aot_build.py", "_jit.py", "faultbench.py"}
 TIMEOUT_S = 240
+#: mutants judged equivalent (no behaviour a test could see changes), one a line with the reason
+EQUIVALENT = Path(__file__).with_name("mutation_equivalent.txt")
 
 
 def copy_tree(dest: Path) -> None:
@@ -62,6 +73,41 @@ def mutants(package: str, count: int, rng: random.Random, focus: list[str]) -> l
     if focus:
         return [m for m in items if f"{m.mutations[0].module_path}:{m.mutations[0].start_pos[0]}" in focus]
     return rng.sample(items, min(count, len(items)))
+
+
+@functools.cache
+def annotation_spans(path: str) -> list[tuple[tuple[int, int], tuple[int, int]]]:
+    """Where the annotations of a module with ``from __future__ import annotations`` are: text
+    that never runs, so a mutant inside one is equivalent."""
+    tree = ast.parse(Path(path).read_text())
+    if not any(isinstance(n, ast.ImportFrom) and n.module == "__future__"
+               and any(a.name == "annotations" for a in n.names) for n in tree.body):
+        return []
+    notes = [n.returns for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))]
+    notes += [n.annotation for n in ast.walk(tree) if isinstance(n, (ast.arg, ast.AnnAssign))]
+    return [((n.lineno, n.col_offset), (n.end_lineno, n.end_col_offset)) for n in notes if n is not None]
+
+
+def equivalent(mutation, judged: dict[str, str]) -> str | None:
+    """Why the mutant is equivalent (an annotation, or listed in ``EQUIVALENT``), else None."""
+    if any(a <= tuple(mutation.start_pos) and tuple(mutation.end_pos) <= b
+           for a, b in annotation_spans(str(mutation.module_path))):
+        return "an annotation"
+    return judged.get(key(mutation))
+
+
+def key(mutation) -> str:
+    return f"{mutation.module_path}:{mutation.start_pos[0]} {mutation.operator_name} {mutation.occurrence}"
+
+
+def read_judged() -> dict[str, str]:
+    """``EQUIVALENT``'s lines, ``path:line operator occurrence  # reason``."""
+    judged = {}
+    for line in EQUIVALENT.read_text().splitlines() if EQUIVALENT.exists() else []:
+        if line.strip() and not line.startswith("#"):
+            what, _, why = line.partition("#")
+            judged[" ".join(what.split())] = why.strip()
+    return judged
 
 
 def command(tests: list[str]) -> str:
@@ -87,18 +133,25 @@ def main() -> int:
     ap.add_argument("--focus", nargs="*", default=[], help="every mutant on these lines (path:line) instead")
     args = ap.parse_args()
     rng = random.Random(args.seed)
+    judged = read_judged()
     table = []
     with tempfile.TemporaryDirectory(prefix="retrofit-mutation-") as scratch:
         copy_tree(Path(scratch))
         os.chdir(scratch)
         os.environ.update(PYTHONPATH=scratch, RETROFIT_NO_AOT="1", PYTHONDONTWRITEBYTECODE="1",
                           NUMBA_CACHE_DIR=str(Path(scratch) / ".numba"), MPLBACKEND="Agg")
-        for package in args.packages.split(","):
+        drawn = {p: mutants(p, args.per_package, rng, args.focus) for p in TESTS}   # the same sample
+        for package in args.packages.split(","):                                # whatever --packages
             after = TESTS[package]
             before = [t for t in after if t not in args.before]
-            counts = {"before": 0, "after": 0, "valid": 0}
-            for m in mutants(package, args.per_package, rng, args.focus):
-                where = f"{m.mutations[0].module_path}:{m.mutations[0].start_pos[0]} {m.mutations[0].operator_name}"
+            counts = {"before": 0, "after": 0, "valid": 0, "equivalent": 0}
+            for m in drawn[package]:
+                where = key(m.mutations[0])
+                why = equivalent(m.mutations[0], judged)
+                if why:
+                    print(f"{package:10} {'equivalent':>21}  {where}  ({why})", flush=True)
+                    counts["equivalent"] += 1
+                    continue
                 first = outcome(m.mutations[0], before) if before else "survived"
                 second = first if first != "survived" or before == after else outcome(m.mutations[0], after)
                 print(f"{package:10} {first:>10} {second:>10}  {where}", flush=True)
@@ -108,15 +161,12 @@ def main() -> int:
                 counts["before"] += first != "survived"
                 counts["after"] += second != "survived"
             table.append((package, counts))
-    print(f"\n{'package':10} {'mutants':>7} {'killed before':>14} {'killed after':>13}")
-    for package, c in table:
+    print(f"\n{'package':10} {'mutants':>7} {'equivalent':>10} {'killed before':>14} {'killed after':>13}")
+    total = {k: sum(c[k] for _, c in table) for k in ("valid", "equivalent", "before", "after")}
+    for package, c in [*table, ("all", total)]:
         n = max(c["valid"], 1)
-        print(f"{package:10} {c['valid']:>7} {c['before']:>6} {100 * c['before'] / n:5.0f} % "
+        print(f"{package:10} {c['valid']:>7} {c['equivalent']:>10} {c['before']:>6} {100 * c['before'] / n:5.0f} % "
               f"{c['after']:>6} {100 * c['after'] / n:5.0f} %")
-    total = {k: sum(c[k] for _, c in table) for k in ("valid", "before", "after")}
-    n = max(total["valid"], 1)
-    print(f"{'all':10} {total['valid']:>7} {total['before']:>6} {100 * total['before'] / n:5.0f} % "
-          f"{total['after']:>6} {100 * total['after'] / n:5.0f} %")
     return 0
 
 

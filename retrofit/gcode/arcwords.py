@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 
 from ..commands import PMov
 from ..machine.config import Machine
@@ -108,7 +108,7 @@ def _center_from_radius(mode: int, start, end, radius: float):
 def chord_moves(words: list[tuple[str, float]], moving: list[tuple[int, str]], chords) -> list[PMov]:
     """One PMOV per row of ``chords`` ([chord, axis] mm): the axes in ``moving`` (index, name)
     take the row's value rounded as ``clean_mm``, the others keep their word in ``words``."""
-    columns = [itertools.repeat(word) for word in words]
+    columns: list[Iterator] = [itertools.repeat(word) for word in words]
     for i, n in moving:
         columns[i] = zip(itertools.repeat(n), clean_mm_list(chords[:, i]))
     return list(map(PMov, zip(*columns)))

@@ -4,6 +4,9 @@
 class RuleError(Exception):
     """A rule of the G-code front end is broken; the compiler adds file and line."""
 
+    file: str
+    line: int
+
 
 class NeedsWholeProgram(Exception):
     """Raised while the program is read ahead in batches (``readahead``) by a code whose meaning

@@ -71,7 +71,8 @@ def read_parameter(code: str, pos: int) -> tuple[object, int]:
 
 def read_expression(code: str, pos: int) -> tuple[object, int]:
     """``[ value op value op ... ]`` starting at ``code[pos] == '['``, by operator precedence."""
-    values, ops = [], []
+    values: list[object] = []
+    ops: list[str] = []
     pos += 1
     while True:
         tree, pos = read_value(code, pos)

@@ -189,7 +189,7 @@ def pattern_repeat(profile, start, relief_x: float, relief_z: float, passes: int
     """G73: ``passes`` cuts of the profile, shifted from relief + allowance down to allowance."""
     if passes < 1 or passes != int(passes) or passes > 1000:
         raise RuleError(f"{what}: R, the number of passes, is a whole number from 1 to 1000")
-    path = []
+    path: list[tuple[int, tuple[float, float], tuple[float, float] | None]] = []
     out = 1.0 if start[0] >= profile[0][1][0] else -1.0       # outside (turning) or boring
     for j in range(int(passes)):
         share = (passes - 1 - j) / (passes - 1) if passes > 1 else 0.0

@@ -82,7 +82,7 @@ def thread_cycle(start, x_root: float, z_end: float, taper: float, height: float
     slope = math.tan(math.radians(angle_deg / 2.0))
     if chamfer and not 0.0 < chamfer < abs(z_end - z0):
         raise RuleError(f"G76: the thread chamfer ({chamfer:g}) must be shorter than the thread")
-    path = []
+    path: list[tuple[int, tuple[float, float], float | None]] = []
     for depth in depths:
         shift, z_in = (depth - height) * slope * toward, z0 + depth * slope * toward
         x_end = x_root + outward * (height - depth)

@@ -31,7 +31,7 @@ from .fanuc_settings import FanucSettings
 ACCEPTED_G = "G0 G1 G2 G3 G4 G18 G20 G21 G28 G32 G40 G41 G42 G50 G53 G54-G59 G70-G76 G80 G90 " \
              "G92 G94 G96 G97 G98 G99"
 #: M codes that act on things this machine does not have: run, with a note saying so
-NOTED_M = {10: "chuck clamp", 11: "chuck unclamp", 12: "air blast on", 13: "air blast off",
+NOTED_M: dict[float, str] = {10: "chuck clamp", 11: "chuck unclamp", 12: "air blast on", 13: "air blast off",
            14: "spindle clamp", 15: "spindle unclamp", 21: "tailstock forward",
            22: "tailstock back", 23: "thread chamfer on (threads end square here)",
            24: "thread chamfer off", 31: "chip conveyor forward", 32: "chip conveyor reverse",
@@ -65,7 +65,8 @@ class FanucRunner:
         setup = [("G", 18.0), ("G", 7.0 if self.settings.x_diameter else 8.0), ("G", 90.0),
                  ("G", 20.0 if self.settings.inch_at_start else 21.0), ("G", 94.0)]
         self.emit(setup)
-        calls, steps = [], 0
+        calls: list[tuple[int, int, int]] = []
+        steps = 0
         from .program import MAX_CALL_DEPTH, MAX_STEPS
         while self.pc < len(self.prog.blocks):
             steps += 1

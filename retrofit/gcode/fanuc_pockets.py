@@ -76,7 +76,7 @@ def _spans(profile, level: float, c_start: float):
                 if h2 >= 0 and _on_arc(a, b, centre, kind, (level, c)):
                     cuts.add(c)
     edges = sorted((c for c in cuts if c_end - EPS <= c <= c_start + EPS), reverse=True)
-    spans = []
+    spans: list[tuple[float, float]] = []
     for hi, lo in itertools.pairwise(edges):
         if hi - lo < 1e-7:
             continue

@@ -70,7 +70,8 @@ class FProgram:
 
 def read_program(text: str, file: str) -> FProgram:
     """Every block of ``text``; a block that cannot be read carries its error (told if it runs)."""
-    blocks, programs, numbers, main = [], {}, {}, None
+    blocks, programs, main = [], {}, None
+    numbers: dict[int, list[int]] = {}
     for number, raw in enumerate(split_lines(text), start=1):
         code = _code(raw)
         if not code:

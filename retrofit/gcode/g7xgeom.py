@@ -234,6 +234,7 @@ def join(p: Line, n: Line) -> None:
     if abs(n.a - p.b) < EPS:
         return
     line, arc = (n, p) if type(n) is Line else (p, n)
+    assert isinstance(arc, Arc)                    # one line and one arc are left
     base = line.b if line is n else p.b
     along = (line.a - line.b) if line is n else (p.a - p.b)
     rot = along.conjugate() / abs(along)

@@ -99,7 +99,8 @@ def _profile(runner, src, sub: str, start: tuple, name: str, across: float) -> l
     the profile, its loops and branches run, and ``#<_x>`` and ``#<_z>`` read the profile's
     point so far."""
     first, last = src.subs[sub]
-    here, motion, path, pc, repeats = start, None, [], first + 1, {}
+    here, motion, path, pc = start, None, [], first + 1
+    repeats: dict = {}
     while pc < last:
         line = src.lines[pc]
         if line.assigns:

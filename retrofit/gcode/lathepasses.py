@@ -116,6 +116,7 @@ def _segments(profile: list[Segment], start) -> list:
         if seg.kind == "line":
             segs.append(Line(a, b))
         elif seg.kind in ("cw", "ccw"):
+            assert seg.centre is not None        # an arc is read with its centre
             segs.append(Arc(a, b, complex(*seg.centre), seg.kind == "ccw"))
         else:
             raise ValueError(f"segment {n}: kind {seg.kind!r}; known: line, cw, ccw")

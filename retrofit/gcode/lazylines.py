@@ -105,6 +105,7 @@ class LazyLines:
         if self.text is not None:
             text = self.text[self.starts[index]:self.stops[index]]
         else:
+            assert self.data is not None         # kept whenever the text is not
             text = self.data[self.starts[index]:self.stops[index]].decode("utf-8")
         line = lex_text_line(self.numbers[index], text)
         return Line(self.numbers[index], plain=True) if line is None else line

@@ -111,7 +111,7 @@ def lex_line(number: int, raw: str) -> Line | None:
         return line if messages else None
     pos = 0
     if code[0] == "N":
-        pos = _LINE_NUMBER.match(code).end()
+        pos = _LINE_NUMBER.match(code).end()  # type: ignore[union-attr]  # N always matches
     if code.startswith("O", pos):
         line.oword = _oword(code, pos)
         return line
@@ -124,7 +124,8 @@ def lex_line(number: int, raw: str) -> Line | None:
 
 def _code_and_comments(raw: str) -> tuple[str, list]:
     """The line's code (comments removed, no spaces, upper case) and its message comments."""
-    out, messages, pos = [], [], 0
+    out, pos = [], 0
+    messages: list = []
     while True:
         paren, semi = raw.find("(", pos), raw.find(";", pos)
         if semi >= 0 and (paren < 0 or semi < paren):

@@ -16,6 +16,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from ..commands import PMov, Spin
 from .errors import RuleError
@@ -28,7 +29,7 @@ MAX_PIECES = 1000
 FT_PER_M = 1.0 / 0.3048
 
 
-def needs_encoder(tr, code: str) -> None:
+def needs_encoder(tr, code: str) -> Any:
     spindle = tr.machine.parts.get("spindle")
     if spindle is None:
         raise RuleError(f"{code} needs a spindle encoder ([spindle] in the machine file); machine "

@@ -162,6 +162,7 @@ def unpack_positions(head: str, args: bytes, machine: Machine | None,
     for i, bit in enumerate(bits):
         letter = letter_of(bit, machine)
         if letter is None:
+            assert machine is not None           # without a machine every bit has a letter
             raise PayloadError(f"{head}: mask bit {bit} ({AXIS_LETTERS[bit]}) is not an axis of "
                                f"{machine.name} ({', '.join(machine.axis_names)})", ERR_VALUE)
         pairs.append((letter, unpack_s24(args[1 + 3 * i:4 + 3 * i], f"{head} {letter}")))

@@ -125,7 +125,8 @@ def run_faults(n: int, *, seed: int, flip: float, drop: float, duplicate: float,
                         duplicate=duplicate, late=late) for k in (1, 2)]
     bench = LinkBench(host, device, to_device=wires[0], to_host=wires[1], rng=rng,
                       on_time=ctl.advance)
-    todo, active, sent = deque(program(machine, n, rng)), [], []
+    todo, sent = deque(program(machine, n, rng)), []
+    active: list = []
     while todo or not host.idle:
         while todo and len(active) < 2:          # a front end feeding the host as it drains
             active.append(host.send(todo.popleft(), bench.now))

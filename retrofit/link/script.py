@@ -59,6 +59,7 @@ class ScriptedHost:
         channel's session; preceded by a SYNC when the channel has none or its numbers ran out."""
         if payload is None:
             cmd = parse_command(cmd) if isinstance(cmd, str) else cmd
+            assert cmd is not None               # a frame carries a command or a payload
             payload = encode_command(cmd, self.machine)
             channel = (IMMEDIATE if cmd.immediate else QUEUED) if channel is None else channel
         elif channel is None:

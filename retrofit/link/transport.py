@@ -133,6 +133,7 @@ class HostLink:
             with self._lock:
                 self._step(t)
         if t.error is None:
+            assert t.reply is not None           # done: answered or failed
             return t.reply
         if t.unacknowledged and not isinstance(t.cmd, Rdps):
             said = f"{MAY_HAVE_RUN}; RDPS says {self._where()}"

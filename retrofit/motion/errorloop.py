@@ -40,7 +40,8 @@ class PositionErrorLoop:
         """Visit every target in turn; return the frames and when each target was reached."""
         pending = iter(targets)
         recorder = FrameRecorder()
-        log = RunLog(self.machine, frames=None, start_steps=tuple(self.position))
+        log = RunLog(self.machine, frames=None,  # type: ignore[arg-type]  # set when the run ends
+                     start_steps=tuple(self.position))
         desired = self._next(pending, log, tick=0)              # 'PozDorita'
         tick = 0
         while tick < max_ticks:

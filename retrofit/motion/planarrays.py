@@ -205,8 +205,10 @@ class Segments:
 
     @classmethod
     def empty(cls, n: int, n_axes: int) -> Segments:
-        return cls(*(np.zeros((n, n_axes), np.int64) for _ in range(3)), np.zeros((n, n_axes)),
-                   *(np.zeros(n) for _ in range(3)), np.zeros(n, np.bool_), np.zeros(n), np.zeros(n, np.int64))
+        def steps() -> np.ndarray:
+            return np.zeros((n, n_axes), np.int64)
+        return cls(steps(), steps(), steps(), np.zeros((n, n_axes)), np.zeros(n), np.zeros(n), np.zeros(n),
+                   np.zeros(n, np.bool_), np.zeros(n), np.zeros(n, np.int64))
 
     def rows(self, lo: int, hi: int | None = None) -> Segments:
         return Segments(*(getattr(self, f)[lo:hi] for f in self.__dataclass_fields__))

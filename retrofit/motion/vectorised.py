@@ -50,8 +50,8 @@ def request_steps_numpy(plan: Plan) -> StepRequests:
     n_axes = len(machine.axes)
     rate = 1e6 / machine.tick_us
     dda = machine.motion.interpolator == "dda"
-    ticks = [[] for _ in range(n_axes)]
-    dirs = [[] for _ in range(n_axes)]
+    ticks: list[list] = [[] for _ in range(n_axes)]
+    dirs: list[list] = [[] for _ in range(n_axes)]
     counts = np.zeros((len(plan.moves), n_axes), dtype=np.int64)
     running = np.zeros(n_axes, dtype=np.int64)
     for m, move in enumerate(plan.moves):

@@ -1,0 +1,59 @@
+"""Motion's pure functions checked where a mutation run found them unchecked (bench/mutation.py):
+the pulses a window of a 004 (DDA) move requests, the speed a sharp corner is taken at, the ticks of a ramp from a moving start."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from retrofit.motion.fast import move_requests
+from retrofit.motion.lookahead import Kinematics, junction_speed
+from retrofit.motion.profile import ticks_at, trapezoid
+
+
+def dda_requests(delta, windows, length_mm=6.0, rate=1000.0):
+    """The ticks each axis's pulses are requested on, a 1 mm/s move of ``length_mm``, taken in
+    ``windows`` (cycle bounds ``c0, c_stop``) with the interpolator's state carried between them."""
+    n = max(abs(d) for d in delta)
+    delta = np.array(delta, np.int64)
+    state = np.zeros((2, len(delta)), np.int64)
+    out = np.zeros((len(delta), n + 2), np.int64)
+    fill = np.zeros(len(delta), np.int64)
+    rows = trapezoid(length_mm, 1.0, 1.0, 1.0, 1.0)[None, :]
+    for c0, c_stop in windows:
+        move_requests(True, n, c0, c_stop, delta, state, length_mm, 0.0, np.zeros(1), np.zeros(1), rows,
+                      rate, out, np.zeros((len(delta), 0), np.int64), fill, np.zeros(0, np.int64))
+    return [out[a, :fill[a]].tolist() for a in range(len(delta))]
+
+
+def test_a_dda_move_requests_every_pulse_at_its_place_whole_or_in_windows():
+    # 6 base steps and 4 on the other axis over 6 mm at 1 mm/s: the short axis's pulses at
+    # 1.5, 3, 4.5 and 6 mm, the last one at the move's end
+    whole = dda_requests((6, -4), [(0, 6)])
+    assert whole == [[1000, 2000, 3000, 4000, 5000, 6000], [1500, 3000, 4500, 6000]]
+    assert dda_requests((6, -4), [(0, 3), (3, 6)]) == whole
+
+
+def along(degrees):
+    return Kinematics(10.0, np.array([math.cos(math.radians(degrees)), math.sin(math.radians(degrees))]), 50.0, 100.0)
+
+
+def test_a_corner_sharper_than_a_right_angle_is_taken_slow_but_not_stopped():
+    # a 120 degree turn leaves a 60 degree corner: the arc that rounds it within 0.01 mm has a
+    # radius of 0.01 mm (half-angle sine 1/2), so at 100 mm/s2 the speed is sqrt(100 * 0.01) = 1
+    assert junction_speed(along(0), along(120), 0.01) == pytest.approx(1.0)
+    # a right angle: radius 0.01 * sin45 / (1 - sin45)
+    s45 = math.sqrt(0.5)
+    assert junction_speed(along(0), along(90), 0.01) == pytest.approx(math.sqrt(100 * 0.01 * s45 / (1 - s45)))
+    assert junction_speed(along(0), along(180), 0.01) == 0.0           # a reversal stops
+    assert junction_speed(along(0), along(0), 0.01) == 50.0            # straight on: the feed
+
+
+def test_steps_while_speeding_up_from_a_moving_start_fall_on_the_ramp():
+    # from 2 mm/s at 4 mm/s2 (cruise 10 mm/s from 12 mm on): s = 2 t + 2 t^2, so the place 6 mm
+    # is reached at t = (sqrt(4 + 48) - 2) / 4 s and 0.5 mm at (sqrt(8) - 2) / 4 s; 1000 ticks/s
+    out = np.zeros(2, np.int64)
+    ticks_at(np.array([0.5, 6.0]), trapezoid(20.0, 2.0, 10.0, 2.0, 4.0), 0.0, 1000.0, out)
+    assert out.tolist() == [round((math.sqrt(8) - 2) / 4 * 1000), round((math.sqrt(52) - 2) / 4 * 1000)]
