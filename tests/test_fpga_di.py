@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from retrofit.fpga.lines import LINE, TIME, TURN, LineLayout, bus_words, compile_lines
+from retrofit.fpga.lines import LINE, TIME, LineLayout, bus_words, compile_lines
 from retrofit.fpga.simulate import di_equals, first_difference, simulate
 from retrofit.gcode import compile_program
 from retrofit.machine.config import load_machine
@@ -134,6 +134,7 @@ def test_di_pins_equal_the_reference_on_windows_of_the_shipped_engraving(fractio
     from types import SimpleNamespace
 
     from retrofit.fpga.lines import line_records
+
     from tests.test_fpga_engine import window
     text = (resources.files("retrofit") / "examples" / "engraving.ngc").read_text()
     plan, frames = plan_and_frames(text, ENGRAVER)
