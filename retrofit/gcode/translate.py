@@ -35,6 +35,7 @@ from ..canon import (
 from ..canon.calls import MOVES, Position
 from ..commands import Command
 from ..machine.config import Machine
+from ..machine.tooltable import ToolTable
 from . import (
     arcmove,
     coords,
@@ -53,6 +54,7 @@ from . import (
 )
 from .blocks import Block
 from .errors import RuleError
+from .probing import Prober
 from .state import ModalState, clean_mm
 from .threading import g33, g76, leave
 from .validate import check_feed, check_soft_limits, check_word_use
@@ -70,7 +72,8 @@ class Translator:
     """Turns blocks, in program order, into canonical calls, and through :attr:`canon` into
     commands and the source line of each."""
 
-    def __init__(self, machine: Machine, state: ModalState, tool_table=None, probe=None):
+    def __init__(self, machine: Machine, state: ModalState, tool_table: ToolTable | None = None,
+                 probe: Prober | None = None):
         self.machine = machine
         self.probe = probe                # runs G38 moves on the machine (retrofit.gcode.probing)
         self.state = state
