@@ -23,6 +23,7 @@ LAYERS = [
     {"link"},
     {"controller"},
     {"outputs"},
+    {"canon"},
     {"gcode", "atc", "camlink"},
     {"firmware"},
     {"run"},

@@ -8,14 +8,11 @@ R is the radius: positive for the short way (at most half a turn), negative for 
 
 from __future__ import annotations
 
-import itertools
 import math
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 
-from ..commands import PMov
 from ..machine.config import Machine
 from .errors import RuleError
-from .state import clean_mm_list
 
 #: plane G code -> (first axis, second axis, normal axis)
 PLANES: dict[int, tuple[str, str, str]] = {17: ("X", "Y", "Z"), 18: ("Z", "X", "Y"), 19: ("Y", "Z", "X")}
@@ -104,11 +101,3 @@ def _center_from_radius(mode: int, start, end, radius: float):
     nx, ny = -dy / d, dx / d
     return (start[0] + dx / 2.0 + side * h * nx, start[1] + dy / 2.0 + side * h * ny)
 
-
-def chord_moves(words: list[tuple[str, float]], moving: list[tuple[int, str]], chords) -> list[PMov]:
-    """One PMOV per row of ``chords`` ([chord, axis] mm): the axes in ``moving`` (index, name)
-    take the row's value rounded as ``clean_mm``, the others keep their word in ``words``."""
-    columns: list[Iterator] = [itertools.repeat(word) for word in words]
-    for i, n in moving:
-        columns[i] = zip(itertools.repeat(n), clean_mm_list(chords[:, i]))
-    return list(map(PMov, zip(*columns)))

@@ -17,20 +17,25 @@ next moves go (:meth:`~retrofit.gcode.state.ModalState.target`). LinuxCNC's sema
 
 from __future__ import annotations
 
-from ..commands import ZMov
+from typing import TYPE_CHECKING
+
+from ..canon import ZeroAxes
 from ..machine.tooltable import ToolTable, ToolTableError
 from .errors import RuleError
 from .params import CS_CODES, CS_SELECT, CS_STEP, G28_BASE, G30_BASE, G54_BASE, G92_BASE, TOOL_Z
 from .state import clean_mm
 from .threading import leave
 
+if TYPE_CHECKING:
+    from .translate import Translator
 
-def _home_mm(tr) -> dict[str, float]:
+
+def _home_mm(tr: Translator) -> dict[str, float]:
     homing = tr.machine.parts.get("homing")
     return {n: (homing.home_mm(n) if homing else 0.0) for n in tr.machine.axis_names}
 
 
-def go_home(tr, block, base: int) -> None:
+def go_home(tr: Translator, block, base: int) -> None:
     """G28 (``base`` #5161) or G30 (#5181)."""
     leave(tr)
     s = tr.state
@@ -40,7 +45,7 @@ def go_home(tr, block, base: int) -> None:
     stored = any(base + i in s.params.numbered for i in range(9))
     home = _home_mm(tr)
     if base == G28_BASE and not stored:
-        tr._emit(ZMov(() if len(names) == len(tr.machine.axis_names) else tuple(names)))
+        tr.emit(ZeroAxes(() if len(names) == len(tr.machine.axis_names) else tuple(names)))
         s.position = {**s.position, **{n: home[n] for n in names}}
         return
     end = dict(s.position)
@@ -49,14 +54,14 @@ def go_home(tr, block, base: int) -> None:
     tr.rapid(end, " (the stored G28/G30 position)")
 
 
-def store_home(tr, block, base: int) -> None:
+def store_home(tr: Translator, block, base: int) -> None:
     """G28.1 / G30.1: the current machine position becomes the G28 / G30 position."""
     for n in tr.machine.axis_names:
         if n in "XYZABCUVW":
             tr.state.params.set_axis(base, n, tr.state.position[n])
 
 
-def set_g92(tr, block) -> None:
+def set_g92(tr: Translator, block) -> None:
     """G92: the named axes now read the given values."""
     s = tr.state
     p = s.params
@@ -69,7 +74,7 @@ def set_g92(tr, block) -> None:
         p.set_axis(G92_BASE, n, clean_mm(s.position[n] - rest - s.word_mm(n, value)))
 
 
-def g92_family(tr, block) -> None:
+def g92_family(tr: Translator, block) -> None:
     """G92.1 (clear), G92.2 (suspend), G92.3 (restore)."""
     p = tr.state.params
     code = block.g["non-modal"]
@@ -79,12 +84,12 @@ def g92_family(tr, block) -> None:
     p.write(G92_BASE - 1, 1.0 if code == 92.3 else 0.0)
 
 
-def select_system(tr, code: float) -> None:
+def select_system(tr: Translator, code: float) -> None:
     """G54 .. G59.3."""
     tr.state.params.write(CS_SELECT, float(CS_CODES.index(code) + 1))
 
 
-def g10(tr, block) -> None:
+def g10(tr: Translator, block) -> None:
     """G10 L1/L10/L11 (tool table) and L2/L20 (coordinate systems)."""
     s, v = tr.state, block.values
     if "L" not in v or "P" not in v:
@@ -112,7 +117,7 @@ def g10(tr, block) -> None:
         raise RuleError(f"{block.texts['L']}: G10 takes L1, L2, L10, L11 or L20")
 
 
-def _g10_tool(tr, block, number: int, kind: float) -> None:
+def _g10_tool(tr: Translator, block, number: int, kind: float) -> None:
     s = tr.state
     table = tr.tool_table if tr.tool_table is not None else ToolTable()
     if number not in table:
@@ -136,7 +141,7 @@ def table_name(table) -> str:
     return str(path) if path is not None else "(none given: --tool-table FILE names one)"
 
 
-def tool_length(tr, block) -> None:
+def tool_length(tr: Translator, block) -> None:
     """G43 [H], G43.1 (offsets in the block), G49 (cancel)."""
     s = tr.state
     before = dict(s.tool_offset)
@@ -166,7 +171,7 @@ def tool_length(tr, block) -> None:
             s.pending[axis] = s.pending.get(axis, 0.0) + delta
 
 
-def absolute_centre_words(tr, words: dict) -> dict:
+def absolute_centre_words(tr: Translator, words: dict) -> dict:
     """G90.1: I, J, K are the centre in program coordinates; made relative to the start."""
     s = tr.state
     out = dict(words)

@@ -19,11 +19,16 @@ times), R is measured from the current Z, Z from R and G87's K from Z.
 
 from __future__ import annotations
 
-from ..commands import Paus, Spin
+from typing import TYPE_CHECKING
+
+from ..canon import Pause, Spindle
 from . import polar
 from .errors import RuleError
 from .state import clean_mm
 from .threading import leave
+
+if TYPE_CHECKING:
+    from .translate import Translator
 
 CYCLES = (73, 74, 81, 82, 83, 84, 85, 86, 87, 88, 89)
 #: cycles that dwell P at the bottom and need P the first time
@@ -36,7 +41,7 @@ PECK_CLEARANCE_MM = 0.254
 MAX_REPEATS = 10000
 
 
-def run(tr, block, mode) -> None:
+def run(tr: Translator, block, mode) -> None:
     """One canned-cycle block."""
     s = tr.state
     if s.plane != 17 or not {"X", "Y", "Z"} <= set(tr.machine.axis_names):
@@ -112,7 +117,7 @@ def _check_spindle(s, mode) -> None:
                         f"M{3 if need > 0 else 4}")
 
 
-def _spindle_cycle(tr, mode, bottom: float, clear: float) -> bool:
+def _spindle_cycle(tr: Translator, mode, bottom: float, clear: float) -> bool:
     """G74, G84, G86, G88 at one hole (the tool at R); False for the other cycles."""
     s = tr.state
     if mode == 87:
@@ -121,53 +126,55 @@ def _spindle_cycle(tr, mode, bottom: float, clear: float) -> bool:
     if mode not in SPINDLE:
         return False
     at = lambda z: {**s.position, "Z": clean_mm(z)}  # noqa: E731
-    forward = Spin(s.rpm, s.spindle)
+    forward = Spindle(s.rpm, s.spindle)
     tr.feed_line(at(bottom), mode)
     if mode in (74, 84):
-        tr._emit(Spin(s.rpm, -s.spindle))
-        tr._dwell(s.cycle_p or 0.0)
+        tr.emit(Spindle(s.rpm, -s.spindle))
+        tr.dwell(s.cycle_p or 0.0)
         tr.feed_line(at(clear), mode)
     else:
-        tr._dwell(s.cycle_p)
-        tr._emit(Spin(0.0, 0))
+        tr.dwell(s.cycle_p if s.cycle_p is not None else 0.0)     # given: checked by run()
+        tr.emit(Spindle(0.0, 0))
         if mode == 88:
-            tr._emit(Paus(0))
+            tr.emit(Pause(0))
         tr.rapid(at(clear))
-    tr._emit(forward)
+    tr.emit(forward)
     return True
 
 
-def _back_bore(tr, bottom: float, clear: float) -> None:
+def _back_bore(tr: Translator, bottom: float, clear: float) -> None:
     """G87 at one hole, the tool at R over its centre."""
     s = tr.state
     centre = dict(s.position)
     off = {**centre, "X": clean_mm(centre["X"] + s.to_mm(s.cycle_ijk["I"])),
            "Y": clean_mm(centre["Y"] + s.to_mm(s.cycle_ijk["J"]))}
     k = s.to_mm(s.cycle_ijk["K"]) + (bottom if s.incremental else s.offset("Z"))
-    forward = Spin(s.rpm, s.spindle)
+    forward = Spindle(s.rpm, s.spindle)
     at = lambda xy, z: {**xy, "Z": clean_mm(z)}  # noqa: E731
     tr.rapid(off)
-    tr._emit(Spin(0.0, 0))
-    tr._emit(Paus(19))
+    tr.emit(Spindle(0.0, 0))
+    tr.emit(Pause(19))
     tr.rapid(at(off, bottom))
     tr.rapid(at(centre, bottom))
-    tr._emit(forward)
+    tr.emit(forward)
     tr.feed_line(at(centre, k), 87)
     tr.feed_line(at(centre, bottom), 87)
-    tr._emit(Spin(0.0, 0))
-    tr._emit(Paus(19))
+    tr.emit(Spindle(0.0, 0))
+    tr.emit(Pause(19))
     tr.rapid(at(off, bottom))
     tr.rapid(at(off, clear))
     tr.rapid(at(centre, clear))
-    tr._emit(forward)
+    tr.emit(forward)
 
 
-def _cut(tr, mode, r: float, bottom: float, clear: float) -> None:
+def _cut(tr: Translator, mode, r: float, bottom: float, clear: float) -> None:
     s = tr.state
     if _spindle_cycle(tr, mode, bottom, clear):
         return
     at = lambda z: {**s.position, "Z": clean_mm(z)}  # noqa: E731
     if mode in (73, 83):
+        if s.cycle_q is None:                     # checked by run() as the cycle began
+            raise RuleError(f"G{mode:g}: Q word missing (the peck depth)")
         peck = s.to_mm(s.cycle_q)
         if not peck > 0.0:
             raise RuleError(f"Q{s.cycle_q:g}: the peck depth Q must be > 0")
@@ -184,7 +191,7 @@ def _cut(tr, mode, r: float, bottom: float, clear: float) -> None:
             depth -= peck
     tr.feed_line(at(bottom), mode)
     if mode in (82, 89):
-        tr._dwell(s.cycle_p or 0.0)
+        tr.dwell(s.cycle_p or 0.0)
     if mode == 85:
         tr.feed_line(at(r), mode)
         if clear != r:

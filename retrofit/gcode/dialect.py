@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import copy
 
-from ..commands import ZMov
+from ..canon import ZeroAxes
 from .blocks import make_block
 from .errors import RuleError
 from .lexer import lex_line
@@ -25,15 +25,15 @@ def run_dollar(interp, line) -> None:
     text = "".join(line.dollar.split()).upper()
     tr = interp.tr
     if text == "$H":
-        tr._line, tr._file = line.number, tr._file
-        tr._emit(ZMov())
+        tr.at(line.number, tr.where[1])
+        tr.emit(ZeroAxes())
         homing = tr.machine.parts.get("homing")
         tr.state.position = {n: (homing.home_mm(n) if homing else 0.0) for n in tr.machine.axis_names}
         return
     if text.startswith("$J="):
         _jog(interp, line, text[3:])
         return
-    interp.messages.append((tr._file or "", line.number, "NOTE",
+    interp.messages.append((tr.where[1] or "", line.number, "NOTE",
                             f"grbl line {line.dollar!r} skipped: it configures or queries a grbl "
                             f"controller"))
 
@@ -54,7 +54,7 @@ def _jog(interp, line, code: str) -> None:
     state = interp.tr.state
     saved = copy.copy(state)
     block.g["motion"] = 1
-    interp.tr.run(block, interp.tr._file)
+    interp.tr.run(block, interp.tr.where[1])
     position, sent = state.position, state.feed_sent
     interp.tr.state.__dict__.update(saved.__dict__)
     state.position, state.feed_sent = position, sent

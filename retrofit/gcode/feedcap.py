@@ -9,6 +9,11 @@ silently). Rotary axes (degrees) do not count towards the ceiling.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .translate import Translator
+
 
 def ceiling_mm_min(machine) -> float:
     """The fastest feed of ``machine`` (mm/min): its fastest linear axis."""
@@ -17,16 +22,17 @@ def ceiling_mm_min(machine) -> float:
     return max(linear) * 60.0
 
 
-def capped(tr, feed_mm_min: float, written: float) -> float:
+def capped(tr: Translator, feed_mm_min: float, written: float) -> float:
     """``feed_mm_min`` within the machine's ceiling; warns once per program."""
-    top = getattr(tr, "_feed_ceiling", None)
+    top = tr.feed_ceiling
     if top is None:
-        top = tr._feed_ceiling = ceiling_mm_min(tr.machine)
+        top = tr.feed_ceiling = ceiling_mm_min(tr.machine)
     if feed_mm_min <= top:
         return feed_mm_min
-    if not getattr(tr, "_feed_warned", False):
-        tr._feed_warned = True
-        tr.messages.append((tr._file or "", tr._line, "WARNING",
+    if not tr.feed_warned:
+        tr.feed_warned = True
+        line, file = tr.where
+        tr.messages.append((file or "", line, "WARNING",
                             f"F{written:g} is above machine {tr.machine.name}'s fastest feed "
                             f"{top:g} mm/min: feeds run at {top:g} mm/min (said once)"))
     return top

@@ -15,10 +15,16 @@ rounded to a whole output as rs274 does. Analog inputs (M66 E) are refused: the 
 
 from __future__ import annotations
 
-from ..commands import Dout, Wait
+from typing import TYPE_CHECKING
+
+from ..canon import DigitalOut, WaitInput
+from ..commands import Wait
 from ..errors import RetrofitError
 from ..machine.iopins import WAIT_MODES, wait_outcome
 from .errors import NeedsWholeProgram, RuleError
+
+if TYPE_CHECKING:
+    from .translate import Translator
 
 #: where M66 leaves its result
 RESULT = 5399
@@ -26,12 +32,12 @@ RESULT = 5399
 MAX_WAIT_S = 86400.0
 
 
-def run(tr, block) -> None:
+def run(tr: Translator, block) -> None:
     """The M62-M66 of ``block``, if any, through the translator ``tr``."""
     code = block.m.get("io")
     if code is None:
         return
-    if getattr(tr, "streaming", False):          # read ahead: the commands so far are not kept
+    if tr.streaming:          # read ahead: the commands so far are not kept
         raise NeedsWholeProgram(f"M{code}")
     io = tr.machine.parts.get("io")
     if code == 66:
@@ -43,7 +49,7 @@ def run(tr, block) -> None:
     count = len(io.outputs) if io is not None else 0
     if not 0 <= number < count:
         raise RuleError(f"M{code} {block.texts['P']}: {_none_or_range(tr.machine, 'out', count)}")
-    tr._emit(Dout(code, number))
+    tr.emit(DigitalOut(code, number))
 
 
 def _none_or_range(machine, kind: str, count: int) -> str:
@@ -54,7 +60,7 @@ def _none_or_range(machine, kind: str, count: int) -> str:
     return f"machine {machine.name} has digital {what}s {kind}0..{kind}{count - 1} ([io])"
 
 
-def _wait(tr, block, io) -> None:
+def _wait(tr: Translator, block, io) -> None:
     values, texts = block.values, block.texts
     if "P" in values and "E" in values:
         raise RuleError("M66: either P (a digital input) or E (an analog input), not both")
@@ -78,11 +84,11 @@ def _wait(tr, block, io) -> None:
         raise RuleError(f"M66 {texts['Q']}: the timeout is at most {MAX_WAIT_S:g} s")
     wait = Wait(number, int(mode), timeout if mode else 0.0)
     outcome = wait_outcome(io, wait.input, wait.mode, wait.timeout, _start_seconds(tr))
-    tr._emit(wait)
+    tr.emit(WaitInput(wait.input, wait.mode, wait.timeout))
     tr.state.params.write(RESULT, outcome.value)
 
 
-def _start_seconds(tr) -> float:
+def _start_seconds(tr: Translator) -> float:
     """When the moves compiled so far end: the program so far planned as the run plans it (tool
     changes by the machine's changer)."""
     from ..atc.front import expand_host_commands
@@ -91,7 +97,7 @@ def _start_seconds(tr) -> float:
     if tr.comp.geometry is not None and tr.comp.geometry.queue:
         raise RuleError("M66 while cutter radius compensation holds a move back: turn it off "
                         "(G40) before waiting on an input")
-    program = Program(list(tr.commands), list(tr.lines), tr._file)
+    program = Program(list(tr.commands), list(tr.lines), tr.where[1])
     try:
         expanded = expand_host_commands(program, tr.machine, tr.spindle_tool)
         return plan_program(expanded.commands, tr.machine).end_s

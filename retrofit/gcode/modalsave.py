@@ -17,14 +17,19 @@ restores them as they were.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from .blocks import make_block
 from .errors import RuleError
 from .params import CS_SELECT, G92_BASE
 
+if TYPE_CHECKING:
+    from .translate import Translator
+
 _SYSTEMS = (54, 55, 56, 57, 58, 59, 59.1, 59.2, 59.3)
 
 
-def snapshot(tr) -> dict:
+def snapshot(tr: Translator) -> dict:
     """The modal state LinuxCNC saves, as the codes (and F, S) that would set it."""
     s = tr.state
     p = s.params.numbered
@@ -43,7 +48,7 @@ def snapshot(tr) -> dict:
     }
 
 
-def run(tr, block) -> None:
+def run(tr: Translator, block) -> None:
     """M70, M71, M72 or M73 in ``block`` (at the step of LinuxCNC's spindle group)."""
     code = block.m.get("spindle")
     if code not in (70, 71, 72, 73):
@@ -60,27 +65,27 @@ def run(tr, block) -> None:
         restore(tr, tr.saved_states[level][0], block.line)
 
 
-def entered(tr) -> None:
+def entered(tr: Translator) -> None:
     """A subroutine call: nothing is saved at its level yet."""
     tr.saved_states.pop(_level(tr), None)
 
 
-def leaving(tr, line: int) -> None:
+def leaving(tr: Translator, line: int) -> None:
     """A return or endsub, after the level is left: M73's state comes back."""
     saved = tr.saved_states.pop(_level(tr) + 1, None)
     if saved is not None and saved[1]:
         restore(tr, saved[0], line)
 
 
-def _level(tr) -> int:
+def _level(tr: Translator) -> int:
     return len(tr.state.params.frames)
 
 
-def restore(tr, saved: dict, line: int) -> None:
+def restore(tr: Translator, saved: dict, line: int) -> None:
     """Run the codes that bring the present modal state back to ``saved``."""
     now = snapshot(tr)
     if now["units"] != saved["units"]:
-        tr.run(make_block(line, [("G", float(saved["units"]))], tr.machine), tr._file)
+        tr.run(make_block(line, [("G", float(saved["units"]))], tr.machine), tr.where[1])
     words = [("F", saved["F"]), ("S", saved["S"])]
     for group in ("plane", "cutter radius", "distance", "feed mode", "coordinate system",
                   "tool length", "return mode", "path control", "spindle speed mode",
@@ -92,4 +97,4 @@ def restore(tr, saved: dict, line: int) -> None:
     for group in ("spindle", "coolant"):
         if now[group] != saved[group]:
             words.append(("M", float(saved[group])))
-    tr.run(make_block(line, words, tr.machine), tr._file)
+    tr.run(make_block(line, words, tr.machine), tr.where[1])

@@ -16,11 +16,16 @@ machine's ``junction_deviation_mm`` rule). So:
 
 from __future__ import annotations
 
-from ..commands import Dely, FMov, PMov
+from typing import TYPE_CHECKING
+
 from .errors import RuleError
 
+if TYPE_CHECKING:
+    from .blocks import Block
+    from .translate import Translator
 
-def set_mode(tr, block) -> None:
+
+def set_mode(tr: Translator, block: Block) -> None:
     """The path control code of ``block`` (G61, G61.1, G64) with its P and Q."""
     code, v = block.g["path control"], block.values
     if code != 64:
@@ -33,14 +38,13 @@ def set_mode(tr, block) -> None:
     tr.state.exact_stop = False
 
 
-def stop_between_blocks(tr, command) -> None:
-    """Under G61/G61.1, a ``DELY P0`` before the first move of a block that follows another
-    block's move."""
-    if not isinstance(command, (FMov, PMov)) or tr.indexing:
-        return
-    here = (tr._file, tr._line)
-    if tr.last_block not in (None, here):
-        tr.commands.append(Dely(0.0))
-        tr.lines.append(tr._line)
-        tr.files.append(tr._file)
+def stop_between_blocks(tr: Translator, move: bool) -> bool:
+    """Under G61/G61.1: True when a stop (a dwell of 0 s, ``DELY P0``) goes before this call,
+    the first move (``move``) of a block that follows another block's move."""
+    if not move or tr.indexing:
+        return False
+    line, file = tr.where
+    here = (file, line)
+    stop = tr.last_block not in (None, here)
     tr.last_block = here
+    return stop

@@ -15,14 +15,18 @@ replaces them with the polar point (:func:`resolve`) when it knows the modes of 
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 from .errors import RuleError
 from .state import clean_mm
 
+if TYPE_CHECKING:
+    from .translate import Translator
+
 POLAR = ("@", "^")
 
 
-def mark(tr, block) -> None:
+def mark(tr: Translator, block) -> None:
     """Check a block with polar words against the state before it; give it X Y placeholders."""
     s = tr.state
     if not {"X", "Y"} <= set(tr.machine.axis_names):
@@ -80,7 +84,7 @@ def point(s, radius, angle) -> tuple[float, float]:
     return radius * math.cos(math.radians(angle)), radius * math.sin(math.radians(angle))
 
 
-def resolve(tr, block) -> None:
+def resolve(tr: Translator, block) -> None:
     """Replace the X Y placeholders of a polar block with its point: absolute words under G90,
     steps from the current point under G91."""
     s = tr.state

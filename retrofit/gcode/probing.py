@@ -24,11 +24,15 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from .errors import RuleError
 from .params import AXIS_ORDER
 from .state import MM_PER_INCH
 from .validate import check_soft_limits
+
+if TYPE_CHECKING:
+    from .translate import Translator
 
 #: the probing codes: True for toward the workpiece (stop when the input trips)
 PROBE_CODES = {38.2: True, 38.3: True, 38.4: False, 38.5: False}
@@ -62,7 +66,7 @@ class ProbeResult:
 Prober = Callable[[ProbeRequest], ProbeResult]
 
 
-def probe_move(tr, block, mode: float, end: dict[str, float]) -> None:
+def probe_move(tr: Translator, block, mode: float, end: dict[str, float]) -> None:
     """Run one G38.x move of ``block`` to ``end`` (machine mm) through the translator ``tr``."""
     s, name = tr.state, f"G{mode:g}"
     if tr.probe is None:
@@ -89,7 +93,7 @@ def probe_move(tr, block, mode: float, end: dict[str, float]) -> None:
         raise RuleError(f"{name}: the move to {where} finished without making contact "
                         f"(G38.{3 if toward else 5} accepts that and sets #{SUCCESS}=0)")
     stop = {a: result.stop_mm.get(a, end[a]) for a in end}
-    tr.feed_line(stop, mode)
+    tr.feed_line(stop, mode, probing=True)
     _store(s, stop, result.changed)
 
 

@@ -94,7 +94,8 @@ class Interpreter:
             if line is None or (line.plain and not line.words):     # a comment or spaces only
                 pc += 1
                 continue
-            if line.plain and self.steps + RUN_LINES <= most and hasattr(src.lines, "text"):
+            if line.plain and self.tr.plain_path and self.steps + RUN_LINES <= most and \
+                    hasattr(src.lines, "text"):
                 taken = take_run(self.tr, src.lines, pc, src.file)      # a run of plain CAM lines
                 if taken:
                     self.steps += taken
@@ -153,7 +154,7 @@ class Interpreter:
 
     def _line(self, src: Source, line) -> bool:
         """One line of words; True when it ends the program."""
-        if line.plain:
+        if line.plain and self.tr.plain_path:
             done = run_plain(self.tr, line.words, line.number, src.file)
             if done is not None:
                 return done

@@ -23,14 +23,18 @@ reading the current position #5420-#5428; so does this module, naming the code.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
-from ..commands import FMov, PMov
-from . import cycles
+from ..canon import StraightFeed, StraightTraverse
+from . import arcmove, cycles
 from .cutter import Compensator, CutterError, find_turn
 from .errors import RuleError
 from .params import CS_SELECT
 from .state import clean_mm
 from .validate import AXIS_NONMODAL, check_soft_limits
+
+if TYPE_CHECKING:
+    from .translate import Translator
 
 #: plane -> its (first, second) axes, the (u, v) of the geometry
 PLANE_AXES = {17: ("X", "Y"), 18: ("Z", "X")}
@@ -62,7 +66,7 @@ class RadiusComp:
         return self.on or self.straight_next
 
 
-def before(tr, block) -> None:
+def before(tr: Translator, block) -> None:
     """Codes LinuxCNC runs before G40 in a block, refused while compensation is on."""
     g, s = block.g, tr.state
     plane = g.get("plane")
@@ -78,7 +82,7 @@ def before(tr, block) -> None:
                         f"compensation on; give G40 first")
 
 
-def modes(tr, block) -> None:
+def modes(tr: Translator, block) -> None:
     """G40/G41/G42 of ``block``, then the refusals of the codes LinuxCNC runs after them."""
     if "cutter radius" in block.g:
         switch(tr, block)
@@ -86,7 +90,7 @@ def modes(tr, block) -> None:
         after(tr, block)
 
 
-def switch(tr, block) -> None:
+def switch(tr: Translator, block) -> None:
     """G40, G41, G42, G41.1 or G42.1 of ``block``."""
     code = block.g["cutter radius"]
     comp = tr.comp
@@ -117,7 +121,7 @@ def switch(tr, block) -> None:
         comp.out = dict(pos)
 
 
-def _tool(tr, block, name: str) -> tuple[float, int]:
+def _tool(tr: Translator, block, name: str) -> tuple[float, int]:
     """(radius mm, lathe orientation) from D (and L) or the tool table."""
     s, v = tr.state, block.values
     if name in ("G41.1", "G42.1"):
@@ -151,7 +155,7 @@ def _tool(tr, block, name: str) -> tuple[float, int]:
     return tool.diameter_mm / 2.0, orientation
 
 
-def after(tr, block) -> None:
+def after(tr: Translator, block) -> None:
     """Codes LinuxCNC runs after G41/G42 in a block, refused while compensation is on."""
     g = block.g
     for group, what in _REFUSED_GROUPS.items():
@@ -176,7 +180,7 @@ def after(tr, block) -> None:
                         "first")
 
 
-def motion(tr, block, mode) -> bool:
+def motion(tr: Translator, block, mode) -> bool:
     """A motion block while compensation is on (True: done here) or just after G40."""
     comp = tr.comp
     if comp.straight_next:
@@ -200,16 +204,16 @@ def motion(tr, block, mode) -> bool:
     s.pending = {}
     u, v = comp.axes
     p = (end[u], end[v])
-    payload = (tr._line, tr._file, end)
+    payload = (*tr.where, end)
     try:
         if mode in (0, 1):
             if mode == 1:
-                tr._send_feed(math.dist(start.values(), end.values()), mode)
+                tr.send_feed(math.dist(start.values(), end.values()), mode)
             _send(tr, geometry.straight("feed" if mode == 1 else "rapid", p, payload))
         else:
-            centre, extra_turns = tr.arc_centre(block, mode, end)
+            centre, extra_turns = arcmove.arc_centre(tr, block, mode, end)
             turn = (extra_turns + 1) * (1 if mode == 3 else -1)
-            tr._send_feed(_arc_length(start, end, centre, turn, comp.axes), mode)
+            tr.send_feed(_arc_length(start, end, centre, turn, comp.axes), mode)
             _send(tr, geometry.arc(p, centre, turn, payload))
     except CutterError as exc:
         raise RuleError(f"G{comp.code:g}: {exc}") from None
@@ -217,26 +221,26 @@ def motion(tr, block, mode) -> bool:
     return True
 
 
-def stop(tr, code) -> None:
+def stop(tr: Translator, code) -> None:
     """M0, M1, M2, M30, M60 (``code``): the held moves go out where they end now."""
     if tr.comp.geometry is not None:
         _flush(tr, tr.comp.geometry.flush, f"M{code:g}")
 
 
-def reset(tr, code) -> None:
+def reset(tr: Translator, code) -> None:
     """M2, M30: as :func:`stop`, and compensation is off, as LinuxCNC resets it."""
     stop(tr, code)
-    tr.comp.__init__()
+    tr.comp = RadiusComp()
 
 
-def finish(tr) -> None:
+def finish(tr: Translator) -> None:
     """The program's text ends (no M2): a move still held back is refused, not dropped."""
     if tr.comp.geometry is not None and tr.comp.geometry.holding:
         raise RuleError(f"the program ends with cutter radius compensation on (G{tr.comp.code:g}) "
                         f"and its last move held back; end it with G40 and M2")
 
 
-def _flush(tr, flush, word: str) -> None:
+def _flush(tr: Translator, flush, word: str) -> None:
     try:
         _send(tr, flush())
     except CutterError as exc:
@@ -244,29 +248,31 @@ def _flush(tr, flush, word: str) -> None:
 
 
 # -- output ------------------------------------------------------------------------------------
-def _send(tr, items) -> None:
-    """The final items of the geometry as commands, each with its source line."""
+def _send(tr: Translator, items) -> None:
+    """The final items of the geometry as canonical calls, each with its source line."""
     comp = tr.comp
-    line, file = tr._line, tr._file
+    line, file = tr.where
     for item in items:
         if item.kind == "other":
-            command, tr._line, tr._file = item.payload
-            tr.put(command)
+            call, held_line, held_file = item.payload
+            tr.at(held_line, held_file)
+            tr.put(call)
             continue
-        tr._line, tr._file, end = item.payload
+        held_line, held_file, end = item.payload
+        tr.at(held_line, held_file)
         point = dict(comp.out) if item.corner else dict(end)
         u, v = comp.axes
         point[u], point[v] = _machine(tr, item.end)
         point = {n: clean_mm(x) for n, x in point.items()}
         if item.kind == "arc":
             mode = 2 if item.turn < 0 else 3
-            tr.arc_move(comp.out, point, _machine(tr, item.centre), mode, abs(item.turn) - 1,
-                        emit=tr.put)
+            arcmove.arc_move(tr, comp.out, point, _machine(tr, item.centre), mode, abs(item.turn) - 1,
+                             emit=tr.put)
         else:
             check_soft_limits(tr.machine, point)
-            tr.put((PMov if item.kind == "feed" else FMov)(tr._axes(point)))
+            tr.put((StraightFeed if item.kind == "feed" else StraightTraverse)(tr.position_of(point)))
         comp.out = point
-    tr._line, tr._file = line, file
+    tr.at(line, file)
 
 
 def _arc_length(start, end, centre, turn, axes) -> float:
@@ -277,11 +283,11 @@ def _arc_length(start, end, centre, turn, axes) -> float:
     return math.hypot(math.dist((start[u], start[v]), centre) * sweep, off)
 
 
-def _machine(tr, uv) -> tuple[float, float]:
+def _machine(tr: Translator, uv) -> tuple[float, float]:
     """A plane point of the geometry as the machine positions it (a lathe insert's corner)."""
     comp = tr.comp
     shift = _LATHE_SHIFT.get(comp.orientation) if tr.state.plane == 18 else None
-    if shift is None:
+    if shift is None or comp.geometry is None:
         return uv
     r = comp.geometry.r
     return (uv[0] + shift[0] * r, uv[1] + shift[1] * r)

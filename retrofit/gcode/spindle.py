@@ -16,11 +16,15 @@
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING
 
-from ..commands import PMov, Spin
+from ..canon import Spindle, StraightFeed
 from .errors import RuleError
 from .state import clean_mm
+
+if TYPE_CHECKING:
+    from ..controller.settings import SpindleSettings
+    from .translate import Translator
 
 #: most a G96 piece changes the spindle speed (a ratio)
 RPM_STEP = 1.05
@@ -29,7 +33,7 @@ MAX_PIECES = 1000
 FT_PER_M = 1.0 / 0.3048
 
 
-def needs_encoder(tr, code: str) -> Any:
+def needs_encoder(tr: Translator, code: str) -> SpindleSettings:
     spindle = tr.machine.parts.get("spindle")
     if spindle is None:
         raise RuleError(f"{code} needs a spindle encoder ([spindle] in the machine file); machine "
@@ -38,7 +42,7 @@ def needs_encoder(tr, code: str) -> Any:
     return spindle
 
 
-def set_feed_mode(tr, code) -> None:
+def set_feed_mode(tr: Translator, code) -> None:
     """G93, G94, G95."""
     s = tr.state
     if code == 95:
@@ -46,7 +50,7 @@ def set_feed_mode(tr, code) -> None:
     s.inverse_time, s.per_rev = code == 93, code == 95
 
 
-def set_speed_mode(tr, block) -> None:
+def set_speed_mode(tr: Translator, block) -> None:
     """G96 (with S the surface speed, D the rpm ceiling) or G97; runs before the S word acts."""
     s = tr.state
     if block.g["spindle speed mode"] == 97:
@@ -67,13 +71,15 @@ def set_speed_mode(tr, block) -> None:
     s.css = (surface, top)
 
 
-def surface_word(tr, block) -> None:
+def surface_word(tr: Translator, block) -> None:
     """S under G96: a new surface speed; the spindle speed follows at once."""
     s = tr.state
     if "spindle speed mode" not in block.g:
         surface = block.values["S"] / (FT_PER_M if s.inch else 1.0)
         if not surface > 0.0:
             raise RuleError(f"{block.texts['S']}: G96's surface speed must be > 0")
+        if s.css is None:                         # called under G96 only
+            raise RuleError(f"{block.texts['S']}: no G96 surface speed in force")
         s.css = (surface, s.css[1])
     s.rpm = round(css_rpm(s.css, s.position["X"] - s.offset("X")), 3)
 
@@ -87,13 +93,13 @@ def css_rpm(css, radius_mm: float) -> float:
     return min(top, 1000.0 * surface / (math.pi * diameter))
 
 
-def follow(tr, x_mm: float) -> None:
+def follow(tr: Translator, x_mm: float) -> None:
     """Under G96, a SPIN to the rpm where the tool is at machine X ``x_mm`` (its radius is
     measured from program X0, the work's axis), when it differs from the spindle's."""
     s = tr.state
     rpm = round(css_rpm(s.css, x_mm - s.offset("X")), 3)
     if s.spindle and rpm != s.rpm:
-        tr._emit(Spin(rpm, s.spindle))
+        tr.emit(Spindle(rpm, s.spindle))
     s.rpm = rpm
 
 
@@ -122,7 +128,7 @@ def css_breaks(x0: float, x1: float, css) -> list[float]:
     return ends
 
 
-def css_line(tr, end: dict, mode) -> None:
+def css_line(tr: Translator, end: dict, mode) -> None:
     """A feed move under G96: pieces along which the rpm changes by at most RPM_STEP, each run
     at the rpm of its middle."""
     s = tr.state
@@ -133,12 +139,12 @@ def css_line(tr, end: dict, mode) -> None:
     for t in css_breaks(x0, x1, s.css):
         point = end if t == 1.0 else {n: clean_mm(start[n] + (end[n] - start[n]) * t) for n in start}
         follow(tr, start["X"] + (end["X"] - start["X"]) * (before + t) / 2.0)
-        tr._send_feed(math.dist(s.position.values(), point.values()), mode)
-        tr._emit(PMov(tr._axes(point)))
+        tr.send_feed(math.dist(s.position.values(), point.values()), mode)
+        tr.emit(StraightFeed(tr.position_of(point)))
         s.position, before = point, t
 
 
-def per_rev_feed(tr, mode) -> float:
+def per_rev_feed(tr: Translator, mode) -> float:
     """The feed (mm/min) of a move under G95: F mm/rev x the spindle's rpm."""
     s = tr.state
     if not (s.spindle and s.rpm > 0.0):

@@ -19,12 +19,16 @@ its chords.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
-from ..commands import PMov
+from ..canon import StraightFeed
 from .errors import RuleError
 from .state import clean_mm
 from .threading import leave
 from .validate import MAX_CHORDS, check_soft_limits
+
+if TYPE_CHECKING:
+    from .translate import Translator
 
 #: motion codes of this module; G5 and G5.1 keep the motion mode in force
 MODES = (5, 5.1, 5.2)
@@ -39,7 +43,7 @@ _MARGIN = 0.9
 _FIRST_PIECES = 4
 
 
-def run(tr, block, mode) -> None:
+def run(tr: Translator, block, mode) -> None:
     """One block in motion mode G5, G5.1 or G5.2."""
     s = tr.state
     if s.plane != 17 or not {"X", "Y"} <= set(tr.machine.axis_names):
@@ -76,7 +80,7 @@ def run(tr, block, mode) -> None:
     _cut(tr, mode, lambda u: _bezier(points, u), [0.0, 1.0], end_all)
 
 
-def _nurbs_point(tr, block) -> None:
+def _nurbs_point(tr: Translator, block) -> None:
     s, v = tr.state, block.values
     if s.inverse_time:
         raise RuleError("G5.2 under G93 inverse time is not supported (use G94)")
@@ -106,7 +110,7 @@ def _nurbs_point(tr, block) -> None:
         s.nurbs["points"].append((end["X"], end["Y"], v["P"]))
 
 
-def finish(tr, block) -> None:
+def finish(tr: Translator, block) -> None:
     """G5.3: cut the NURBS collected since G5.2."""
     s = tr.state
     if s.motion != 5.2 or s.nurbs is None:
@@ -186,7 +190,7 @@ def _off_chord(m, p, q) -> float:
     return math.hypot(m[0] - p[0] - t * dx, m[1] - p[1] - t * dy)
 
 
-def _cut(tr, mode, curve, breaks, end: dict) -> None:
+def _cut(tr: Translator, mode, curve, breaks, end: dict) -> None:
     s = tr.state
     leave(tr)
     params = chord_parameters(curve, breaks, tr.machine.motion.arc_tolerance_mm)
@@ -198,7 +202,7 @@ def _cut(tr, mode, curve, breaks, end: dict) -> None:
     chords = [{**s.position, "X": clean_mm(x), "Y": clean_mm(y)} for x, y in path]
     for c in chords:
         check_soft_limits(tr.machine, c, f" on the G{mode:g} spline")
-    tr._send_feed(length, mode)
+    tr.send_feed(length, mode)
     for c in chords:
-        tr._emit(PMov(tr._axes(c)))
+        tr.emit(StraightFeed(tr.position_of(c)))
     s.position = chords[-1]

@@ -15,40 +15,13 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
+from ..canon.rounding import DECIMALS, clean_mm, clean_mm_list
 from ..machine.config import Machine
 from ..machine.rotary import shorter_way
 from .params import CS_SELECT, CS_STEP, G54_BASE, G92_BASE, Parameters
 
 MM_PER_INCH = 25.4
-#: positions and feeds are rounded to this many decimals of a mm (1 pm): float noise of G91 sums
-#: and inch conversion disappears, far below any machine's step
-DECIMALS = 9
-
-
-def clean_mm(value: float) -> float:
-    """``value`` rounded to :data:`DECIMALS`, with -0.0 made 0.0."""
-    return round(value, DECIMALS) + 0.0
-
-
-def clean_mm_list(values) -> list[float]:
-    """:func:`clean_mm` of every value of a float64 array, float for float, at array speed.
-
-    ``rint(v * 10**DECIMALS) / 10**DECIMALS`` is Python's correctly rounded ``round`` unless the
-    product's own rounding could have crossed a half (the exact product within two units in the
-    last place of a half) or the product is too large to hold a fraction; those few values go
-    through ``round`` itself.
-    """
-    import numpy as np
-    scale = 10.0 ** DECIMALS
-    scaled = values * scale
-    out = np.rint(scaled) / scale + 0.0
-    size = np.abs(scaled)
-    doubtful = ~(size < 2.0 ** 52) | (np.abs(size - np.floor(size) - 0.5) <= 2.0 * np.spacing(size))
-    for k in np.flatnonzero(doubtful).tolist():
-        out[k] = round(float(values[k]), DECIMALS) + 0.0
-    return out.tolist()
-
-
+__all__ = ["DECIMALS", "MM_PER_INCH", "ModalState", "clean_mm", "clean_mm_list", "default_plane"]
 def default_plane(machine: Machine) -> int:
     """G18 (ZX) on a machine without a Y axis (a lathe), G17 (XY) otherwise."""
     return 17 if "Y" in machine.axis_names else 18

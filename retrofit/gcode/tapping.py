@@ -15,18 +15,23 @@ Only a spindle that reverses on command, with an encoder that counts both ways, 
 
 from __future__ import annotations
 
-from ..commands import CStp, IStp, PFdr, PMov, Spin
+from typing import TYPE_CHECKING
+
+from ..canon import SetFeedRate, Spindle, StartFeedSync, StopFeedSync, StraightFeed
 from ..motion.indexer import PLAN_SHARE, lead_in_mm, stopping_revs
 from .errors import RuleError
 from .threading import _path, check_synchronised, leave, spindle_turning
 from .validate import check_soft_limits
+
+if TYPE_CHECKING:
+    from .translate import Translator
 
 WHY = ("a rigid tap follows the spindle in, through its reversal and out, so it needs a spindle that "
        "reverses on command with an encoder counting both ways ([spindle] reverse_rpm_s in the "
        "machine file); tap with G84/G74 and a floating holder")
 
 
-def reversible(tr):
+def reversible(tr: Translator):
     """The machine's SpindleSettings when it can tap rigidly; RuleError with the reason if not."""
     spindle = tr.machine.parts.get("spindle")
     if spindle is None:
@@ -40,7 +45,7 @@ def reversible(tr):
     return spindle
 
 
-def _check_room(tr, spindle, start: dict, end: dict, pitch: float, scale: float) -> None:
+def _check_room(tr: Translator, spindle, start: dict, end: dict, pitch: float, scale: float) -> None:
     """Each way within the axes' speed; going in, room for the lead-in and the spindle's stop at
     the bottom; coming out, room for its stop at the top (at up to ``speed_tolerance`` fast)."""
     s = tr.state
@@ -63,7 +68,7 @@ def _check_room(tr, spindle, start: dict, end: dict, pitch: float, scale: float)
                             f"{length:.2f} mm tap; lower S (or I)")
 
 
-def g33_1(tr, block, end: dict) -> None:
+def g33_1(tr: Translator, block, end: dict) -> None:
     """One rigid tap from the current position to ``end`` (mm) and back."""
     spindle = reversible(tr)
     if "K" not in block.values:
@@ -86,11 +91,11 @@ def g33_1(tr, block, end: dict) -> None:
     _check_room(tr, spindle, start, end, pitch, scale)
     leave(tr)
     rpm, direction = s.rpm, s.spindle
-    tr._emit(IStp())
-    tr._emit(PFdr(pitch))
-    tr._emit(PMov(tr._axes(end)))
-    tr._emit(Spin(rpm * scale, -direction))
-    tr._emit(PMov(tr._axes(start)))
-    tr._emit(Spin(rpm, direction))
-    tr._emit(CStp())
+    tr.emit(StartFeedSync())
+    tr.emit(SetFeedRate(pitch))
+    tr.emit(StraightFeed(tr.position_of(end)))
+    tr.emit(Spindle(rpm * scale, -direction))
+    tr.emit(StraightFeed(tr.position_of(start)))
+    tr.emit(Spindle(rpm, direction))
+    tr.emit(StopFeedSync())
     s.feed_sent = None

@@ -31,11 +31,15 @@ before any motion, with the figures.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
-from ..commands import CStp, FMov, IStp, PFdr, PMov
+from ..canon import SetFeedRate, StartFeedSync, StopFeedSync, StraightFeed, StraightTraverse
 from ..motion.indexer import lead_in_mm, thread_speed_mm_s
 from .state import clean_mm
 from .validate import RuleError, check_soft_limits
+
+if TYPE_CHECKING:
+    from .translate import Translator
 
 #: most passes a G76 may make (a J far below K with a high R would otherwise run for ever)
 MAX_PASSES = 1000
@@ -75,7 +79,7 @@ def _path(machine, start: dict, end: dict) -> tuple[float, float, float, float]:
     return length, v_max, a_max, (base / length if length else 0.0)
 
 
-def check_synchronised(tr, what: str, start: dict, end: dict, feed_mm_rev: float, first: bool) -> None:
+def check_synchronised(tr: Translator, what: str, start: dict, end: dict, feed_mm_rev: float, first: bool) -> None:
     """A synchronised move the machine can make at the program's spindle speed: its speed within
     the axes', one step at most per encoder count, and (``first`` of a chain) room for the lead-in."""
     machine, rpm = tr.machine, tr.state.rpm
@@ -101,32 +105,32 @@ def check_synchronised(tr, what: str, start: dict, end: dict, feed_mm_rev: float
                         f"work or lower S")
 
 
-def spindle_turning(tr, code: str) -> None:
+def spindle_turning(tr: Translator, code: str) -> None:
     if not (tr.state.spindle and tr.state.rpm > 0.0):
         raise RuleError(f"{code} with the spindle stopped: a thread follows the spindle (M3 or M4 "
                         f"with S > 0 first)")
 
 
-def leave(tr) -> None:
+def leave(tr: Translator) -> None:
     """End a synchronised chain: back to the clock, and the next feed move re-sends its feed."""
     if tr.indexing:
-        tr._emit(CStp())
+        tr.emit(StopFeedSync())
         tr.indexing = False
         tr.state.feed_sent = None
 
 
-def _synchronised(tr, start: dict, end: dict, feed_mm_rev: float) -> None:
+def _synchronised(tr: Translator, start: dict, end: dict, feed_mm_rev: float) -> None:
     if not tr.indexing:
-        tr._emit(IStp())
+        tr.emit(StartFeedSync())
         tr.indexing = True
         tr.state.feed_sent = None
     if tr.state.feed_sent != feed_mm_rev:
-        tr._emit(PFdr(feed_mm_rev))
+        tr.emit(SetFeedRate(feed_mm_rev))
         tr.state.feed_sent = feed_mm_rev
-    tr._emit(PMov(tr._axes(end)))
+    tr.emit(StraightFeed(tr.position_of(end)))
 
 
-def g33(tr, block, end: dict) -> None:
+def g33(tr: Translator, block, end: dict) -> None:
     """One G33 move from the current position to ``end`` (mm), K mm per revolution."""
     if "K" not in block.values:
         raise RuleError("G33 needs K, the distance along the move per spindle revolution "
@@ -140,7 +144,7 @@ def g33(tr, block, end: dict) -> None:
     _synchronised(tr, tr.state.position, end, pitch)
 
 
-def _words(tr, block) -> dict:
+def _words(tr: Translator, block) -> dict:
     """G76's words in mm, I J K as radii (halved under G7, as LinuxCNC reads them), and R, Q, H,
     L as numbers, checked one by one."""
     if tr.state.plane != 18:
@@ -219,7 +223,7 @@ def _pass_moves(w: dict, x_drive: float, z_start: float, depth: float, lean: flo
     return moves + [("rapid", back, ze, None)]
 
 
-def g76(tr, block) -> None:
+def g76(tr: Translator, block) -> None:
     """The threading cycle, from the current position (the drive line at the thread's start)."""
     w = _words(tr, block)
     spindle_turning(tr, "G76")
@@ -238,7 +242,7 @@ def g76(tr, block) -> None:
             end = point(x, z)
             if kind == "rapid":
                 leave(tr)
-                tr._emit(FMov(tr._axes(end)))
+                tr.emit(StraightTraverse(tr.position_of(end)))
             else:
                 check_synchronised(tr, "G76", at, end, lead, first=first)
                 _synchronised(tr, at, end, lead)
@@ -247,5 +251,5 @@ def g76(tr, block) -> None:
         leave(tr)
     final = point(here["X"], w["Z"])
     if final != at:
-        tr._emit(FMov(tr._axes(final)))
+        tr.emit(StraightTraverse(tr.position_of(final)))
     tr.state.position = final

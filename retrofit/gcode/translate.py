@@ -1,10 +1,13 @@
 """G-code translation: blocks run through the modal state into retrofit's command set.
 
-G0 is FMOV and G1 is PMOV, both naming every machine axis with its target in machine
-coordinates (mm); a G2/G3 arc becomes one PMOV per chord (:mod:`retrofit.motion.arcs`); F
-becomes a PFDR sent just before the next feed move when it changed; G4 is DELY; M3/M4/M5 with S
-are SPIN, M7/M8/M9 COOL; M6 (and T on a machine that changes on T) is TOOL; M0/M1/M60 PAUS; M62-M66 DOUT and
-WAIT (:mod:`retrofit.gcode.iowords`).
+The translator emits canonical calls (:mod:`retrofit.canon`), which its :attr:`Translator.canon`
+turns into commands: G0 is a straight traverse (FMOV) and G1 a straight feed (PMOV), both
+naming every machine axis with its target in machine coordinates (mm); a G2/G3 is one arc with
+its centre, cut into chords (one PMOV each) after the seam; F becomes a feed rate (PFDR) sent
+just before the next feed move when it changed; G4 is a dwell (DELY); M3/M4/M5 with S the
+spindle (SPIN), M7/M8/M9 the coolant (COOL); M6 (and T on a machine that changes on T) a tool
+change (TOOL); M0/M1/M60 a pause (PAUS); M62-M66 a digital output or a wait (DOUT, WAIT:
+:mod:`retrofit.gcode.iowords`).
 Offsets (G5x, G92, G43) are kept here, never sent: see :mod:`retrofit.gcode.coords`.
 
 Within a block the words act in LinuxCNC's order: feed mode, F, S, T, M62-M66, M6, M3/M4/M5, M7/M8/M9,
@@ -16,10 +19,25 @@ from __future__ import annotations
 
 import math
 
-from ..commands import Command, Cool, Dely, FMov, Paus, PFdr, PMov, Spin, ZMov
+from ..canon import (
+    Call,
+    CommandCanon,
+    Coolant,
+    Dwell,
+    Pause,
+    SetFeedRate,
+    Spindle,
+    StraightFeed,
+    StraightProbe,
+    StraightTraverse,
+    ZeroAxes,
+)
+from ..canon.calls import MOVES, Position
+from ..commands import Command
 from ..machine.config import Machine
-from ..motion.arcs import arc_columns, arc_extent
+from ..machine.tooltable import ToolTable
 from . import (
+    arcmove,
     coords,
     cycles,
     feedcap,
@@ -34,12 +52,12 @@ from . import (
     tapping,
     tools,
 )
-from .arcwords import arc_center, chord_moves, plane_axes
 from .blocks import Block
 from .errors import RuleError
-from .state import DECIMALS, ModalState, clean_mm
+from .probing import Prober
+from .state import ModalState, clean_mm
 from .threading import g33, g76, leave
-from .validate import check_arc, check_feed, check_soft_limits, check_word_use
+from .validate import check_feed, check_soft_limits, check_word_use
 
 #: the longest dwell accepted (s): a day
 MAX_DWELL_S = 86400.0
@@ -51,20 +69,23 @@ _PLAIN_VALUES = frozenset("F")
 
 
 class Translator:
-    """Turns blocks, in program order, into commands and the source line of each."""
+    """Turns blocks, in program order, into canonical calls, and through :attr:`canon` into
+    commands and the source line of each."""
 
-    def __init__(self, machine: Machine, state: ModalState, tool_table=None, probe=None):
+    def __init__(self, machine: Machine, state: ModalState, tool_table: ToolTable | None = None,
+                 probe: Prober | None = None):
         self.machine = machine
         self.probe = probe                # runs G38 moves on the machine (retrofit.gcode.probing)
         self.state = state
         self.tool_table = tool_table
+        self.canon = CommandCanon(machine.axis_names, machine.motion.arc_tolerance_mm)
         self.commands: list[Command] = []
         self.lines: list[int] = []
         self.files: list[str] = []
         self._line = 0
         self._file = ""
         self.indexing = False             # ISTP emitted and not yet ended by CSTP (a G33 chain)
-        self.last_block = None            # (file, line) of the last move under G61
+        self.last_block: tuple[str, int] | None = None   # (file, line) of the last move under G61
         self.names = machine.axis_names
         atc = machine.parts.get("atc")
         self.change_on_t = getattr(atc, "change_on", "M6") == "T"
@@ -72,6 +93,21 @@ class Translator:
         self.spindle_tool = state.tool          # in the spindle at the start (M66 plans from it)
         self.saved_states: dict[int, tuple] = {}   # call level -> (M70/M73 state, restore on return)
         self.messages: list[tuple[str, int, str, str]] = []   # (file, line, kind, text)
+        self.feed_ceiling: float | None = None  # the machine's fastest feed, once asked (feedcap)
+        self.feed_warned = False                # a feed above it has been said once
+        self.streaming = False                  # read ahead: the commands so far are not all kept
+        #: plain G0/G1 lines make their commands directly (:mod:`.plainline`, :mod:`.plainrun`),
+        #: the ones their straight traverses and feeds would make; False: through the canon too
+        self.plain_path = True
+
+    @property
+    def where(self) -> tuple[int, str]:
+        """(line, file) of the block being translated."""
+        return self._line, self._file
+
+    def at(self, line: int, file: str) -> None:
+        """The block being translated is ``line`` of ``file`` (for the calls made now)."""
+        self._line, self._file = line, file
 
     def run(self, block: Block, file: str = "") -> bool:
         """Translate one block; True when it ends the program (M2, M30)."""
@@ -92,7 +128,7 @@ class Translator:
         if "feed mode" in g:
             spindle.set_feed_mode(self, g["feed mode"])
         if "F" in block.values:
-            self._feed_word(block.values["F"])
+            self.feed_word(block.values["F"])
         if "io" in block.m:
             iowords.run(self, block)          # M62-M66: after T selects, before M6
         tools.tool_words(self, block)
@@ -101,7 +137,7 @@ class Translator:
             modalsave.run(self, block)        # M70-M73: LinuxCNC's spindle group
         self._coolant(block)
         if g.get("non-modal") == 4:
-            self._dwell(block.values["P"])
+            self.dwell(block.values["P"])
         self._modes(block)
         if self.comp.on or "cutter radius" in g:
             radiuscomp.modes(self, block)
@@ -128,7 +164,7 @@ class Translator:
         stop = block.m.get("stopping")
         if stop in (0, 1, 60):
             radiuscomp.stop(self, stop)
-            self._emit(Paus(stop))
+            self.emit(Pause(int(stop)))
         if stop in (2, 30):
             radiuscomp.reset(self, stop)
             self._end()
@@ -143,7 +179,7 @@ class Translator:
         """A block of axis words and F only, the bulk of CAM output: the same steps as
         :meth:`run`, without the codes it does not have."""
         if "F" in block.values:
-            self._feed_word(block.values["F"])
+            self.feed_word(block.values["F"])
         if block.g:
             self.state.motion, self.state.motion_given = block.g["motion"], True
             self.state.cycle_start = None
@@ -152,7 +188,8 @@ class Translator:
         return False
 
     # -- words acting before the motion ------------------------------------------------------
-    def _feed_word(self, value: float) -> None:
+    def feed_word(self, value: float) -> None:
+        """F ``value`` (program units): the feed of the moves that follow."""
         if value < 0.0 or (value > MAX_FEED_MM_MIN and (self.state.inverse_time or self.state.per_rev)):
             raise RuleError(f"F{value:g}: a feed is from 0 to {MAX_FEED_MM_MIN:g}")
         if self.state.inverse_time:
@@ -179,29 +216,30 @@ class Translator:
         code = block.m.get("spindle")
         if code in (3, 4):
             s.spindle = 1 if code == 3 else -1
-            self._emit(Spin(s.rpm, s.spindle))
+            self.emit(Spindle(s.rpm, s.spindle))
         elif code == 5:
             s.spindle = 0
-            self._emit(Spin(0.0, 0))
+            self.emit(Spindle(0.0, 0))
         elif "S" in block.values and s.spindle:
-            self._emit(Spin(s.rpm, s.spindle))      # new speed while the spindle turns
+            self.emit(Spindle(s.rpm, s.spindle))    # new speed while the spindle turns
 
     def _coolant(self, block: Block) -> None:
         code = block.m.get("coolant")
         if code is not None:
-            self.state.coolant = 0 if code == 9 else code
-            self._emit(Cool(self.state.coolant))
+            self.state.coolant = 0 if code == 9 else int(code)
+            self.emit(Coolant(self.state.coolant))
 
-    def _dwell(self, seconds: float) -> None:
+    def dwell(self, seconds: float) -> None:
+        """G4 P ``seconds``."""
         if not 0.0 <= seconds <= MAX_DWELL_S:
             raise RuleError(f"G4 P{seconds:g}: a dwell is from 0 to {MAX_DWELL_S:g} s")
         leave(self)
-        self._emit(Dely(seconds))
+        self.emit(Dwell(seconds))
 
     def _modes(self, block: Block) -> None:
         s, g = self.state, block.g
         if "plane" in g:
-            s.plane = g["plane"]
+            s.plane = int(g["plane"])
         if "units" in g:
             s.inch = g["units"] == 20
         if "distance" in g:
@@ -220,10 +258,10 @@ class Translator:
         leave(self)
         if self.state.spindle:
             self.state.spindle = 0
-            self._emit(Spin(0.0, 0))
+            self.emit(Spindle(0.0, 0))
         if self.state.coolant:
             self.state.coolant = 0
-            self._emit(Cool(0))
+            self.emit(Coolant(0))
 
     # -- motion ----------------------------------------------------------------------------
     def _motion(self, block: Block, mode) -> None:
@@ -238,7 +276,7 @@ class Translator:
             return
         if not block.axes:
             if block.motion in (2, 3) and any(c in block.values for c in "IJK"):
-                self._arc(block, mode, dict(self.state.position))   # a full circle where it is
+                arcmove.arc(self, block, mode, dict(self.state.position))   # a full circle where it is
             return
         if mode is None:
             raise RuleError("cannot use axis values without a G code that uses them (no motion "
@@ -269,7 +307,7 @@ class Translator:
         elif mode == 1:
             self.feed_line(end, mode)
         else:
-            self._arc(block, mode, end)
+            arcmove.arc(self, block, mode, end)
 
     def _needs_encoder(self, code: str) -> None:
         if "spindle" not in self.machine.parts:
@@ -284,87 +322,25 @@ class Translator:
         check_soft_limits(self.machine, end, where)
         if self.state.css is not None:
             spindle.follow(self, end["X"])
-        self._emit(FMov(self._axes(end)))
+        self.emit(StraightTraverse(self.position_of(end)))
         self.state.position = end
 
-    def feed_line(self, end: dict[str, float], mode=1) -> None:
-        """A G1 move to ``end`` (machine mm) at the programmed feed."""
+    def feed_line(self, end: dict[str, float], mode=1, probing: bool = False) -> None:
+        """A G1 move to ``end`` (machine mm) at the programmed feed (``probing``: a G38 move
+        that stopped there)."""
         check_soft_limits(self.machine, end)
         s = self.state
         if s.css is not None:
             spindle.css_line(self, end, mode)
             return
         if s.inverse_time or s.feed_sent != s.feed_mm_min:
-            self._send_feed(math.dist(s.position.values(), end.values()), mode)
-        self._emit(PMov(self._axes(end)))
+            self.send_feed(math.dist(s.position.values(), end.values()), mode)
+        self.emit((StraightProbe if probing else StraightFeed)(self.position_of(end)))
         self.state.position = end
-
-    def _arc(self, block: Block, mode: int, end: dict[str, float]) -> None:
-        center, extra_turns = self.arc_centre(block, mode, end)
-        self.arc_move(self.state.position, end, center, mode, extra_turns)
-        self.state.position = end
-
-    def arc_centre(self, block: Block, mode: int, end: dict[str, float]):
-        """The centre (plane coordinates, mm) of a G2/G3 from the current position to ``end``
-        and its whole turns beyond the first (P)."""
-        s = self.state
-        first, second = plane_axes(self.machine, s.plane, mode)
-        start = s.position
-        words = {c: s.to_mm(block.values[c]) for c in "IJKR" if c in block.values}
-        if not s.arc_incremental:
-            words = coords.absolute_centre_words(self, words)
-        turns = block.values.get("P", 1.0)
-        if turns < 1 or turns != int(turns) or turns > 1000:
-            raise RuleError(f"{block.texts['P']}: the number of turns of an arc is a whole number "
-                            f"from 1 to 1000")
-        center = arc_center(mode, s.plane, (start[first], start[second]), (end[first], end[second]),
-                            words, block.texts, s.inch)
-        return center, int(turns) - 1
-
-    def arc_move(self, start: dict[str, float], end: dict[str, float], center, mode: int,
-                 extra_turns: int, emit=None) -> None:
-        """The chords (PMOV) of a G2 (``mode`` 2) or G3 arc around ``center`` (plane
-        coordinates), after its feed; ``emit`` takes the commands (default: in program order)."""
-        first, second = plane_axes(self.machine, self.state.plane, mode)
-        names = self.names
-        plane = (names.index(first), names.index(second))
-        center_all = [0.0] * len(names)
-        center_all[plane[0]], center_all[plane[1]] = center
-        args = (tuple(start[n] for n in names), tuple(end[n] for n in names), tuple(center_all),
-                mode == 2, plane)
-        tolerance = self.machine.motion.arc_tolerance_mm
-        try:
-            extent = arc_extent(*args, tolerance, extra_turns)
-        except ValueError:
-            raise RuleError(f"G{mode}: the arc's centre or radius is not a finite number") from None
-        length = check_arc(self.machine, mode, *extent)
-        chords = arc_columns(*args, tolerance, extra_turns)
-        if emit is None:
-            self._send_feed(length, mode)
-            emit = self._emit
-        s = self.state
-        # an axis off the plane that does not move stays at its start on every chord
-        words = [(n, clean_mm(start[n])) for n in names]
-        moving = [(i, n) for i, n in enumerate(names) if i in plane or start[n] != end[n]]
-        if s.css is None:
-            moves = chord_moves(words, moving, chords)
-            if emit == self._emit and not self._holding():
-                self.put_all(moves)
-            else:
-                for move in moves:
-                    emit(move)
-            return
-        x = names.index("X")
-        for p in chords.tolist():        # G96: the spindle speed follows the tool chord by chord
-            spindle.follow(self, p[x])
-            if s.per_rev:
-                self._send_feed(length, mode)
-            for i, n in moving:
-                words[i] = (n, round(p[i], DECIMALS) + 0.0)                  # clean_mm, inlined
-            emit(PMov(tuple(words)))
 
     # -- output ----------------------------------------------------------------------------
-    def _send_feed(self, length_mm: float = 0.0, mode=1) -> None:
+    def send_feed(self, length_mm: float = 0.0, mode=1) -> None:
+        """The feed rate of the next feed move of ``length_mm``, when it is not the one sent."""
         s = self.state
         feed = s.feed_mm_min
         if s.inverse_time:
@@ -376,39 +352,32 @@ class Translator:
             feed = spindle.per_rev_feed(self, mode)
         check_feed(mode, feed)
         if s.feed_sent != feed:
-            self._emit(PFdr(feed))
+            self.emit(SetFeedRate(feed))
             s.feed_sent = feed
 
-    def _axes(self, point: dict[str, float]) -> tuple[tuple[str, float], ...]:
-        return tuple([(name, point[name]) for name in self.names])
+    #: the plain-line fast path's names (:mod:`.plainline`)
+    _feed_word = feed_word
+    _send_feed = send_feed
 
-    def _holding(self) -> bool:
-        """True while cutter compensation holds a move back (other commands wait behind it)."""
+    def position_of(self, point: dict[str, float]) -> Position:
+        """``point`` (axis -> machine mm) as a canonical position: every axis in order."""
+        return tuple([point[name] for name in self.names])
+
+    def emit(self, call: Call) -> None:
+        """Make ``call`` now, or hold it behind a move cutter compensation holds back."""
         held = self.comp.geometry
-        return held is not None and bool(held.queue)
-
-    def _emit(self, command: Command) -> None:
-        if self._holding():
-            self.comp.geometry.hold((command, self._line, self._file))
+        if held is not None and held.queue:
+            held.hold((call, self._line, self._file))
             return
-        self.put(command)
+        self.put(call)
 
-    def put_all(self, commands: list[Command]) -> None:
-        """:meth:`put` each of ``commands``, moves of one block (after the first, a move of the
-        same block changes nothing put checks: the tool offset is taken, the block is the last)."""
-        if commands:
-            self.put(commands[0])
-            self.commands.extend(commands[1:])
-            self.lines.extend([self._line] * (len(commands) - 1))
-            self.files.extend([self._file] * (len(commands) - 1))
-
-    def put(self, command: Command) -> None:
-        """Append ``command`` now, with the source line of the block being translated."""
-        if self.state.pending and isinstance(command, (FMov, PMov, ZMov)):
+    def put(self, call: Call) -> None:
+        """Make ``call`` now: its commands, with the source line of the block being translated."""
+        commands = self.canon.commands(call)
+        if self.state.pending and isinstance(call, (*MOVES, ZeroAxes)):
             self.state.pending = {}
-        if self.state.exact_stop:
-            pathcontrol.stop_between_blocks(self, command)
-        self.commands.append(command)
-        self.lines.append(self._line)
-        self.files.append(self._file)
-
+        if self.state.exact_stop and pathcontrol.stop_between_blocks(self, isinstance(call, MOVES)):
+            commands = self.canon.commands(Dwell(0.0)) + commands
+        self.commands.extend(commands)
+        self.lines.extend([self._line] * len(commands))
+        self.files.extend([self._file] * len(commands))

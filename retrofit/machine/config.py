@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass, field
 from importlib import import_module, resources
 from pathlib import Path
+from typing import Any
 
 from ..errors import ConfigError
 from .tomlreader import Section, load_toml, shown_key
@@ -112,7 +113,7 @@ class Machine:
     axes: tuple[Axis, ...]
     sim: SimModel
     motion: MotionSettings = MotionSettings()
-    parts: dict[str, object] = field(default_factory=dict)   # optional sections, see SECTION_PARSERS
+    parts: dict[str, Any] = field(default_factory=dict)      # optional sections, see SECTION_PARSERS
     dialect: str = "rs274"          # how its programs are read: "rs274" (LinuxCNC) or "fanuc" (lathe)
 
     @property
