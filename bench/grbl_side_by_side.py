@@ -200,8 +200,9 @@ def main() -> int:
                                       text=True).stdout.splitlines()[1].split()[:3]
                  for name, e in (("grbl", grbl), ("ours", ours)) if e is not None}
         sizes.setdefault("grbl", ["0", "0", "0"])
-        print(f"grbl 1.1h at {GRBL_COMMIT[:12]} (ATmega328P, 16 MHz): flash "
-              f"{int(sizes['grbl'][0]) + int(sizes['grbl'][1])} B, RAM {int(sizes['grbl'][1]) + int(sizes['grbl'][2])} B; "
+        print((f"grbl 1.1h at {GRBL_COMMIT[:12]} (ATmega328P, 16 MHz): flash "
+               f"{int(sizes['grbl'][0]) + int(sizes['grbl'][1])} B, RAM {int(sizes['grbl'][1]) + int(sizes['grbl'][2])} B; "
+               if grbl else "") +
               f"this tree's firmware (ATmega2560, 16 MHz, bench/steprate.toml): flash "
               f"{int(sizes['ours'][0]) + int(sizes['ours'][1])} B, RAM {int(sizes['ours'][1]) + int(sizes['ours'][2])} B")
         print("highest clean base-axis rate (steps/s; exact steps, middle-half intervals within "
