@@ -78,7 +78,7 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "sub r21, r20\n\t"
         "brmi 31b\n\t"
         "32:\n\t"
-#else
+#elif PULSE_HIGH_US * (F_CPU / 8000000UL) >= 5   /* (PULSE_COUNTS: the wait is not filled) */
         "lds r21, %[tcntl]\n\t"              /* the slot come at the first look: late, */
         "sub r21, r20\n\t"                    /* and when in the count read is unknown: */
         "brmi 31f\n\t"                        /* the pins may rise in the next one, which */
@@ -88,6 +88,10 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "sub r21, r20\n\t"
         "brmi 31b\n\t"
         "32:\n\t"
+#else
+        "31: lds r21, %[tcntl]\n\t"           /* the slot (at once if it has passed); a */
+        "sub r21, r20\n\t"                    /* pulse this short ends after the tick's */
+        "brmi 31b\n\t"                        /* work, late or not */
 #endif
         ::ENTRY_OPERANDS, [fast] "i"(&st_fast));
     FOR_EACH_AXIS(RISE_ASM)
