@@ -20,6 +20,10 @@ another axis there shorter than the base period less 1 us. (At low rates both ti
 axis steps, AMASS, so the other axes step between its steps.)
 
     python3 bench/grbl_side_by_side.py [--grbl-src PATH_OR_URL] [--cache DIR] [--top 70000]
+                                       [--ours-only] [--case NAME]
+
+(``--ours-only``: this firmware's column alone, grbl neither fetched nor run; ``--case``: the
+cases whose name starts with NAME.)
 """
 
 from __future__ import annotations
@@ -182,26 +186,33 @@ def main() -> int:
     ap.add_argument("--cache", type=Path, default=Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "retrofit",
                     help="where grbl is cloned and built (never this repository)")
     ap.add_argument("--top", type=float, default=70_000.0, help="the highest base rate tried")
+    ap.add_argument("--ours-only", action="store_true", help="this firmware alone (no grbl)")
+    ap.add_argument("--case", default="", help="only the cases whose name starts with this")
     args = ap.parse_args()
     args.cache.mkdir(parents=True, exist_ok=True)
-    grbl = fetch_grbl(args.grbl_src, args.cache)
-    hil = build_harness(args.cache)
+    runners = ("ours",) if args.ours_only else ("grbl", "ours")
+    grbl = None if args.ours_only else fetch_grbl(args.grbl_src, args.cache)
+    hil = None if args.ours_only else build_harness(args.cache)
     machine = load_machine(ROOT / "bench" / "steprate.toml")
     with tempfile.TemporaryDirectory() as tmp:
         ours = fs.build_copy(machine, Path(tmp))
         sizes = {name: subprocess.run(["avr-size", str(e)], check=True, capture_output=True,
                                       text=True).stdout.splitlines()[1].split()[:3]
-                 for name, e in (("grbl", grbl), ("ours", ours))}
-        print(f"grbl 1.1h at {GRBL_COMMIT[:12]} (ATmega328P, 16 MHz): flash "
-              f"{int(sizes['grbl'][0]) + int(sizes['grbl'][1])} B, RAM {int(sizes['grbl'][1]) + int(sizes['grbl'][2])} B; "
+                 for name, e in (("grbl", grbl), ("ours", ours)) if e is not None}
+        sizes.setdefault("grbl", ["0", "0", "0"])
+        print((f"grbl 1.1h at {GRBL_COMMIT[:12]} (ATmega328P, 16 MHz): flash "
+               f"{int(sizes['grbl'][0]) + int(sizes['grbl'][1])} B, RAM {int(sizes['grbl'][1]) + int(sizes['grbl'][2])} B; "
+               if grbl else "") +
               f"this tree's firmware (ATmega2560, 16 MHz, bench/steprate.toml): flash "
               f"{int(sizes['ours'][0]) + int(sizes['ours'][1])} B, RAM {int(sizes['ours'][1]) + int(sizes['ours'][2])} B")
         print("highest clean base-axis rate (steps/s; exact steps, middle-half intervals within "
               "+-1 us (short segments +-10 %), no period below the base period), pulse widths seen:")
         print(f"  {'case':<34}{'grbl 1.1h':>12}{'this firmware':>16}   pulses grbl / ours (us)")
         for name, case in CASES.items():
-            best, widths, past = {}, {}, {}
-            for who in ("grbl", "ours"):
+            if not name.startswith(args.case):
+                continue
+            best, widths, past = {"grbl": 0.0}, {"grbl": (0.0, 0.0)}, {"grbl": ""}
+            for who in runners:
                 best[who], widths[who], past[who] = 0.0, (0.0, 0.0), ""
                 first = 2_500.0 if case == "segments" else 10_000.0
                 for rate in np.arange(first, args.top + 1, 2_500.0):

@@ -60,11 +60,18 @@ static uint8_t new_line(const move_t *m)
     line_slot = (uint8_t)(line_slot + 1 == LINES ? 0 : line_slot + 1);
     line_t *l = &stepper_lines[line_slot];
     uint8_t shift = m->indexer ? 0 : AMASS_MAX;
+    /* what the step interrupt would otherwise work out at the line's first tick */
+    l->moving = l->always0 = 0;
     for (uint8_t i = 0; i < N_AXES; i++) {
         l->steps[i] = m->delta[i] << shift;
         l->want[i] = (m->dir_bits >> i) & 1 ? -(int32_t)m->delta[i] : (int32_t)m->delta[i];
+        if (m->delta[i])
+            l->moving |= (uint8_t)(1 << i);
+        if (m->delta[i] && m->delta[i] == m->events)
+            l->always0 |= (uint8_t)(1 << i);
     }
     l->base = m->events << shift;
+    l->counter0 = -(int32_t)(l->base >> 1);
     l->dir_bits = m->dir_bits;
     l->kind = m->kind;
     l->watch = m->watch;

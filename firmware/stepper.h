@@ -19,6 +19,9 @@ typedef struct {
     uint32_t steps[N_AXES];        /* steps of each axis (<< AMASS_MAX for a timed line) */
     uint32_t base;                 /* Bresenham's base count (<< AMASS_MAX for a timed line) */
     int32_t want[N_AXES];          /* the steps it must make, signed: checked at its end */
+    int32_t counter0;              /* Bresenham's term at its start: -(base / 2) */
+    uint8_t moving;                /* bit i: axis i steps */
+    uint8_t always0;               /* bit i: axis i steps at every event (at AMASS level 0) */
     uint8_t dir_bits;              /* bit i: axis i moves towards negative */
     uint8_t kind;                  /* enum move_kind (planner.h) */
     uint8_t watch;                 /* the switch a homing line watches */

@@ -1,5 +1,8 @@
-/* stepper_int.h - what the step generator's files (stepper.c, tick*.c) share: the
- * interrupt's state, the pins of the RAMPS sockets and the timing constants. Not for others. */
+/* stepper_int.h - what the step generator's files share: the interrupt's state, the pins of
+ * the RAMPS sockets, the timing constants, the running line's bookkeeping. stepper_core.c
+ * defines the state and the functions below; encoder.c the enc_ ones; tick*.c (the timer's
+ * ticks) and stepper.c (the main loop's side) use them, and nothing here calls back into those.
+ * Not for others. */
 #ifndef STEPPER_INT_H
 #define STEPPER_INT_H
 
@@ -136,13 +139,45 @@ static inline __attribute__((always_inline)) void schedule(void)
     set_next(t);
 }
 
+/* stepper_core.c */
 void set_directions(uint8_t dirs);
 void halt(uint8_t why);
 void fold_fired(void);
 void line_check(void);
 void line_absorb(void);
 void wake(void);
+/* encoder.c */
 uint8_t enc_prepare(void);
 uint8_t enc_begin(uint16_t wait, uint16_t lead);
+
+
+/* The events counted once for the axes that step at every one, into each axis's count (before
+ * that set of axes or their directions change). */
+static inline __attribute__((always_inline)) void fold_events(void)
+{
+    uint16_t n = st_fired;
+    if (!n)
+        return;
+    uint8_t mask = st_always_axes, neg = st_ev_neg;
+    st_fired = 0;
+    st_fold_seq++;
+#define FOLD(i, slot)                                                             \
+    if (mask & (1 << (i)))                                                        \
+        st_moved[i] += (neg >> (i)) & 1 ? -(int16_t)n : (int16_t)n;
+    FOR_EACH_AXIS(FOLD)
+#undef FOLD
+}
+
+/* A line has made its last step: each axis's steps since the line began must be the line's
+ * own, else the position is not what the plan says and everything stops (EV_STEPS). The next
+ * line's start (begin_line) sets the counts again. */
+#define CHECK(i, slot) || st_line_acc[i] + (int16_t)(st_moved[i] - st_moved_seen[i]) != l->want[i]
+static inline __attribute__((always_inline)) void check_line(void)
+{
+    fold_events();
+    const line_t *l = st_ln;
+    if (0 FOR_EACH_AXIS(CHECK))
+        halt(EV_STEPS);
+}
 
 #endif

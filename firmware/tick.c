@@ -4,22 +4,6 @@
  * described in stepper.c. */
 #include "stepper_int.h"
 
-/* The direction pins of a new line: at once when no pulse is high, else at its end. */
-void set_directions(uint8_t dirs)
-{
-    if (dirs == st_pin_dirs)
-        return;
-    st_pin_dirs = dirs;
-    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-        if (st_pulse_high) {
-            st_dir_next = dirs;
-            st_dir_pending = 1;
-        } else
-            write_directions(dirs);
-    }
-}
-
-
 /* The end of a tick's rest: a match that came meanwhile is taken at once. The next tick may
  * take the common path (it never nests in this one) only from here on. */
 static inline __attribute__((always_inline)) void finish_tick(uint8_t fast)
@@ -34,89 +18,42 @@ static inline __attribute__((always_inline)) void finish_tick(uint8_t fast)
     sei();
 }
 
-void halt(uint8_t why)
-{
-    st_events |= why | EV_DONE;
-    st_halted = 1;                                /* no wake-up until the main loop flushes */
-    st_state = IDLE;
-    st_ev_bits = 0;
-}
-
-/* The events counted once for the axes that step at every one, into each axis's count (before
- * that set of axes or their directions change). */
-void fold_fired(void)
-{
-    uint16_t n = st_fired;
-    uint8_t mask = st_always_axes, neg = st_ev_neg;
-    st_fired = 0;
-    st_fold_seq++;
-#define FOLD(i, slot)                                                             \
-    if (mask & (1 << (i)))                                                        \
-        st_moved[i] += (neg >> (i)) & 1 ? -(int16_t)n : (int16_t)n;
-    FOR_EACH_AXIS(FOLD)
-#undef FOLD
-}
-
-/* The Bresenham increments at AMASS level `level`; at level 0 an axis that steps at every
- * event needs no arithmetic. */
+/* The Bresenham increments at AMASS level `level` (the events of the axes that step at every
+ * one folded before); at level 0 an axis that steps at every event needs no arithmetic. */
 static void set_level(uint8_t level)
 {
-    fold_fired();
+    const line_t *l = st_ln;
     st_seg_level = level;
-    st_bres_axes = st_always_axes = 0;
-    for (uint8_t i = 0; i < N_AXES; i++) {
-        uint32_t steps = st_ln->steps[i];
-        st_inc[i] = steps >> level;
-        if (!steps)
-            continue;
-        if (!level && steps == st_base)
-            st_always_axes |= (uint8_t)(1 << i);
-        else
-            st_bres_axes |= (uint8_t)(1 << i);
+    if (!level) {
+        st_always_axes = l->always0;
+        st_bres_axes = (uint8_t)(l->moving & ~l->always0);
+#define INC0(i, slot) st_inc[i] = l->steps[i];
+        FOR_EACH_AXIS(INC0)
+#undef INC0
+    } else {
+        st_always_axes = 0;
+        st_bres_axes = l->moving;
+#define INC(i, slot) st_inc[i] = l->steps[i] >> level;
+        FOR_EACH_AXIS(INC)
+#undef INC
     }
 }
 
-/* What each axis's count gained since the last look, into the running line's count (at least
- * every 16 384 events: st_moved is 16-bit). */
-#define ABSORB(i, slot)                                                           \
-    {                                                                             \
-        int16_t d = (int16_t)(st_moved[i] - st_moved_seen[i]);                    \
-        st_moved_seen[i] += d;                                                    \
-        st_line_acc[i] += d;                                                      \
-    }
-void line_absorb(void)
-{
-    FOR_EACH_AXIS(ABSORB)
-}
-
-/* A line has made its last step: each axis's steps since the line began must be the line's
- * own, else the position is not what the plan says and everything stops (EV_STEPS). */
-#define CHECK(i, slot) || st_line_acc[i] != st_ln->want[i]
-void line_check(void)
-{
-    fold_fired();
-    FOR_EACH_AXIS(ABSORB)
-    if (0 FOR_EACH_AXIS(CHECK))
-        halt(EV_STEPS);
-}
-
-/* A new line: Bresenham's terms at the mid-point, its directions, where its steps start. */
+/* A new line (its events folded before): Bresenham's terms at the mid-point, its directions,
+ * where its steps start; what needs no interrupt's work was prepared with the line. */
 static void begin_line(uint8_t index)
 {
-    fold_fired();
-#define RESTART(i, slot) st_moved_seen[i] = st_moved[i]; st_line_acc[i] = 0;
+    const line_t *l = &stepper_lines[index];
+    st_ln = l;
+    st_base = l->base;
+    int32_t c = l->counter0;
+#define RESTART(i, slot) st_moved_seen[i] = st_moved[i]; st_line_acc[i] = 0; st_counter[i] = c;
     FOR_EACH_AXIS(RESTART)
-    st_ln = &stepper_lines[index];
-    st_base = st_ln->base;
-    uint8_t moving = 0;
-    for (uint8_t i = 0; i < N_AXES; i++) {
-        st_counter[i] = -(int32_t)(st_base >> 1);
-        if (st_ln->steps[i])
-            moving |= (uint8_t)(1 << i);
-    }
-    st_plain = st_ln->kind == MOVE_LINE && !(moving & LIMIT_AXES);
-    set_directions(st_ln->dir_bits);
-    st_stepped_negative = (uint8_t)((st_stepped_negative & ~moving) | (st_ln->dir_bits & moving));
+#undef RESTART
+    uint8_t moving = l->moving;
+    st_plain = l->kind == MOVE_LINE && !(moving & LIMIT_AXES);
+    set_directions(l->dir_bits);
+    st_stepped_negative = (uint8_t)((st_stepped_negative & ~moving) | (l->dir_bits & moving));
     st_seg_level = 0xFF;
 }
 
@@ -130,7 +67,7 @@ static uint8_t next_segment(void)
         return 0;
     }
     const segment_t *s = &st_ring[t];
-    fold_fired();                                 /* (the common tick leaves them to here) */
+    fold_events();                                /* (the common tick leaves them to here) */
     st_seg_flags = s->flags;
     if (!(st_seg_flags & SEG_FIRST))
         line_absorb();
@@ -192,7 +129,7 @@ void tick_body(void)
     if (st_ev_last) {
         st_ev_last = 0;
         st_events |= EV_DONE;
-        line_check();
+        check_line();
     }
     if (!st_halted)
         prepare();

@@ -78,10 +78,20 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
         "sub r21, r20\n\t"
         "brmi 31b\n\t"
         "32:\n\t"
-#else
-        "31: lds r21, %[tcntl]\n\t"           /* the slot (at once if it has passed) */
+#elif PULSE_HIGH_US * (F_CPU / 8000000UL) >= 5   /* (PULSE_COUNTS: the wait is not filled) */
+        "lds r21, %[tcntl]\n\t"              /* the slot come at the first look: late, */
+        "sub r21, r20\n\t"                    /* and when in the count read is unknown: */
+        "brmi 31f\n\t"                        /* the pins may rise in the next one, which */
+        "inc r21\n\t"                         /* times the pulse's end (r21: the counts */
+        "rjmp 32f\n\t"                        /* from the slot to the rise's) */
+        "31: lds r21, %[tcntl]\n\t"           /* on time: the slot, r21 = 0 */
         "sub r21, r20\n\t"
         "brmi 31b\n\t"
+        "32:\n\t"
+#else
+        "31: lds r21, %[tcntl]\n\t"           /* the slot (at once if it has passed); a */
+        "sub r21, r20\n\t"                    /* pulse this short ends after the tick's */
+        "brmi 31b\n\t"                        /* work, late or not */
 #endif
         ::ENTRY_OPERANDS, [fast] "i"(&st_fast));
     FOR_EACH_AXIS(RISE_ASM)
@@ -89,7 +99,8 @@ ISR(TIMER1_COMPA_vect, ISR_NAKED)
     __asm__ __volatile__(
         "add r20, r21\n\t"                    /* the count they rose in, plus the pulse and */
         "subi r20, lo8(-(%[pulse]))\n\t"      /* one: they rose 4-11 cycles into that count */
-        ::[pulse] "n"(PULSE_COUNTS + 1));
+        ::[pulse] "n"(PULSE_COUNTS + 1));       /* (late, timed from the count read before */
+                                                /* the rise, 3 us pulses were 44 cycles) */
 #else
     __asm__ __volatile__(
         "sts %[high], r24\n\t"

@@ -133,8 +133,11 @@ def test_a_hung_main_loop_stops_the_steppers_and_the_watchdog_restarts_the_board
         assert rises.max() < log.stalled_at + 16 * 30          # nothing after the hang
         assert 0.115 * S < restart[0] - log.stalled_at < 0.14 * S
         return
-    assert 0.049 * S < rises.max() - log.stalled_at < 0.051 * S
-    period = np.diff(rises[-3:]).max()
+    # the stall guard: 50 ms of the clock without a turn of the loop, counted from its last
+    # turn, which came up to a turn (well under 1 ms) before the hang
+    guard = en_high(log, machine, "X")[0]
+    assert 0.048 * S < guard - log.stalled_at < 0.051 * S
+    period = np.diff(rises[-3:]).max()                 # the last step: within a period before
     for axis in "XZ":                          # drivers off before the next step would come
         off = en_high(log, machine, axis)
         assert len(off) == 1 and 0 < off[0] - rises.max() < period, axis

@@ -158,20 +158,21 @@ def test_a_machine_whose_encoder_outruns_the_firmware_is_refused_for_a_firmware_
 
 
 def test_a_thread_at_a_speed_the_firmware_cannot_follow_is_refused_with_its_line(tmp_path, capsys):
-    """G33 at S2500 on mitic-lathe (400 counts): 19 167 counts/s with the 15 % margin, above the
+    """G33 at S3000 on mitic-lathe (400 counts): 23 000 counts/s with the 15 % margin, above the
     limit; at S1500 it is accepted."""
     limit = fl.load().encoder_counts_s
+    assert 400 * 3000 / 60 * 1.15 > limit > 400 * 1500 / 60 * 1.15
     prog = tmp_path / "g33.ngc"
-    prog.write_text("G18 G21 G90\nG0 X9 Z2\nM3 S2500\nG33 Z-10 K0.5\nG0 X12\nM5\nM2\n")
+    prog.write_text("G18 G21 G90\nG0 X9 Z2\nM3 S3000\nG33 Z-10 K0.5\nG0 X12\nM5\nM2\n")
     assert main(["run", str(prog), "--machine", "mitic-lathe", "--output", NOWHERE, "--progress", "off"]) == 2
     err = capsys.readouterr().err
     most = math.floor(limit * 60 / 400 / 1.15)
-    assert re.search(rf"g33.ngc:4: thread at S2500: .* 19167 counts/s; the firmware follows at most "
+    assert re.search(rf"g33.ngc:4: thread at S3000: .* 23000 counts/s; the firmware follows at most "
                      rf"{limit:.0f} counts/s: S{most} at most", err), err
     machine = load_machine("mitic-lathe")
     with pytest.raises(GcodeError):
         planned(prog.read_text(), machine)
-    planned(prog.read_text().replace("S2500", "S1500"), machine)        # no error
+    planned(prog.read_text().replace("S3000", "S1500"), machine)        # no error
 
 
 def test_retrofit_firmware_limits_prints_the_table_and_the_shipped_machines(capsys):

@@ -113,8 +113,6 @@ def cutting_passes(steps: np.ndarray, negative: np.ndarray, below: float) -> lis
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="known, open: on the G76 path that agrees with rs274 a run saw one Z "
-                   "thread pulse of 1 599 cycles against the 1 600 configured (not in every run)")
 def test_a_g76_thread_on_the_firmware_cuts_the_helix_sim_cuts(tmp_path, monkeypatch):
     """G76 on mitic-lathe, 11 passes at 300 rpm: on the firmware every step of every pass lies
     within one step of the helix the sim:// run cuts (Z steps against the spindle angle), and

@@ -151,8 +151,10 @@ def test_the_firmware_sim_refuses_a_machine_whose_encoder_it_cannot_follow(tmp_p
     path.write_text(text)
     assert main(["firmware", "sim", "--machine", str(path), "--listen", "127.0.0.1:0"]) == 2
     err = capsys.readouterr().err
+    from retrofit.firmware import limits as fl
     assert re.search(r"\[spindle\]: encoder_counts_per_rev = 4000 at max_rpm = 2000 .* is 153333 "
-                     r"counts/s; the firmware follows at most 16000 counts/s", err), err
+                     rf"counts/s; the firmware follows at most {fl.load().encoder_counts_s:.0f} counts/s",
+                     err), err
 
 
 def statuses(log, machine, upto: int | None = None) -> list[list[str]]:

@@ -203,6 +203,26 @@ def test_compare_b_stays_off_while_the_tick_ends_its_own_pulses(bench):
     assert log.stats.get(f"vector{TIMER1_COMPB_VECTOR}", 0) == 0
 
 
+JOINT_RATE = 15_000              # steps/s: grbl 1.1h's clean rate over the bench's short segments
+
+
+def test_a_joint_between_colinear_lines_costs_no_longer_than_a_normal_interval(bench):
+    """Twelve colinear PMOVs of 500 X steps at 15 000 steps/s, queued ahead: every interval from
+    the first joint to the last within 1 us of the period. Before, a new line was worked out in
+    its first tick (the line's check, its counters, its AMASS level: 1 243 cycles), so each
+    joint's interval was a long one (96 us against 66.7 here, 90.6 against 50 at 20 000)."""
+    machine, elf = bench
+    script = Script(machine).at(2_000_000, f"PFDR F{JOINT_RATE * 60 / 1000:g}")
+    for k in range(12):
+        script.at(2_100_000 + k * 60_000, f"PMOV X{(k + 1) * 0.5:g}")
+    log = fs.Harness(elf, machine, script=script.items, cycles=int(1.0 * S)).run()
+    rises, _, _ = fs.step_times(log, machine, "X")
+    assert len(rises) == 6000
+    gaps = np.diff(rises)[499:5500]                 # from the first joint's to the last's
+    worst = np.abs(gaps - S / JOINT_RATE).max() / 16
+    assert worst <= 1.0, f"an interval {worst:.2f} us off the period (joints at every 500th)"
+
+
 def corner(machine, elf, turn_deg: float):
     """FMOV X10, then 10 mm on at ``turn_deg`` from X: the X step times."""
     x, y = 10 + 10 * math.cos(math.radians(turn_deg)), 10 * math.sin(math.radians(turn_deg))
