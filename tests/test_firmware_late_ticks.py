@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import shutil
 
-import numpy as np
 import pytest
 
 from retrofit.machine.config import load_machine
