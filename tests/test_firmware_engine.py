@@ -159,6 +159,7 @@ def rapid_moves(machine):
     return reach, [(n,) for n in names] + [tuple(names[:k]) for k in range(2, len(names) + 1)]
 
 
+@pytest.mark.slow          # every axis set of three machines at their rapid in simavr: a long run
 @pytest.mark.parametrize("name", ["mitic-lathe", "tul-mill", "steprate"])
 def test_no_reset_and_no_extra_step_at_the_machines_rapid_on_1_to_4_axes(tmp_path, name):
     """FMOV at the rapid (FFDR untouched), RDST every 2 ms: the board never restarts (one start

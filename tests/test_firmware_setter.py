@@ -48,6 +48,7 @@ def measured(machine, table, tool: int):
     return t.reference, t.tools[tool]
 
 
+@pytest.mark.slow          # the setter's whole cycle on the firmware in simavr: a long run
 def test_the_setter_measures_the_tool_on_the_firmware_as_on_the_simulated_mill(tmp_path, capsys):
     """T1 (20 mm x 3 mm) in the spindle: the reference run, then its length and diameter, on the
     firmware through the link and on sim://. Every probing move is a PROB that stops on the

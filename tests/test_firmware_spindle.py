@@ -103,6 +103,7 @@ def test_m3_s600_and_g76_on_retrofit_firmware_sim_end_where_sim_ends(tmp_path):
     assert "ERROR" not in part["status"] and "SPINDLE_ON" not in part["status"]
 
 
+@pytest.mark.slow          # a whole G76 on the simulated lathe, twice: a long run
 @pytest.mark.parametrize("kernels", ["as-they-come", "compiled"])
 def test_a_stalled_spindle_stops_g76_on_sim_with_its_line(tmp_path, kernels):
     """On sim:// (the 002 controller), the pass's wait for the index ends after 5 s of machine

@@ -197,6 +197,7 @@ def wait_for(proc, pattern: str, ceiling_s: float = 50.0) -> str:
     return "".join(seen)
 
 
+@pytest.mark.slow          # a run long enough to be interrupted past its half: a long run
 def test_ctrl_c_in_a_simulated_run_leaves_a_record_the_next_run_accepts(tmp_path):
     manual_machine(tmp_path)
     program = long_program(tmp_path / "long.ngc")
