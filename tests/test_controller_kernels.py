@@ -137,7 +137,7 @@ SHARDS = 20                 # 20 x 10 programs, each shard from its own fixed se
 
 @pytest.mark.slow
 @pytest.mark.skipif(not HAVE_NUMBA, reason="compares the compiled loop; without Numba it is the same Python")
-@pytest.mark.parametrize("shard", soak.parts(SHARDS, 4))           # CI: 4 of the 20 (tests/soak.py)
+@pytest.mark.parametrize("shard", soak.parts(SHARDS, 3))           # CI: 3 of the 20 (tests/soak.py)
 def test_random_jobs_give_the_same_frames_carriages_and_violations_200_programs(shard):
     @seed(20_000 + shard)
     @settings(max_examples=200 // SHARDS, deadline=None, suppress_health_check=[HealthCheck.too_slow])

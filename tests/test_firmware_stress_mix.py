@@ -16,6 +16,8 @@ import pytest
 
 from retrofit.machine.config import load_machine
 
+from tests import soak
+
 pytestmark = pytest.mark.skipif(
     shutil.which("avr-gcc") is None or shutil.which("make") is None,
     reason="the firmware needs avr-gcc and make: apt-get install gcc-avr avr-libc make libsimavr-dev")
@@ -59,7 +61,7 @@ def test_moves_homing_and_threads_mixed_end_every_rest_where_the_plan_does(mix, 
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("chunk", range(CHUNKS))
+@pytest.mark.parametrize("chunk", soak.parts(CHUNKS, 30))   # CI: 30 of the 120 boards (tests/soak.py)
 def test_ten_simulated_minutes_of_mixed_stress(mix, chunk):
     """One of CHUNKS fresh boards, at least CHUNK_S simulated seconds each: moves up to 60 kHz
     asked, homing, threads (the encoder's speed drawn per chunk)."""

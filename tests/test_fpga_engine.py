@@ -97,9 +97,9 @@ def test_a_record_breaking_the_direction_setup_is_refused_and_stops():
     assert int(np.sum(np.diff(step_x.astype(int)) == 1)) == 1     # the refused pulse never rose
 
 
-#: batches of five random programs: the slow stage draws 4 (20 programs) within CI's time;
+#: batches of five random programs: the slow stage draws 2 (10 programs) within CI's time;
 #: RETROFIT_FPGA_PROGRAMS=200 draws the 200 of docs/fpga.md (about 7 CPU-minutes)
-BATCHES = max(1, int(os.environ.get("RETROFIT_FPGA_PROGRAMS", "20")) // 5)
+BATCHES = max(1, int(os.environ.get("RETROFIT_FPGA_PROGRAMS", "10")) // 5)
 
 
 @pytest.mark.slow

@@ -16,6 +16,8 @@ from retrofit.lab.core import CHECK_SECONDS_ENV, check_lab, find_lab, list_labs
 from retrofit.lab.kit import Limits, export_lab, grade, write_grades
 from retrofit.lab.wrong import apply_variant, variants
 
+from tests import soak
+
 ROOT = Path(__file__).resolve().parent.parent / "labs"
 LABS = list_labs(ROOT)
 IDS = [lab.path.name for lab in LABS]
@@ -273,7 +275,7 @@ CLASS_PARTS = 5                     # 6 students a part, the two endless ones in
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("part", range(CLASS_PARTS))
+@pytest.mark.parametrize("part", soak.parts(CLASS_PARTS, 2))     # CI: 2 of the 5 parts (tests/soak.py)
 def test_grade_a_class_of_thirty_on_lab_10(part, tmp_path):
     """30 submissions of a real lab, graded in 5 parts of 6 (every 5th student): the reference, its
     14 known-wrong files, endless loops and files that do not parse; every row of the CSV says what

@@ -60,6 +60,7 @@ def figure_defects(fig) -> list[str]:
     return defects
 
 
+@pytest.mark.slow          # every lab's whole solution with its plots: long runs
 @pytest.mark.parametrize("lab", LABS, ids=IDS)
 def test_solution_runs_headless_and_writes_its_plots(lab, tmp_path, monkeypatch):
     """Every plot is saved as a PNG, headless, with a title and labelled axes."""

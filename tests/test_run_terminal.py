@@ -183,8 +183,9 @@ def test_ctrl_c_in_a_run_read_ahead_leaves_every_file_complete_or_absent(tmp_pat
 def _interrupt_at(moments: list[float], whole_run, tmp_path: Path, plot: bool) -> None:
     # the interruptions are spread over the run as long as it took here (only to pick moments)
     up_s, run_s, reference = whole_run
-    seen = set()
-    for attempt, moment in enumerate(moments):
+    seen: set[tuple[str, ...]] = set()
+
+    def interrupt(attempt: int, moment: float) -> None:
         folder = tmp_path / f"try{attempt}"
         folder.mkdir()
         result = _run(folder, up_s + moment * max(run_s - up_s, 0.0), plot)
@@ -203,4 +204,12 @@ def _interrupt_at(moments: list[float], whole_run, tmp_path: Path, plot: bool) -
                 assert result.stderr.startswith("retrofit: interrupted; not written: ")
                 assert all(n in result.stderr for n in missing), result.stderr
         seen.add(tuple(sorted(p.name for p in folder.iterdir())))
+
+    for attempt, moment in enumerate(moments):
+        interrupt(attempt, moment)
+    # a busier computer than when the whole run was timed: later moments, until the outcomes differ
+    late = max(moments)
+    while len(seen) < 2 and late < 50:
+        late *= 2
+        interrupt(len(moments) + int(late), late)
     assert len(seen) >= 2, seen            # the interruptions fell at different moments of the run
