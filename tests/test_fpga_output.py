@@ -16,17 +16,18 @@ from retrofit.outputs import known_schemes, open_output
 
 
 @pytest.mark.slow
-def test_run_on_the_engraver_through_the_gateware_lands_the_carriages(tmp_path):
+@pytest.mark.parametrize("url", ["fpga-sim://", "fpga-sim://?variant=di"], ids=["pulse", "di"])
+def test_run_on_the_engraver_through_the_gateware_lands_the_carriages(tmp_path, url):
     (tmp_path / "p.ngc").write_text("G21 G90\nG1 X0.025 Y0.0125 F3000\nG1 X0.0125\n")
     proc = subprocess.run([sys.executable, "-m", "retrofit.cli", "run", "p.ngc", "--machine", "engraver",
-                           "--output", "fpga-sim://", "--report", "r.json"],
+                           "--output", url, "--output", "vcd://p.vcd", "--report", "r.json"],
                           capture_output=True, text=True, cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     rep = json.loads((tmp_path / "r.json").read_text())
     assert rep["violations"] == []
     assert rep["axes"]["X"]["carriage_mm"] == pytest.approx(0.0125) and rep["axes"]["X"]["reversals"] == 1
     assert rep["axes"]["Y"]["carriage_mm"] == pytest.approx(0.0125)
-    assert "fpga-sim" in known_schemes()
+    assert "fpga-sim" in known_schemes() and "$var" in (tmp_path / "p.vcd").read_text()
 
 
 def test_a_run_past_the_bound_is_refused_before_it_is_simulated():

@@ -76,9 +76,7 @@ def compile_lines(plan, frames) -> list[list[int]]:
     """[time records, line records, turn records] of a plan whose run made ``frames``."""
     from ..motion.fast import request_steps_fast
     machine = plan.machine
-    if machine.motion.interpolator != "dda":
-        raise OutputError(f"{machine.name}: the digital-integration gateware runs 004's interpolator; "
-                          f"this machine's is {machine.motion.interpolator!r} (interpolator = \"dda\")")
+    _check_interpolator(machine)
     return line_records(machine, request_steps_fast(plan), frames)
 
 
@@ -132,24 +130,74 @@ def _lines(lay: LineLayout, req) -> tuple[list[int], list[int]]:
 
 def _turns(lay: LineLayout, machine, frames) -> list[int]:
     """The direction pins' changes in the run's frames, merged by tick, as turn records."""
-    from ..frames import PinMap
-    pins = PinMap(machine)
-    logical = frames.values.astype(np.int64) ^ pins.invert
-    dirs = [(logical & m) != 0 for m in pins.dir_masks]
-    ticks = frames.ticks.astype(np.int64)
-    out, last, prev = [], 0, [False] * lay.axes
-    for i in range(len(ticks)):
-        now = [bool(d[i]) for d in dirs]
-        if now == prev:
-            continue
-        delay = int(ticks[i]) - last
-        while delay > MAX_DELAY:
-            out.append(lay.pack(lay.turn, delay=MAX_DELAY))
-            delay -= MAX_DELAY
-        out.append(lay.pack(lay.turn, delay=delay, **{f"turn{a}": int(now[a] != prev[a]) for a in range(lay.axes)},
-                            **{f"dir{a}": int(now[a]) for a in range(lay.axes)}))
-        last, prev = int(ticks[i]), now
-    return out
+    return TurnRecords(lay, machine).feed(frames)
+
+
+class TurnRecords:
+    """The direction pins' changes, merged by tick, as turn records: chunk after chunk of frames."""
+
+    def __init__(self, lay: LineLayout, machine):
+        from ..frames import PinMap
+        pins = PinMap(machine)
+        self.lay, self.invert, self.dir_masks = lay, pins.invert, pins.dir_masks
+        self.last, self.prev = 0, [False] * lay.axes
+
+    def feed(self, frames) -> list[int]:
+        """The turn records of the next chunk of frames (ticks after the last chunk's)."""
+        lay = self.lay
+        logical = frames.values.astype(np.int64) ^ self.invert
+        dirs = [(logical & m) != 0 for m in self.dir_masks]
+        ticks = frames.ticks.astype(np.int64)
+        out = []
+        for i in range(len(ticks)):
+            now = [bool(d[i]) for d in dirs]
+            if now == self.prev:
+                continue
+            delay = int(ticks[i]) - self.last
+            while delay > MAX_DELAY:
+                out.append(lay.pack(lay.turn, delay=MAX_DELAY))
+                delay -= MAX_DELAY
+            out.append(lay.pack(lay.turn, delay=delay, **{f"turn{a}": int(now[a] != self.prev[a]) for a in range(lay.axes)},
+                                **{f"dir{a}": int(now[a]) for a in range(lay.axes)}))
+            self.last, self.prev = int(ticks[i]), now
+        return out
+
+
+class LineFeed:
+    """The digital-integration engine's records of a run, as ``fpga-sim://?variant=di`` streams
+    them: the time and line records from the plan's step requests (all of them with the first
+    chunk), the turn records from each chunk of the run's frames (the same interface as
+    ``host.RecordCompiler``: per FIFO, the records to add)."""
+
+    def __init__(self, plan):
+        _check_interpolator(plan.machine)
+        self.plan, self.turns = plan, TurnRecords(LineLayout(len(plan.machine.axes)), plan.machine)
+        self.started = False
+
+    def feed(self, frames) -> list[list[int]]:
+        """[time, line, turn] records to add after these frames."""
+        turns = self.turns.feed(frames)
+        if self.started:
+            return [[], [], turns]
+        self.started = True
+        from ..motion.fast import request_steps_fast
+        times, lines = _lines(self.turns.lay, request_steps_fast(self.plan))
+        return [times, lines, turns]
+
+    def finish(self, end_tick: int) -> list[list[int]]:
+        """Nothing is left at the run's end (every record is whole when made)."""
+        return [[], [], []] if self.started else self.feed(_no_frames(end_tick))
+
+
+def _no_frames(end_tick: int):
+    from ..frames import PortFrames
+    return PortFrames(np.zeros(0, np.int64), np.zeros(0, np.uint8), end_tick)
+
+
+def _check_interpolator(machine) -> None:
+    if machine.motion.interpolator != "dda":
+        raise OutputError(f"{machine.name}: the digital-integration gateware runs 004's interpolator; "
+                          f"this machine's is {machine.motion.interpolator!r} (interpolator = \"dda\")")
 
 
 def bus_words(records: list[list[int]], lay: LineLayout) -> int:

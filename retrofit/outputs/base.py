@@ -99,6 +99,16 @@ class Output(ABC):
         finally:
             self.close()
 
+    def wants_plan(self) -> bool:
+        """Whether this output needs the run's plan (its moves, hence its step requests) besides
+        the port frames. The run then hands it over before ``open()``, in one place
+        (``outputs.deliver.hand_plan``); the base, and every output that only takes frames, says no."""
+        return False
+
+    def take_plan(self, plan) -> None:
+        """The run's plan (``motion.plan.Plan``), before ``open()``, when ``wants_plan()``; None
+        when the run has none (frames replayed, a demo, a run on the 002 controller)."""
+
     def observe(self) -> dict | None:
         """What this output knows of the machine after the run (the simulator answers; others None)."""
         return None

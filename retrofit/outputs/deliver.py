@@ -41,6 +41,7 @@ def deliver_plan(plan, urls: list[str], progress: Callable[[float], None] | None
     start_steps = plan.start_steps if blocks is None else (0,) * len(machine.axes)
     trace = {"trace_limit": TRACE_POINTS, "trace_around": AROUND_VIOLATION_TICKS}
     outputs = [open_output(url, machine) for url in urls]
+    hand_plan(outputs, plan if blocks is None else None)
     sims = [out for out in outputs if isinstance(out, SimOutput)]
     for out in sims:
         out.start_steps, out.trace_options = start_steps, trace
@@ -86,6 +87,17 @@ def deliver_plan(plan, urls: list[str], progress: Callable[[float], None] | None
     log.steps_emitted = {a.name: int(n) for a, n in zip(machine.axes, stats.steps)}
     log.max_following_error_steps = int(stats.lag)
     return log, sim
+
+
+def hand_plan(outputs, plan) -> None:
+    """The one place a run gives its outputs more than port frames: each output whose
+    ``wants_plan()`` says so gets the run's ``plan`` (None: the run has none) before it is
+    opened; what it makes of it (``fpga-sim://?variant=di``: the plan's step requests as line
+    records) is its own. Called by every path that delivers a run (``deliver_plan`` and
+    ``run.runner.deliver``)."""
+    for out in outputs:
+        if out.wants_plan():
+            out.take_plan(plan)
 
 
 class _WorstError:

@@ -1,11 +1,14 @@
-"""fpga-sim:// — 004's FPGA pulse engine (Amaranth HDL, ``retrofit.fpga``) in simulation.
+"""fpga-sim:// — 004's FPGA (Amaranth HDL, ``retrofit.fpga``) in simulation, either split of its work.
 
-URL grammar: ``fpga-sim://[?limit_s=SECONDS&clocks_per_tick=K]``.
+URL grammar: ``fpga-sim://[?variant=pulse|di&limit_s=SECONDS&clocks_per_tick=K]``.
 
-The run's port frames are read back into each axis's pulse records (delay, direction, width:
-what 004's ARM sends its FPGA), streamed into the simulated gateware chunk by chunk, and the
-gateware's step/dir pins drive the simulated machine (drivers, screws, carriages) that the
-report reads. The pins must equal the run's frames at every tick, and the engine must end with
+``variant=pulse`` (the default): the run's port frames are read back into each axis's pulse
+records (delay, direction, width: what 004's ARM sends its FPGA). ``variant=di``: the digital
+integration runs in the gateware, fed line records made from the run's plan (its step requests,
+asked for through ``Output.wants_plan``) and turn records from the frames (``fpga.lines``); a run
+without a plan (frames replayed, a run on the 002 controller) is refused. Either way the records
+are streamed into the simulated gateware chunk by chunk, and its step/dir pins drive the simulated
+machine (drivers, screws, carriages) that the report reads. The pins must equal the run's frames at every tick, and the engine must end with
 no underrun and no refused record: anything else is an error naming the first tick that differs
 (so a ``vcd://`` output beside it shows the gateware's pins too).
 
@@ -27,9 +30,27 @@ class FpgaSimOutput(SimOutput):
     """fpga-sim:// — the gateware in Amaranth's simulator, its pins driving the simulated machine."""
 
     scheme = "fpga-sim"
-    grammar = "fpga-sim://[?limit_s=SECONDS&clocks_per_tick=K]"
-    summary = "004's FPGA pulse engine simulated in Amaranth HDL; its pins checked against the run's and drive sim://"
-    options = {"limit_s": (float, 0.5), "clocks_per_tick": (int, 1)}
+    grammar = "fpga-sim://[?variant=pulse|di&limit_s=SECONDS&clocks_per_tick=K]"
+    summary = "004's FPGA simulated in Amaranth HDL (pulse engine, or di: the digital integration in it); its pins checked against the run's and drive sim://"
+    options = {"variant": (str, "pulse"), "limit_s": (float, 0.5), "clocks_per_tick": (int, 1)}
+
+    def __init__(self, url, machine):
+        super().__init__(url, machine)
+        from ..fpga.simulate import VARIANTS
+        if self.opts["variant"] not in VARIANTS:
+            raise OutputError(f"{url.text}: variant={self.opts['variant']!r} is not one of {', '.join(VARIANTS)}; "
+                              f"expected {self.grammar}")
+        self.plan = None
+
+    def wants_plan(self) -> bool:
+        return self.opts["variant"] == "di"
+
+    def take_plan(self, plan) -> None:
+        if plan is None:
+            raise OutputError(f"{self.url.text}: the digital-integration gateware is fed the run's plan (its "
+                              f"step requests as line records) and this run has none (a demo's frames, a run on "
+                              f"the 002 controller); use variant=pulse")
+        self.plan = plan
 
     def open(self) -> None:
         if self.is_open:
@@ -41,12 +62,21 @@ class FpgaSimOutput(SimOutput):
             raise OutputError(f"{self.url.text}: clocks_per_tick must be 1..1000 and limit_s > 0; "
                               f"expected {self.grammar}")
         self.limit_ticks = round(limit * 1e6 / self.machine.tick_us)
-        self.records = RecordCompiler(self.machine)
+        self.records = self._records(RecordCompiler)
         self.gate = None
-        self._make_gate = lambda: GateSim(self.machine, k)
+        self._make_gate = lambda: GateSim(self.machine, k, variant=self.opts["variant"])
         self.chunks: list[PortFrames] = []
         self.end_tick = 0
         super().open()
+
+    def _records(self, pulse_records):
+        """What turns the run into the variant's records: ``feed(frames)``, ``finish(end_tick)``."""
+        if not self.wants_plan():
+            return pulse_records(self.machine)
+        from ..fpga.lines import LineFeed
+        if self.plan is None:
+            raise OutputError(f"{self.url.text}: opened without the run's plan (outputs.deliver.hand_plan)")
+        return LineFeed(self.plan)
 
     def write(self, frames: PortFrames) -> None:
         if frames.end_tick > self.limit_ticks:

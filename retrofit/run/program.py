@@ -305,7 +305,7 @@ def deliver_outputs(run: Run, urls: list[str], wait, progress, opened=None):
     run.report["remote"] = remote
     total = max(int(run.log.ticks), 1)
     return deliver(run.log, frame_urls, [(t, says) for t, _, says in pauses], wait,
-                   lambda tick: progress.fraction("outputs", tick / total))
+                   lambda tick: progress.fraction("outputs", tick / total), plan=run.plan)
 
 
 #: outputs a streamed run can feed window by window

@@ -61,17 +61,20 @@ def staged_url(url: str, stack: ExitStack) -> str:
 
 def deliver(log: RunLog, urls: Sequence[str], pauses: Sequence[tuple[int, str]] = (),
             wait: Callable[[str], None] | None = None,
-            progress: Callable[[int], None] | None = None) -> SimMachine:
+            progress: Callable[[int], None] | None = None, plan=None) -> SimMachine:
     """Write ``log.frames`` to every output in ``urls``; return the simulated machine's state.
 
     ``pauses`` are (tick, words): with a real output among ``urls``, ``wait(words)`` is called
     when the frames before the tick are out. ``progress(ticks)`` is told how far the frames are.
     The report needs a machine that saw the frames: the ``sim://`` output when one was asked for,
     otherwise a simulator fed alongside (its carriage then shows what the frames command).
+    ``plan``: the plan that made the frames, for an output that asks for it (``hand_plan``).
     """
+    from ..outputs.deliver import hand_plan
     with ExitStack() as files:
         staged_urls = [staged_url(url, files) for url in urls]
         outputs = [open_output(url, log.machine) for url in staged_urls]
+        hand_plan(outputs, plan)
         for out in outputs:
             if isinstance(out, SimOutput):
                 out.start_steps = log.start_steps
