@@ -90,12 +90,28 @@ def test_a_run_without_a_plan_is_refused_and_the_pulse_variant_needs_none():
     machine = load_machine("engraver")
     frames = PortFrames(np.array([0]), np.array([0], np.uint8), 10)
     di, pulse = open_output("fpga-sim://?variant=di", machine), open_output("fpga-sim://", machine)
+    hand_plan([pulse], None)                               # the circle demo's frames: no plan
     with pytest.raises(OutputError, match=r"is fed the run's plan .* this run has none .*use variant=pulse"):
-        hand_plan([di, pulse], None)
-    assert not pulse.wants_plan() and not open_output("sim://", machine).wants_plan()
+        hand_plan([di], None)
+    assert not any(open_output(url, machine).wants_plan() for url in ("sim://", "vcd://x.vcd"))
     with pytest.raises(OutputError, match="opened without the run's plan"):
         with di:
             di.write(frames)
+
+
+def test_a_plan_past_the_bound_is_refused_before_any_record_is_made():
+    """Checked on the plan when the output opens (either variant), not after the first slices of
+    a long run's frames have been simulated."""
+    machine = load_machine("engraver")
+    _, plan = plan_compiled(compile_program("G21 G90\nG1 X40 F600\n", machine, file="t.ngc"), machine)
+    end = round(plan.end_s * 1e6)                          # the engraver's tick is 1 us
+    assert end > 4_000_000
+    for url in ("fpga-sim://?variant=di", "fpga-sim://"):
+        out = open_output(url, machine)
+        hand_plan([out], plan)
+        with pytest.raises(OutputError, match=rf"tick {end} or later, past the bound of 500000 ticks .*limit_s"):
+            out.open()
+        assert not out.is_open
 
 
 def test_records_that_do_not_match_the_run_are_an_underrun_or_a_pin_mismatch_that_says_so():

@@ -43,10 +43,12 @@ class FpgaSimOutput(SimOutput):
         self.plan = None
 
     def wants_plan(self) -> bool:
-        return self.opts["variant"] == "di"
+        """Yes: the plan's end is checked against ``limit_s`` before anything is simulated, and
+        ``variant=di`` makes its line records of it (a run without one: ``pulse`` only)."""
+        return True
 
     def take_plan(self, plan) -> None:
-        if plan is None:
+        if plan is None and self.opts["variant"] == "di":
             raise OutputError(f"{self.url.text}: the digital-integration gateware is fed the run's plan (its "
                               f"step requests as line records) and this run has none (a demo's frames, a run on "
                               f"the 002 controller); use variant=pulse")
@@ -71,19 +73,24 @@ class FpgaSimOutput(SimOutput):
 
     def _records(self, pulse_records):
         """What turns the run into the variant's records: ``feed(frames)``, ``finish(end_tick)``."""
-        if not self.wants_plan():
+        if self.plan is not None:              # a long run is refused before any record is made
+            self._refuse_past_the_bound(round(self.plan.end_s / self.machine.tick_s))
+        if self.opts["variant"] == "pulse":
             return pulse_records(self.machine)
         from ..fpga.lines import LineFeed
         if self.plan is None:
             raise OutputError(f"{self.url.text}: opened without the run's plan (outputs.deliver.hand_plan)")
         return LineFeed(self.plan)
 
-    def write(self, frames: PortFrames) -> None:
-        if frames.end_tick > self.limit_ticks:
-            raise OutputError(f"{self.url.text}: the run goes on to tick {frames.end_tick} or later, past the "
+    def _refuse_past_the_bound(self, end_tick: int) -> None:
+        if end_tick > self.limit_ticks:
+            raise OutputError(f"{self.url.text}: the run goes on to tick {end_tick} or later, past the "
                               f"bound of {self.limit_ticks} ticks ({self.opts['limit_s']:g} s of machine time); "
                               f"the simulated gateware takes about 6 000 ticks a CPU-second: raise limit_s "
                               f"(?limit_s=SECONDS) or run on sim://")
+
+    def write(self, frames: PortFrames) -> None:
+        self._refuse_past_the_bound(int(frames.end_tick))
         self.gate = self.gate or self._make_gate()
         self.chunks.append(frames)
         self.end_tick = max(self.end_tick, int(frames.end_tick))
