@@ -157,8 +157,8 @@ class TurnRecords:
             while delay > MAX_DELAY:
                 out.append(lay.pack(lay.turn, delay=MAX_DELAY))
                 delay -= MAX_DELAY
-            out.append(lay.pack(lay.turn, delay=delay, **{f"turn{a}": int(now[a] != self.prev[a]) for a in range(lay.axes)},
-                                **{f"dir{a}": int(now[a]) for a in range(lay.axes)}))
+            turned = {f"turn{a}": int(now[a] != self.prev[a]) for a in range(lay.axes)}
+            out.append(lay.pack(lay.turn, delay=delay, **turned, **{f"dir{a}": int(now[a]) for a in range(lay.axes)}))
             self.last, self.prev = int(ticks[i]), now
         return out
 

@@ -107,7 +107,7 @@ class Output(ABC):
 
     def take_plan(self, plan) -> None:
         """The run's plan (``motion.plan.Plan``), before ``open()``, when ``wants_plan()``; None
-        when the run has none (frames replayed, a demo, a run on the 002 controller)."""
+        when the run has none (the circle demo, a run on the 002 controller)."""
 
     def observe(self) -> dict | None:
         """What this output knows of the machine after the run (the simulator answers; others None)."""

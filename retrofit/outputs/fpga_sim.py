@@ -6,14 +6,16 @@ URL grammar: ``fpga-sim://[?variant=pulse|di&limit_s=SECONDS&clocks_per_tick=K]`
 records (delay, direction, width: what 004's ARM sends its FPGA). ``variant=di``: the digital
 integration runs in the gateware, fed line records made from the run's plan (its step requests,
 asked for through ``Output.wants_plan``) and turn records from the frames (``fpga.lines``); a run
-without a plan (frames replayed, a run on the 002 controller) is refused. Either way the records
-are streamed into the simulated gateware chunk by chunk, and its step/dir pins drive the simulated
-machine (drivers, screws, carriages) that the report reads. The pins must equal the run's frames at every tick, and the engine must end with
-no underrun and no refused record: anything else is an error naming the first tick that differs
-(so a ``vcd://`` output beside it shows the gateware's pins too).
+without a plan (the circle demo, a run on the 002 controller) is refused. Either way the records
+are streamed into the simulated gateware chunk by chunk, and its step/dir pins drive the
+simulated machine (drivers, screws, carriages) that the report reads. The pins must equal the
+run's frames at every tick, and the engine must end with no underrun and no refused record:
+anything else is an error naming the first tick that differs (so a ``vcd://`` output beside it
+shows the gateware's pins too).
 
 Amaranth's simulator takes about 6 000 ticks a CPU-second (docs/fpga.md), so a run longer than
-``limit_s`` seconds of machine time (default 0.5) is refused before it is simulated.
+``limit_s`` seconds of machine time (default 0.5) is refused before it is simulated (on the
+plan's end when the run hands the plan over, else on each chunk's end).
 """
 
 from __future__ import annotations
@@ -31,7 +33,8 @@ class FpgaSimOutput(SimOutput):
 
     scheme = "fpga-sim"
     grammar = "fpga-sim://[?variant=pulse|di&limit_s=SECONDS&clocks_per_tick=K]"
-    summary = "004's FPGA simulated in Amaranth HDL (pulse engine, or di: the digital integration in it); its pins checked against the run's and drive sim://"
+    summary = ("004's FPGA simulated in Amaranth HDL (the pulse engine, or di: the digital integration in it); "
+               "its pins checked against the run's and drive sim://")
     options = {"variant": (str, "pulse"), "limit_s": (float, 0.5), "clocks_per_tick": (int, 1)}
 
     def __init__(self, url, machine):
