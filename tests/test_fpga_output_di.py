@@ -73,6 +73,19 @@ def test_retrofit_run_through_the_di_gateware_makes_the_frames_sim_decodes(tmp_p
     assert [rep["axes"][a]["carriage_mm"] for a in "XYZ"] == pytest.approx([0.05, 0.1, -0.005])
 
 
+def test_frames_handed_over_in_short_slices_make_the_same_pins():
+    """The turn records come with each slice, the line records all with the first: slices of 97
+    ticks (shorter than the ticks a slice's end is held open) still give every tick's byte."""
+    from retrofit.run.runner import slice_frames
+    plan, frames = plan_and_frames(PROGRAM + "G1 X0.1 Y0\n")
+    out = open_output("fpga-sim://?variant=di", COARSE)
+    hand_plan([out], plan)
+    with out:
+        for start in range(0, frames.end_tick, 97):
+            out.write(slice_frames(frames, start, min(start + 97, frames.end_tick)))
+    assert out.run.frames == frames and out.run.positions == [8, 0, -2]
+
+
 @pytest.mark.parametrize("url, says", [
     ("fpga-sim://?variant=dda", r"variant='dda' is not one of pulse, di; expected fpga-sim://\[\?variant=pulse\|di&"),
     ("fpga-sim://?varient=di", r"unknown option 'varient'.*\(options: variant, limit_s, clocks_per_tick\)"),
