@@ -71,21 +71,36 @@ class DeviceThread:
 
 class PacedLoop(McuLoop):
     """``retrofit mcu``'s loop held to about the machine's own pace (10 ticks a millisecond, a
-    tick being 100 us on mitic-lathe), so a move lasts as long as on the machine."""
+    tick being 100 us on mitic-lathe), so a move lasts as long as on the machine.
 
-    def __init__(self, *args, **kwargs):
+    ``hold_at_x``: once X has made that many steps the loop's clock stands still (``held`` is
+    set; it still answers the link, no tick passes) until the test clears ``held``: the machine
+    is held mid-move while another process starts, however long a busy computer takes."""
+
+    def __init__(self, *args, paced: bool = True, hold_at_x: int | None = None, **kwargs):
         super().__init__(*args, slice_s=1e-4, ticks_per_call=10, **kwargs)
+        self.paced, self.hold_at_x = paced, hold_at_x
+        self.held = threading.Event()
 
     def run_once(self) -> None:
+        if self.held.is_set():
+            self.port.timeout = 0.005
+            self.link.serve_once()
+            return
         super().run_once()
-        time.sleep(0.001)
+        if self.hold_at_x is not None and self.controller.position_steps[0] >= self.hold_at_x:
+            self.hold_at_x = None
+            self.held.set()
+        if self.paced:
+            time.sleep(0.001)
 
 
 @linux
 def test_a_second_host_on_a_running_tty_is_refused_and_the_first_run_ends_where_it_should(tmp_path):
     machine = load_machine(MACHINE)
     ctl = make_controller(machine)
-    device = DeviceThread(lambda port: PacedLoop(port, machine, ctl))
+    device = DeviceThread(lambda port: PacedLoop(port, machine, ctl, paced=False, hold_at_x=100))
+    loop = device.link
     issued = device.link.link.endpoint.sessions
     program = tmp_path / "second.ngc"
     program.write_text("G21 G18 G90\nG0 X3 Z-2\nM30\n")
@@ -97,13 +112,15 @@ def test_a_second_host_on_a_running_tty_is_refused_and_the_first_run_ends_where_
         commands = [parse_command(t) for t in ("PFDR F300", "PMOV X30 Z-3")]   # 6 s at 5 mm/s
         runner = threading.Thread(target=lambda: result.update(first.send_program(commands)))
         runner.start()
-        deadline = time.monotonic() + 30
-        while ctl.position_steps[0] < 100 and time.monotonic() < deadline:
-            time.sleep(0.01)                                  # the first host's move is under way
-        second = subprocess.run([sys.executable, "-m", "retrofit.cli", "run", str(program),
-                                 "--machine", MACHINE, "--output", f"serial://{device.name}",
-                                 "--progress", "off"], capture_output=True, text=True, timeout=60)
-        moving_when_refused = runner.is_alive()
+        assert loop.held.wait(120)                            # the first host's move is under way
+        try:                                                  # and stays so while the second tries
+            second = subprocess.run([sys.executable, "-m", "retrofit.cli", "run", str(program),
+                                     "--machine", MACHINE, "--output", f"serial://{device.name}",
+                                     "--progress", "off"], capture_output=True, text=True,
+                                    timeout=120)
+            moving_when_refused = runner.is_alive() and not ctl.idle
+        finally:
+            loop.held.clear()
         runner.join(120)
         host_sessions = first.link.endpoint.stats.sessions
         first.close()
