@@ -72,3 +72,18 @@ def test_arcs_cut_all_at_once_give_each_arcs_own_chords_float_for_float():
     for call, ends in zip(calls, together):
         assert canon.chords(call) == [PMov(tuple(zip(NAMES, row))) for row in ends.tolist()]
         assert np.array_equal(ends, canon.chord_ends(call))
+
+
+def test_the_planners_table_takes_a_block_as_the_commands_it_stands_for():
+    from retrofit.gcode import compile_program
+    from retrofit.machine.config import load_machine
+    from retrofit.motion.planarrays import encode
+    machine = load_machine("engraver")
+    text = "G21 G90 G17 G91.1\nG0 X20 Y20 Z1\nG1 Z-1 F300\n" + "".join(
+        f"X{20 + i % 9 * 0.5:.1f} Y{20 + i % 4 * 0.25:.2f}" + (" F500\n" if i % 13 == 0 else "\n")
+        for i in range(60)) + "G1 X20 Y20\nG2 X25 Y25 I5 J0\nG0 Z5\nM2\n"
+    commands = compile_program(text, machine).commands
+    assert any(type(part) is Moves for part in commands.parts())
+    got = encode(commands, machine)
+    want = encode(list(commands), machine)
+    assert all(np.array_equal(g, w, equal_nan=True) for g, w in zip(got, want))

@@ -134,7 +134,10 @@ class CommandList(MutableSequence):
         return list(other) + self._listed()
 
     def copy(self) -> CommandList:
-        return CommandList(self._listed())
+        """A new list of the same commands (blocks shared: nothing changes a block)."""
+        out = CommandList()
+        out._items, out._count, out._blocks = list(self._items), self._count, self._blocks
+        return out
 
     __copy__ = copy
 

@@ -1,16 +1,19 @@
 """A run of plain CAM lines translated at once: the lines read by one pattern, the targets by arrays.
 
 CAM output is mostly long runs of lines like ``G1 X12.345 Y6.789 Z-1.2 F900`` or
-``X12.3 Y4.5``. :func:`take_run` reads as many such lines as follow (up to :data:`RUN_LINES`) with
-one pattern in its canonical form (upper case; an optional ``G0`` / ``G1``, then X, Y, Z, F in
-that order, each at most once, single spaces), works out every target as
-:mod:`retrofit.gcode.plainline` would line by line (the same roundings, by
+``X12.3 Y4.5``, an arc now and then. :func:`take_run` reads as many such lines as follow (up to
+:data:`RUN_LINES`) with one pattern in its canonical form (upper case; an optional ``G0`` /
+``G1``, then X, Y, Z, F in that order, each at most once, single spaces), passing over comment
+lines and taking plain G2/G3 lines with them (:mod:`retrofit.gcode.plainarcs`), works out every
+target as :mod:`retrofit.gcode.plainline` would line by line (the same roundings, by
 ``state.clean_mm_list``, float for float), checks them against the soft limits at once, and
-appends the FMOV / PFDR / PMOV with each line's number. It takes nothing (0 lines) when the state
-is not plain (``plainline``'s conditions), under G91, or when any line of the run would need a
-word the full translator says (a value out of range, a target outside the limits, a feed of 0):
-the lines then run one by one and the refusal comes from there, with its line. A rotary axis
-or a feed above the machine's fastest (lowered, with a warning) is left to them too.
+appends the FMOV / PFDR / PMOV and each arc's chords, with each line's number, as one block of
+arrays (:class:`retrofit.canon.moves.Moves`). It takes nothing (0 lines) when the state is not
+plain (``plainline``'s conditions) or under G91; when a line of the run would need a word the
+full translator says (a value out of range, a target outside the limits, a feed of 0, an arc's
+centre or radius) the run stops before it, and the line runs the full way, which refuses it with
+its line. A rotary axis or a feed above the machine's fastest (lowered, with a warning) is left
+to the full way too.
 """
 
 from __future__ import annotations
@@ -59,9 +62,9 @@ def take_run(tr, lines, pc: int, file: str) -> int:
     feeds = table[:, 4]
     bad |= feeds < 0.0
     modes = _filled(table[:, 0], -1.0 if s.motion is None else float(s.motion))
-    arc_row = np.zeros(k, np.bool_)
-    arc_row[list(arcs)] = True
-    bad |= ~((modes == 0.0) | (modes == 1.0) | arc_row)
+    is_arc = np.zeros(k, np.bool_)
+    is_arc[list(arcs)] = True
+    bad |= ~((modes == 0.0) | (modes == 1.0) | is_arc)
     scale = MM_PER_INCH if s.inch else 1.0
     given = ~np.isnan(feeds)
     feed_mm = feeds.copy()
