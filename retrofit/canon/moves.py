@@ -53,7 +53,7 @@ class Moves:
         return listed
 
 
-class CommandList(MutableSequence):
+class CommandList(MutableSequence[Command]):
     """The commands of a program, some of them held in :class:`Moves` blocks (see the module doc).
 
     Reading it one command at a time makes the blocks' objects once, for good; appending never
@@ -89,14 +89,14 @@ class CommandList(MutableSequence):
     def __len__(self) -> int:
         return self._count
 
-    def __getitem__(self, index):
+    def __getitem__(self, index: Any) -> Any:
         return self._listed()[index]
 
-    def __setitem__(self, index, value) -> None:
+    def __setitem__(self, index: Any, value: Any) -> None:
         self._listed()[index] = value
         self._count = len(self._items)
 
-    def __delitem__(self, index) -> None:
+    def __delitem__(self, index: Any) -> None:
         del self._listed()[index]
         self._count = len(self._items)
 
@@ -127,10 +127,10 @@ class CommandList(MutableSequence):
 
     __hash__ = None  # type: ignore[assignment]  # mutable, as a list
 
-    def __add__(self, other) -> list[Command]:
+    def __add__(self, other: Iterable[Command]) -> list[Command]:
         return self._listed() + list(other)
 
-    def __radd__(self, other) -> list[Command]:
+    def __radd__(self, other: Iterable[Command]) -> list[Command]:
         return list(other) + self._listed()
 
     def copy(self) -> CommandList:
@@ -141,7 +141,7 @@ class CommandList(MutableSequence):
 
     __copy__ = copy
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[Any, ...]:
         return (CommandList, (self._listed(),))
 
     def __repr__(self) -> str:

@@ -59,7 +59,7 @@ def arc_call(tr, number: int, words, start: dict, end: dict):
     line. Its chords: ``tr.canon.chord_ends_of``."""
     s = tr.state
     block = make_block(number, words, tr.machine)
-    mode = block.motion
+    mode = int(block.motion or 0)                 # 2 or 3 (arc_words)
     check_word_use(block, mode)
     before = s.position
     s.position = start
