@@ -7,8 +7,10 @@ Writes a CAM program shaped like Fusion 360 / FreeCAD output (a preamble, operat
 with I J, ``G0`` retracts) and, in one run, reads it with:
 
 * ``retrofit.gcode`` -- the whole interpreter: modal state, offsets, soft limits, arcs into
-  chords, commands out; and again with runs of plain lines read by the pattern instead of the
-  compiled scanner (``retrofit/gcode/plainscan.py``);
+  chords, commands out (a run's moves and chords as arrays, ``retrofit/canon/moves.py``: every
+  number final, no object per command); again with every command read as an object (what a
+  reader of ``Program.commands`` one by one pays); and with runs of plain lines read by the
+  pattern instead of the compiled scanner (``retrofit/gcode/plainscan.py``);
 * a naive regex reader -- every word of every line to a float, no semantics at all (the floor
   any Python reader pays);
 * ``gcodeparser`` and ``pygcode`` from PyPI where installed (``pip install gcodeparser pygcode``);
@@ -137,6 +139,8 @@ def readers(text: str, machine):
     """(name, function, what it does) of every reader timed, retrofit first."""
     yield "retrofit.gcode", lambda t: len(compile_program(t, machine, "bench.ngc").commands), \
         "interpreter: modal state, offsets, limits, arcs -> {} commands"
+    yield "retrofit, objects", lambda t: sum(1 for _ in compile_program(t, machine, "bench.ngc").commands), \
+        "the same, every command then read as an object ({} commands)"
     yield "retrofit, pattern", lambda t: by_pattern(t, machine), \
         "the same, runs of plain lines read by the pattern, not the compiled scanner ({} commands)"
     yield "naive regex", naive, "words to floats only, no semantics ({} words)"
@@ -177,11 +181,13 @@ def main() -> None:
           f"comments)")
     print(f"{'reader':<26}{'CPU s':>8}{'blocks/CPU-s':>14}   what it does")
     warnings.simplefilter("ignore")
+    spent = {}
     for name, fn, what in readers(text, machine):
         if fn is None:
             row(name, None, blocks, what)
             continue
         seconds, result = cpu(fn, text)
+        spent[name] = seconds
         row(name, seconds, blocks, what.format(result))
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "bench.ngc"
@@ -189,6 +195,9 @@ def main() -> None:
         rs = time_rs274(path)
     row("LinuxCNC rs274", rs, blocks, "C++ interpreter, prints every canon call" if rs is not None
         else "not installed")
+    if rs is not None:
+        print(f"retrofit / rs274, blocks per CPU-second in this run: {rs / spent['retrofit.gcode']:.2f} "
+              f"({rs / spent['retrofit, objects']:.2f} with every command read as an object)")
     refusals(machine)
 
 

@@ -47,6 +47,24 @@ PROGRAMS = {
     "huge-value": ["G21 G90 G1 F500"] + zigzag(10) + ["X1e10"] + zigzag(5),
     "axis-not-on-machine": ["G21 G90 G1 F500"] + zigzag(10) + ["X1 A5"],
     "word-twice": ["G21 G90 G1 F500"] + zigzag(10) + ["X1 X2"],
+    "arcs": ["G21 G90 G17 G91.1", "G0 X50 Y50 Z1", "G1 Z-1 F300"] + zigzag(20) + [
+        "G1 X20 Y20", "G2 X25 Y25 I5 J0 F700", "(a comment)", "G1 X30 Y30", "G3 X35 Y35 R5", "X40 Y40 R-5",
+        "G1 X40 Y30", "G2 X40 Y30 Z-2 I0 J5", "G2 X40 Y30 I0 J2 P3", "G3 X41.5 Y30.25 I.75 J.125 F650",
+        "G1"] + zigzag(10) + ["G1 X20 Y20", "G2 X17 Y23 J3 I0", "G1 X40 Y40 Z0"],
+    "arc-centres-absolute": ["G21 G90 G17 G90.1", "G10 L2 P1 X5", "G0 X20 Y20", "G1 F400"] + zigzag(5) + [
+        "G1 X20 Y20", "G2 X25 Y25 I25 J20", "G3 X20 Y30 I25 J30", "G1"] + zigzag(5),
+    "arc-inch": ["G20 G90 G17 G91.1", "G0 X0.5 Y0.5", "G1 X0.6 F20", "G2 X0.7 Y0.5 I0.05 J0", "G1 X0.8 Y0.6",
+                 "X0.9"],
+    "arc-zx-plane": ["G21 G90 G18 G91.1", "G0 X20 Y20 Z0", "G1 F300"] + zigzag(5) + [
+        "G1 X20 Z0", "G2 X24 Z0 I2 K0", "G1 X20"] + zigzag(3),
+    "arc-radius-off": ["G21 G90 G17 G91.1 G1 F500"] + zigzag(12) + ["G2 X20 Y20 I5 J0"] + zigzag(5),
+    "arc-outside-limits": ["G21 G90 G17 G91.1 G1 F500"] + zigzag(12) + ["G1 X20 Y20", "G2 X20 Y20 I-15 J0"]
+    + zigzag(5),
+    "arc-modal-no-centre": ["G21 G90 G17 G91.1 G1 F500"] + zigzag(8) + ["G1 X20 Y20", "G2 X25 Y25 I5 J0", "X30 Y30"],
+    "arc-after-rapids": ["G21 G90 G17 G91.1 G0"] + zigzag(8) + ["G0 X20 Y20", "G2 X25 Y25 I5 J0"],
+    "arc-k-in-xy": ["G21 G90 G17 G91.1 G1 F500"] + zigzag(8) + ["G1 X20 Y20", "G2 X25 Y25 I5 K0"],
+    "arc-r-too-small": ["G21 G90 G17 G1 F500"] + zigzag(8) + ["G3 X30 Y30 R1"] + zigzag(3),
+    "arc-no-axes": ["G21 G90 G17 G91.1 G1 F500"] + zigzag(8) + ["G2 I1 J0", "G1 X20"],
     "spellings": ["G21 G90 F500", "G01 X1.5 Y2.", "G1X2Y3Z-0", "X.5 Y+3 ", "G00 X1", "G0", "G1 Z-00012.340 ",
                   "X10.000000000000001 Y1", "X10.5 Y1.25 F.5", "X2 Y3 F100 ", "X3", "G001 X1"],
 }
@@ -79,6 +97,20 @@ def test_a_run_is_taken_at_once_and_names_every_line(monkeypatch):
     assert [t for t in taken if t] == [100]                # the 100 lines in one run
     assert prog.lines[-1] == 101 and sorted(set(prog.lines)) == list(range(2, 102))
     assert plainrun.RUN_LINES >= 100
+
+
+def test_arcs_in_a_run_are_taken_with_it_and_name_their_lines(monkeypatch):
+    taken = []
+    real = program.take_run
+    monkeypatch.setattr(program, "take_run", lambda *args: taken.append(real(*args)) or taken[-1])
+    body = zigzag(30) + ["G2 X15.125 Y15.8 I5 J0 F700", "(a comment)", "G1 X20 Y20"] + zigzag(30) + ["G3 X9 Y9 R5"]
+    prog = compile_program("G21 G90 G17 G91.1\nG1 F500\n" + "\n".join(body) + "\nM2\n", MILL, "p.ngc")
+    assert [t for t in taken if t] == [len(body) + 1]         # arcs and the comment did not end the run
+    arc_lines = [line for line, cmd in zip(prog.lines, prog.commands) if line in (33, len(body) + 2)]
+    assert len(arc_lines) > 20                                 # every chord names its arc's line
+    full_way(monkeypatch)
+    assert prog.listing() == compile_program("G21 G90 G17 G91.1\nG1 F500\n" + "\n".join(body) + "\nM2\n",
+                                             MILL, "p.ngc").listing()
 
 
 #: lines of every spelling the plain pattern may or may not read, each between two plain lines

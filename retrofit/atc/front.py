@@ -74,8 +74,11 @@ def expand_host_commands(program, machine: Machine, spindle_tool: int = 0,
         from .settings import atc_of
         atc = atc_of(machine)
     out = Expanded([], [], [], spindle_tool, spindle_tool, program.file)
-    if not any(isinstance(cmd, (Tool, Paus)) for cmd in program.commands):    # nothing to replace
-        out.commands, out.lines = list(program.commands), list(program.lines)
+    commands = program.commands
+    if not any(isinstance(cmd, (Tool, Paus))          # nothing to replace (a block holds moves only)
+               for cmd in (commands.parts() if hasattr(commands, "parts") else commands)):
+        out.commands, out.lines = commands.copy() if hasattr(commands, "parts") else list(commands), \
+            list(program.lines)
         return out
     spinning = False
     frame = _Frame()

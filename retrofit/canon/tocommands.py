@@ -8,8 +8,9 @@ the plane that does not move written as it stood.
 
 from __future__ import annotations
 
+import collections
 import itertools
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -30,7 +31,7 @@ from ..commands import (
     Wait,
     ZMov,
 )
-from ..motion.arcs import arc_columns
+from ..motion.arcs import arc_columns, arcs_columns
 from .calls import (
     ArcFeed,
     Call,
@@ -92,12 +93,39 @@ class CommandCanon:
         return arc_columns(arc.start, arc.end, arc.centre, arc.clockwise, arc.plane,
                            self.tolerance_mm, arc.extra_turns)
 
+    def chord_ends(self, arc: ArcFeed) -> np.ndarray[Any, np.dtype[np.float64]]:
+        """The end points [chord, axis] of the chords of ``arc`` as their PMOVs give them: rounded
+        to 1 pm, an axis off the plane that does not move as it stood."""
+        points = self.chord_points(arc)
+        ends = np.empty_like(points)
+        for i, value in enumerate(arc.start):
+            if i in arc.plane or value != arc.end[i]:
+                ends[:, i] = clean_mm_list(points[:, i])
+            else:
+                ends[:, i] = clean_mm(value)
+        return ends
+
+    def chord_ends_of(self, arcs: list[ArcFeed]) -> list[np.ndarray[Any, np.dtype[np.float64]]]:
+        """:meth:`chord_ends` of every arc of ``arcs``, all at once (:func:`arcs_columns`): an axis
+        that does not move is ``s + 0·f``, its start, whose rounding is the start's."""
+        points, counts = arcs_columns([(a.start, a.end, a.centre, a.clockwise, a.plane, a.extra_turns)
+                                       for a in arcs], self.tolerance_mm)
+        for i in range(points.shape[1]):
+            points[:, i] = clean_mm_list(points[:, i])
+        return np.split(points, np.cumsum(counts)[:-1])
+
     def chords(self, arc: ArcFeed) -> list[Command]:
         """One PMOV per chord of ``arc``."""
-        points = self.chord_points(arc)
-        moving = [i for i in range(len(self.names))
-                  if i in arc.plane or arc.start[i] != arc.end[i]]
-        columns: list[Iterator[tuple[str, float]]] = [itertools.repeat((n, clean_mm(v))) for n, v in zip(self.names, arc.start)]
-        for i in moving:
-            columns[i] = zip(itertools.repeat(self.names[i]), clean_mm_list(points[:, i]))
-        return list(map(PMov, zip(*columns)))
+        return made(PMov, self.names, self.chord_ends(arc))
+
+
+def made(kind: type, names: tuple[str, ...], ends: np.ndarray[Any, np.dtype[np.float64]]) -> list[Any]:
+    """``kind(axes)`` (an FMOV or a PMOV) for every row of ``ends`` [move, axis], the same objects
+    the class makes one by one, without running its ``__init__`` for each (a frozen dataclass
+    whose only field is ``axes``)."""
+    if kind not in (FMov, PMov):
+        raise TypeError(f"made() builds FMOV and PMOV only, not {kind.__name__}")
+    axes = list(zip(*[zip(itertools.repeat(n), ends[:, i].tolist()) for i, n in enumerate(names)]))
+    moves = list(map(object.__new__, itertools.repeat(kind, len(axes))))
+    collections.deque(map(object.__setattr__, moves, itertools.repeat("axes"), axes), maxlen=0)
+    return moves

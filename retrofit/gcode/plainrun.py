@@ -1,28 +1,32 @@
 """A run of plain CAM lines translated at once: the lines read by one pattern, the targets by arrays.
 
 CAM output is mostly long runs of lines like ``G1 X12.345 Y6.789 Z-1.2 F900`` or
-``X12.3 Y4.5``. :func:`take_run` reads as many such lines as follow (up to :data:`RUN_LINES`) with
-one pattern in its canonical form (upper case; an optional ``G0`` / ``G1``, then X, Y, Z, F in
-that order, each at most once, single spaces), works out every target as
-:mod:`retrofit.gcode.plainline` would line by line (the same roundings, by
+``X12.3 Y4.5``, an arc now and then. :func:`take_run` reads as many such lines as follow (up to
+:data:`RUN_LINES`) with one pattern in its canonical form (upper case; an optional ``G0`` /
+``G1``, then X, Y, Z, F in that order, each at most once, single spaces), passing over comment
+lines and taking plain G2/G3 lines with them (:mod:`retrofit.gcode.plainarcs`), works out every
+target as :mod:`retrofit.gcode.plainline` would line by line (the same roundings, by
 ``state.clean_mm_list``, float for float), checks them against the soft limits at once, and
-appends the FMOV / PFDR / PMOV with each line's number. It takes nothing (0 lines) when the state
-is not plain (``plainline``'s conditions), under G91, or when any line of the run would need a
-word the full translator says (a value out of range, a target outside the limits, a feed of 0):
-the lines then run one by one and the refusal comes from there, with its line. A rotary axis
-or a feed above the machine's fastest (lowered, with a warning) is left to them too.
+appends the FMOV / PFDR / PMOV and each arc's chords, with each line's number, as one block of
+arrays (:class:`retrofit.canon.moves.Moves`). It takes nothing (0 lines) when the state is not
+plain (``plainline``'s conditions) or under G91; when a line of the run would need a word the
+full translator says (a value out of range, a target outside the limits, a feed of 0, an arc's
+centre or radius) the run stops before it, and the line runs the full way, which refuses it with
+its line. A rotary axis or a feed above the machine's fastest (lowered, with a warning) is left
+to the full way too.
 """
 
 from __future__ import annotations
 
 import re
-from itertools import repeat
 
 import numpy as np
 
-from ..commands import FMov, PFdr, PMov
+from ..canon.moves import FMOV, PFDR, PMOV, Moves
 from .blocks import MAX_VALUE
+from .errors import RuleError
 from .feedcap import ceiling_mm_min
+from .plainarcs import arc_call, arc_row, arc_words
 from .plainscan import plain_table
 from .state import MM_PER_INCH, clean_mm_list
 from .validate import _limits
@@ -44,62 +48,118 @@ def take_run(tr, lines, pc: int, file: str) -> int:
                                                                    and tr.comp.geometry.queue)):
         return 0
     if any(letter not in _RUN_WORDS or (letter == "G" and value not in (0.0, 1.0))
-           for letter, value in lines[pc].words):
-        return 0                                  # (an arc, a tool change...: line by line)
-    table = _table(lines, pc)                     # G, X, Y, Z, F
+           for letter, value in lines[pc].words) and arc_words(lines[pc]) is None:
+        return 0                                  # (a tool change...: line by line)
+    table, rows, arcs = _gathered(lines, pc)      # G, X, Y, Z, F; the line of each row
     if len(table) < 2:
         return 0
-    names = tr.names
-    k = len(table)
-    axes = [_AXES[j] for j in range(3) if not np.isnan(table[:, 1 + j]).all()]
-    if any(a not in names or a in s.rotary for a in axes) or (np.abs(table) > MAX_VALUE).any():
-        return 0
+    names, k = tr.names, len(table)
+    bad = np.zeros(k, np.bool_)                   # rows the full translator must run (and word)
+    for j, a in enumerate(_AXES):
+        if a not in names or a in s.rotary:
+            bad |= ~np.isnan(table[:, 1 + j])
+    bad |= (np.abs(table) > MAX_VALUE).any(axis=1)
     feeds = table[:, 4]
-    if (feeds < 0.0).any():
-        return 0
+    bad |= feeds < 0.0
     modes = _filled(table[:, 0], -1.0 if s.motion is None else float(s.motion))
-    if not ((modes == 0.0) | (modes == 1.0)).all():
-        return 0
+    is_arc = np.zeros(k, np.bool_)
+    is_arc[list(arcs)] = True
+    bad |= ~((modes == 0.0) | (modes == 1.0) | is_arc)
     scale = MM_PER_INCH if s.inch else 1.0
     given = ~np.isnan(feeds)
     feed_mm = feeds.copy()
     if given.any():
         feed_mm[given] = clean_mm_list(feeds[given] * scale)
-        if (feed_mm[given] > ceiling_mm_min(tr.machine)).any():
-            return 0                                  # lowered, with a warning: line by line
+        bad |= feed_mm > ceiling_mm_min(tr.machine)   # lowered, with a warning: line by line
     feed_mm = _filled(feed_mm, s.feed_mm_min)
-    ends = {n: np.full(k, s.position[n]) for n in names}
+    ends = np.empty((k, len(names)))
     moving = np.zeros(k, np.bool_)
-    for a in axes:
-        col = table[:, 1 + _AXES.index(a)]
+    for i, n in enumerate(names):
+        col = table[:, 1 + _AXES.index(n)] if n in _AXES and n not in s.rotary else np.full(k, np.nan)
         present = ~np.isnan(col)
-        mm = col[present] * scale
-        if s.diameter and a == "X":
-            mm = mm / 2.0
-        ends[a] = col.copy()
-        ends[a][present] = clean_mm_list(mm + s.offset(a))
-        ends[a] = _filled(ends[a], s.position[a])
+        target = col.copy()
+        if present.any():
+            mm = col[present] * scale
+            if s.diameter and n == "X":
+                mm = mm / 2.0
+            target[present] = clean_mm_list(mm + s.offset(n))
+        ends[:, i] = _filled(target, s.position[n])
         moving |= present
     for name, low, high in _limits(tr.machine):
-        if name in ends and not ((low <= ends[name]) & (ends[name] <= high)).all():
-            return 0
-    if ((modes == 1.0) & moving & ~(feed_mm > 0.0)).any():
+        if name in names:
+            at = ends[:, names.index(name)]
+            bad |= ~((low <= at) & (at <= high))
+    bad |= (modes != 0.0) & moving & ~(feed_mm > 0.0)
+    cut = int(np.argmax(bad)) if bad.any() else k
+    chords = _arcs(tr, lines, rows, arcs, ends, cut)
+    cut = min(cut, *[r for r, c in chords.items() if c is None], k)
+    if cut == 0:
         return 0
-    _emit(tr, lines, pc, file, modes, feed_mm, ends, moving)
-    if not np.isnan(table[:, 0]).all():
+    _emit(tr, lines, rows[:cut], file, modes[:cut], feed_mm[:cut], ends[:cut], moving[:cut], chords)
+    if not np.isnan(table[:cut, 0]).all():
         s.motion_given, s.cycle_start, s.nurbs = True, None, None
-    s.motion, s.feed_mm_min = int(modes[-1]), float(feed_mm[-1])
-    return k
+    s.motion, s.feed_mm_min = int(modes[cut - 1]), float(feed_mm[cut - 1])
+    return int(rows[cut - 1]) + 1 - pc
 
 
-def _table(lines, pc: int) -> np.ndarray:
-    """The words (G, X, Y, Z, F; NaN: absent) of the plain lines from ``pc``, up to the first
-    other line: by the compiled scanner (:mod:`.plainscan`) or the pattern, one table."""
+def _gathered(lines, pc: int) -> tuple[np.ndarray, np.ndarray, dict]:
+    """(table, row -> line index, row -> arc words) of the plain and arc lines from ``pc``, up to
+    :data:`RUN_LINES` lines or the first other line; comment lines are passed over, as the
+    interpreter passes over them."""
     text = lines.text
     if text is None:
-        return np.empty((0, 5))
+        return np.empty((0, 5)), np.empty(0, np.int64), {}
     last = min(pc + RUN_LINES, len(lines))
-    return plain_table(text, lines.starts, lines.stops, pc, last, lambda: _read(lines, pc, last))
+    parts, rows, arcs, at, count, scan = [], [], {}, pc, 0, True
+    while at < last:
+        part = _table(lines, at, last) if scan else ()
+        scan = True
+        if len(part):
+            parts.append(part)
+            rows.append(np.arange(at, at + len(part)))
+            at, count, scan = at + len(part), count + len(part), False    # the scanner stopped there
+            continue
+        line = lines[at]
+        if line is None or (line.plain and not line.words):     # a comment or spaces only
+            at += 1
+            continue
+        words = arc_words(line)
+        if words is None:
+            break
+        arcs[count] = words
+        parts.append(np.array([arc_row(words)]))
+        rows.append(np.array([at]))
+        at, count = at + 1, count + 1
+    if not parts:
+        return np.empty((0, 5)), np.empty(0, np.int64), {}
+    return np.concatenate(parts), np.concatenate(rows), arcs
+
+
+def _arcs(tr, lines, rows, arcs: dict, ends: np.ndarray, cut: int) -> dict:
+    """row -> chord ends of each arc row before ``cut``, in order, up to the first the full
+    translator refuses (None there)."""
+    names, calls = tr.names, {}
+    for r in sorted(arcs):
+        if r >= cut:
+            break
+        start = dict(tr.state.position) if r == 0 else dict(zip(names, ends[r - 1].tolist()))
+        end = dict(zip(names, ends[r].tolist()))
+        try:
+            calls[r] = arc_call(tr, lines.numbers[int(rows[r])], arcs[r], start, end)
+        except (RuleError, ValueError):
+            calls[r] = None
+            break
+    made = [r for r, call in calls.items() if call is not None]
+    out: dict = dict(zip(made, tr.canon.chord_ends_of([calls[r] for r in made]))) if made else {}
+    out.update((r, None) for r, call in calls.items() if call is None)
+    return out
+
+
+def _table(lines, pc: int, last: int | None = None) -> np.ndarray:
+    """The words (G, X, Y, Z, F; NaN: absent) of the plain lines from ``pc``, up to the first
+    other line (or ``last``): by the compiled scanner (:mod:`.plainscan`) or the pattern."""
+    last = min(pc + RUN_LINES, len(lines)) if last is None else last
+    return plain_table(lines.text, lines.starts, lines.stops, pc, last, lambda: _read(lines, pc, last))
 
 
 def _read(lines, pc: int, last: int) -> np.ndarray:
@@ -123,38 +183,43 @@ def _filled(values: np.ndarray, before: float) -> np.ndarray:
     return np.where(index >= 0, values[np.maximum(index, 0)], before)
 
 
-def _emit(tr, lines, pc: int, file: str, modes, feed_mm, ends, moving) -> None:
-    """The run's commands, in order, with their lines; the state's position and feed sent.
+def _emit(tr, lines, rows, file: str, modes, feed_mm, ends, moving, chords: dict) -> None:
+    """The run's commands, in order, with their lines, as one block of arrays; the state's
+    position and feed sent.
 
-    The moves are made a column at a time (one PMOV per moving line, FMOV under G0); a PFDR goes
-    before a feed move whose feed differs from the last one sent, as line by line."""
-    s, names, k = tr.state, tr.names, len(modes)
+    One FMOV (G0) or PMOV (G1) per moving line, an arc's chords (one PMOV each) for an arc line;
+    a PFDR goes before a feed move whose feed differs from the last one sent, as line by line."""
+    s, names = tr.state, tr.names
     at = np.flatnonzero(moving)
-    kind = np.int32 if lines.numbers.typecode == "i" else np.int64
-    numbers = np.frombuffer(lines.numbers, kind, k, pc * lines.numbers.itemsize)
-    at_lines = numbers[at].tolist()
-    axes = list(zip(*[zip(repeat(n), ends[n][at].tolist()) for n in names]))
-    moves: list[FMov | PMov] = list(map(PMov, axes))
-    feeding = modes[at] == 1.0
-    for j in np.flatnonzero(~feeding).tolist():
-        moves[j] = FMov(axes[j])
+    numbers = np.frombuffer(lines.numbers, np.int32 if lines.numbers.typecode == "i" else np.int64)[rows]
+    feeding = modes[at] != 0.0
     fed = np.flatnonzero(feeding)
     feeds = feed_mm[at][fed]
     before = np.concatenate(([np.nan if s.feed_sent is None else s.feed_sent], feeds[:-1]))
-    changed = feeds != before
-    done = 0
-    for j, feed in zip(fed[changed].tolist(), feeds[changed].tolist()):
-        tr.commands.extend(moves[done:j])
-        tr.lines.extend(at_lines[done:j])
-        tr.commands.append(PFdr(feed))
-        tr.lines.append(at_lines[j])
-        done = j
-    tr.commands.extend(moves[done:])
-    tr.lines.extend(at_lines[done:])
-    tr.files.extend([file] * (len(moves) + int(changed.sum())))
+    changed = np.zeros(len(at), np.bool_)
+    changed[fed] = feeds != before
+    sizes = np.ones(len(at), np.int64)             # commands of each move: 1, or its chords
+    arc_at = [j for j, r in enumerate(at.tolist()) if r in chords]
+    for j in arc_at:
+        sizes[j] = len(chords[int(at[j])])
+    firsts = np.cumsum(sizes + changed) - sizes    # where each move's first command goes
+    total = int(firsts[-1] + sizes[-1]) if len(at) else 0
+    values = np.empty((total, len(names)))
+    kinds = np.full(total, PMOV, np.int8)
+    straight = np.ones(len(at), np.bool_)
+    straight[arc_at] = False
+    values[firsts[straight]] = ends[at[straight]]
+    kinds[firsts[straight & ~feeding]] = FMOV
+    for j in arc_at:
+        values[firsts[j]:firsts[j] + sizes[j]] = chords[int(at[j])]
+    pfdr = firsts[changed] - 1
+    kinds[pfdr] = PFDR
+    values[pfdr] = 0.0
+    values[pfdr, 0] = feed_mm[at[changed]]
+    tr.commands.add_block(Moves(names, kinds, values))
+    tr.lines.extend(np.repeat(numbers[at], sizes + changed).tolist())
+    tr.files.extend([file] * total)
     if len(feeds):
         s.feed_sent = float(feeds[-1])
-    end = dict(s.position)
-    end.update((n, float(ends[n][-1])) for n in names)
-    s.position = end
+    s.position = dict(zip(names, ends[-1].tolist()))
     tr._line, tr._file = int(numbers[-1]), file

@@ -82,7 +82,7 @@ def probe_move(tr: Translator, block, mode: float, end: dict[str, float]) -> Non
         raise RuleError(f"{name}: cannot move rotary axis {rotary[0]} during probing")
     check_soft_limits(tr.machine, end)
     toward = PROBE_CODES[mode]
-    result = tr.probe(ProbeRequest(tr.commands, tr.lines, dict(s.position), end, s.feed_mm_min,
+    result = tr.probe(ProbeRequest(list(tr.commands), tr.lines, dict(s.position), end, s.feed_mm_min,
                                    toward))
     if result.already:
         raise RuleError(f"{name}: the probe is {'already tripped' if toward else 'not tripped'} "

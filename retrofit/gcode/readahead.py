@@ -14,6 +14,7 @@ raises :class:`~retrofit.gcode.errors.NeedsWholeProgram`: such a program is comp
 
 from __future__ import annotations
 
+from ..canon.moves import CommandList
 from .lazylines import LazyLines
 from .ocode import Source, scan
 from .program import gcode_errors, start_interpreter
@@ -57,6 +58,6 @@ class ReadAhead:
     def _take(self) -> tuple[list, list, list]:
         tr = self.interpreter.tr
         batch = tr.commands, tr.lines, tr.files
-        tr.commands, tr.lines, tr.files = [], [], []
+        tr.commands, tr.lines, tr.files = CommandList(), [], []
         self.count += len(batch[0])
         return batch

@@ -33,7 +33,7 @@ from ..canon import (
     ZeroAxes,
 )
 from ..canon.calls import MOVES, Position
-from ..commands import Command
+from ..canon.moves import CommandList
 from ..machine.config import Machine
 from ..machine.tooltable import ToolTable
 from . import (
@@ -79,7 +79,7 @@ class Translator:
         self.state = state
         self.tool_table = tool_table
         self.canon = CommandCanon(machine.axis_names, machine.motion.arc_tolerance_mm)
-        self.commands: list[Command] = []
+        self.commands: CommandList = CommandList()   # moves of plain runs kept as arrays
         self.lines: list[int] = []
         self.files: list[str] = []
         self._line = 0

@@ -127,6 +127,37 @@ def arc_columns(start: Sequence[float], end: Sequence[float], center: Sequence[f
     return points
 
 
+def arcs_columns(arcs: Sequence[tuple], tolerance_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`arc_columns` of many arcs at once, float for float: (the points [chord, axis] of
+    every arc in turn, the number of chords of each). ``arcs`` holds (start, end, centre,
+    clockwise, plane_axes, full_turns) tuples; each operation of :func:`arc_columns` runs once over
+    the chords of every arc, on the same operands."""
+    shapes = [_chords(start, end, centre, clockwise, plane, tolerance_mm, turns)
+              for start, end, centre, clockwise, plane, turns in arcs]
+    counts = np.array([shape[3] for shape in shapes], np.int64)
+    total, width = int(counts.sum()), len(arcs[0][0]) if arcs else 0
+    firsts = np.cumsum(counts) - counts
+    k = np.arange(total, dtype=np.float64) - np.repeat(firsts, counts) + 1.0
+    f = k / np.repeat(counts, counts).astype(np.float64)
+    r0, r1, sweep, _, a0, sign = (np.repeat(np.array(c, np.float64), counts) for c in zip(*shapes)) \
+        if arcs else (np.empty(0),) * 6
+    angles = (a0 + sign * sweep * f).tolist()
+    radius = r0 + (r1 - r0) * f
+    starts, ends = (np.repeat(np.array([arc[j] for arc in arcs], np.float64).reshape(-1, width), counts, axis=0)
+                    for j in (0, 1))
+    points = starts + (ends - starts) * f[:, None]
+    rows = np.arange(total)
+    plane = np.repeat(np.array([arc[4] for arc in arcs], np.int64).reshape(-1, 2), counts, axis=0)
+    centres = np.repeat(np.array([arc[2] for arc in arcs], np.float64).reshape(-1, width), counts, axis=0)
+    points[rows, plane[:, 0]] = centres[rows, plane[:, 0]] + radius * np.fromiter(map(math.cos, angles),
+                                                                                   np.float64, total)
+    points[rows, plane[:, 1]] = centres[rows, plane[:, 1]] + radius * np.fromiter(map(math.sin, angles),
+                                                                                   np.float64, total)
+    last = firsts + counts - 1
+    points[last] = ends[last]
+    return points, counts
+
+
 def _chords(start, end, center, clockwise: bool, plane_axes: tuple[int, int], tolerance_mm: float,
             full_turns: int) -> tuple[float, float, float, int, float, float]:
     """(start radius, end radius, sweep, chords, start angle, sense) of an arc cut into chords."""

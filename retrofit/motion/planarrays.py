@@ -59,15 +59,28 @@ class PlanArrays:
                    np.array([m.dwell_s for m in moves], np.float64), np.array([m.index for m in moves], np.int64))
 
 
+#: the planner's kind of each kind of row of a block of moves (FMOV, PMOV, PFDR)
+_BLOCK_KINDS = np.array([K_FMOV, K_PMOV, K_FEED], np.int64)
+
+
 def encode(commands, machine):
     """(kinds, axis words in mm or NaN, feed / seconds) of every command; None for a command the
-    table cannot hold (an axis not on the machine: the walker words that refusal)."""
+    table cannot hold (an axis not on the machine: the walker words that refusal).
+
+    ``commands`` is a list of commands, or a list with ``parts()`` (``retrofit.canon.moves``)
+    whose blocks of moves (``kinds``, ``values``, ``names``) are copied into the table whole."""
     names = {n: i for i, n in enumerate(machine.axis_names)}
     n, n_axes = len(commands), len(machine.axes)
     kinds = np.zeros(n, np.int64)
     words = np.full((n, n_axes), np.nan)
     scalar = np.zeros(n)
-    for c, cmd in enumerate(commands):
+    c = 0
+    for cmd in commands.parts() if hasattr(commands, "parts") else commands:
+        if hasattr(cmd, "kinds"):
+            if not _block_into(cmd, names, kinds[c:], words[c:], scalar[c:]):
+                return None
+            c += len(cmd)
+            continue
         if isinstance(cmd, (Wait, Prob)):    # an input decides (WAIT), or the walker refuses (PROB)
             return None
         kind = _KINDS.get(type(cmd), K_NONE)
@@ -89,7 +102,23 @@ def encode(commands, machine):
                 if i is None:
                     return None
                 words[c, i] = 1.0
+        c += 1
     return kinds, words, scalar
+
+
+def _block_into(block, names: dict, kinds, words, scalar) -> bool:
+    """A block of moves into the first rows of the table's ``kinds``, ``words``, ``scalar``; False
+    when it names an axis the machine does not have."""
+    columns = [names.get(name.upper()) for name in block.names]
+    if None in columns:
+        return False
+    m = len(block)
+    kinds[:m] = _BLOCK_KINDS[block.kinds]
+    feeds = kinds[:m] == K_FEED
+    words[:m, columns] = block.values
+    words[:m][feeds] = np.nan
+    scalar[:m][feeds] = block.values[feeds, 0]
+    return True
 
 
 @kernel

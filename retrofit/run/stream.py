@@ -127,7 +127,7 @@ class _Feed:
         from ..atc.front import expand_host_commands
         from ..commands import Dout, IStp, Prob, Wait, ZMov
         machine = self.run.machine
-        for cmd in commands:
+        for cmd in commands.parts() if hasattr(commands, "parts") else commands:   # blocks: moves only
             if isinstance(cmd, (IStp, Dout, Wait, Prob)) or (isinstance(cmd, ZMov) and "homing" in machine.parts):
                 raise ReadWhole(f"{cmd}")
         exp = self.run.expanded
