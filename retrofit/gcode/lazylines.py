@@ -82,8 +82,7 @@ class LazyLines:
                 hits.append(at)
                 at = data.find(letter, at + 1)
         stops = np.frombuffer(self.stops, np.int32 if self.stops.typecode == "i" else np.int64)
-        # each row once (np.unique would load numpy.ma: 45 M instructions of every run's start)
-        rows = sorted(set(np.searchsorted(stops, np.array(hits, np.int64), side="left").tolist()))
+        rows = np.unique(np.searchsorted(stops, np.array(hits, np.int64), side="left")).tolist()
         return [r for r in rows if r < len(self.starts)]
 
     def __len__(self) -> int:
