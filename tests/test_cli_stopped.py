@@ -31,7 +31,7 @@ def work(args):
             pass
         raise (RetrofitError if args.kind == "retrofit" else ValueError)("Invalid bounding box")
 
-def parser():
+def parser(command=None):
     p = argparse.ArgumentParser(prog="retrofit")
     p.add_argument("signal")
     p.add_argument("kind")

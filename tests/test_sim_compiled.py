@@ -219,3 +219,31 @@ def test_decimated_trace_written_by_the_kernel_equals_every_point_given(strict, 
         ticks = np.array(fast.traces[name].ticks)
         near = np.min(np.abs(ticks[:, None] - marks[None, :]), axis=1) <= around
         assert near.sum() > len(ticks) / 2           # most points kept are kept for a violation
+
+
+def test_a_busy_axis_decoded_over_every_frame_ends_as_step_by_step():
+    """An axis whose rises and falls were most of the last chunk's frames is decoded over all the
+    frames (not its own sorted out first), a quiet one over its own: both end as step by step,
+    with the too-short pulses of the stream reported at the same ticks."""
+    machine = CHIVU
+    frames = random_frames(machine, 11, 6000)
+    values = frames.values.copy()
+    quiet = machine.axes[1]                    # in the first half only one frame in 50 may change it
+    mask = (1 << quiet.step_bit) | (1 << quiet.dir_bit)
+    half = len(frames) // 2
+    for k in range(1, half):
+        if k % 50:
+            values[k] = (values[k] & (~mask & 0xFF)) | (values[k - 1] & mask)
+    frames = PortFrames(frames.ticks, values, frames.end_tick)
+    fast, ref = SimMachine(machine, (0, 0)), SimMachine(machine, (0, 0))
+    probe = frames.ticks[::9]
+    fast.watch(probe)
+    ref.watch(probe)
+    ways = set()
+    for chunk in split(frames, list(range(0, len(frames), 700))):
+        fast.feed(chunk)
+        ref.feed_reference(chunk)
+        ways |= set(fast.__dict__.get("_decode_busy", {}).items())
+    assert observed(fast, probe.tolist()) == observed(ref, probe.tolist())
+    assert (0, True) in ways and (1, False) in ways           # both ways were taken
+    assert fast.violations                                    # and the pulses too short were found

@@ -114,7 +114,7 @@ def _raise_ctrl_c(frame, event, arg):
 
 def _command(argv: list[str] | None) -> int:
     try:
-        parser = _parser()
+        parser = _parser(_named(argv))
         args = parser.parse_args(argv)
         if not getattr(args, "func", None):
             parser.print_help()
@@ -174,13 +174,31 @@ def _say_stopped(what: str) -> None:
         pass
 
 
-def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="retrofit", description="CNC retrofit toolkit: controller, simulator, outputs.")
-    p.add_argument("--version", action=_Version, nargs=0, help="show the version and exit")
-    sub = p.add_subparsers(metavar="COMMAND")
-    for module in command_modules():
+def _named(argv: list[str] | None) -> str | None:
+    """The command word of ``argv`` (the first word not an option), None without one."""
+    words = [w for w in (sys.argv[1:] if argv is None else argv) if not w.startswith("-")]
+    return words[0] if words else None
+
+
+def _parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The parser of every command; for ``command``, of the group in the module of that name
+    when it has the command (``retrofit run`` loads no other group's module), else of all."""
+    modules = command_modules()
+    if command and f"{__name__}.{command}" in modules:
+        p, sub = _empty_parser()
+        import_module(f"{__name__}.{command}").add_commands(sub)
+        if command in sub.choices:
+            return p
+    p, sub = _empty_parser()
+    for module in modules:
         import_module(module).add_commands(sub)
     return p
+
+
+def _empty_parser():
+    p = argparse.ArgumentParser(prog="retrofit", description="CNC retrofit toolkit: controller, simulator, outputs.")
+    p.add_argument("--version", action=_Version, nargs=0, help="show the version and exit")
+    return p, p.add_subparsers(metavar="COMMAND")
 
 
 if __name__ == "__main__":

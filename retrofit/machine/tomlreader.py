@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import difflib
 import math
 import tomllib
 from pathlib import Path
@@ -85,6 +84,7 @@ class Section:
         if key in self._data:
             return self._data[key]
         if default is _MISSING:
+            import difflib
             typo = difflib.get_close_matches(key, [k for k in self._data if k not in self._read], 1, TYPO_RATIO)
             if typo:
                 raise ConfigError(f"{self.file} [{self.name}] {shown_key(typo[0])}: unknown key "
@@ -156,6 +156,7 @@ class Section:
         unread = [k for k in self._data if k not in self._read]
         if unread:
             key = unread[0]
+            import difflib
             typo = difflib.get_close_matches(key, sorted(self._read), 1, TYPO_RATIO)
             where = f"{self.file} [{self.name}] {shown_key(key)}: unknown key"
             if typo:

@@ -76,12 +76,12 @@ def describe(value) -> str | None:
     kind = _SCALARS.get(type(value))
     if kind is not None:
         return kind if kind != "int64" or -2**63 <= value < 2**63 else None
-    if type(value) is np.ndarray:
-        name, flags = _dtype_name(value.dtype), value.flags
-        if not (name and flags.aligned):
-            return None
-        layout = "C" if flags.c_contiguous else "F" if flags.f_contiguous else "A"
-        return f"{name}[{value.ndim}{layout}{'' if flags.writeable else 'r'}]"
+    if type(value) is np.ndarray:             # every guarded call: the answer kept per kind of array
+        key = (value.dtype, value.ndim, value.flags.num)
+        said = _ARRAYS.get(key, _ARRAYS)
+        if said is _ARRAYS:
+            said = _ARRAYS[key] = _describe_array(value)
+        return said
     if isinstance(value, np.generic):
         return _dtype_name(value.dtype) or None
     if type(value) is tuple:
@@ -90,6 +90,18 @@ def describe(value) -> str | None:
     if value is None:
         return "none"
     return None
+
+
+#: :func:`describe` of an array by (dtype, dimensions, flags): its type follows from these alone
+_ARRAYS: dict = {}
+
+
+def _describe_array(value: np.ndarray) -> str | None:
+    name, flags = _dtype_name(value.dtype), value.flags
+    if not (name and flags.aligned):
+        return None
+    layout = "C" if flags.c_contiguous else "F" if flags.f_contiguous else "A"
+    return f"{name}[{value.ndim}{layout}{'' if flags.writeable else 'r'}]"
 
 
 _NAMES: dict = {}

@@ -26,10 +26,13 @@ steps a revolution, with no drift.
 from __future__ import annotations
 
 import math
-from fractions import Fraction
+from typing import TYPE_CHECKING
 
 from ..errors import MotionError
 from .bresenham import BresenhamExecutor, LineMove
+
+if TYPE_CHECKING:                  # fractions loads decimal: only a threading run needs them
+    from fractions import Fraction
 
 #: denominator bound of steps-per-revolution fractions (a float feed is read as the nearest one)
 MAX_DENOMINATOR = 1_000_000
@@ -38,6 +41,7 @@ MAX_DENOMINATOR = 1_000_000
 def steps_per_rev(feed_mm_rev: float, length_mm: float, base_steps: int) -> Fraction:
     """``S``: base-axis steps per spindle revolution of a move ``length_mm`` long with
     ``base_steps`` base steps, at ``feed_mm_rev`` along its path per revolution."""
+    from fractions import Fraction
     exact = Fraction(feed_mm_rev) * base_steps / Fraction(length_mm)
     return exact.limit_denominator(MAX_DENOMINATOR)
 
@@ -130,6 +134,7 @@ class IndexerTrack:
     @property
     def end_count(self) -> Fraction:
         """The count at which the line reaches the end of the move."""
+        from fractions import Fraction
         return self.origin + Fraction(self.steps * self.counts * self.s_den, self.s_num)
 
     def locked(self, count: int) -> bool:

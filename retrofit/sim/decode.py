@@ -47,7 +47,9 @@ def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray, cha
     at the end of each watched tick. ``changing``: the bits not the same in every frame
     (:func:`changing_bits`; an axis none of whose bits change is not read frame by frame)."""
     axis, driver, screw = sim.machine.axes[i], sim.drivers[i], sim.screws[i]
-    frames = _own_frames(axis, driver, frames, changing)
+    busy = sim.__dict__.setdefault("_decode_busy", {})
+    given = len(frames)
+    frames = _own_frames(axis, driver, frames, changing, busy.get(i, False))
     if not len(frames):                                # no edge of this axis in the chunk: it holds
         if len(watch):
             end = frames.end_tick
@@ -66,7 +68,7 @@ def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray, cha
     buffers = _buffers(sim, min(len(frames.ticks), SUB_CHUNK))
     w_out = np.zeros((len(watch), 2), np.float64)      # rows stay contiguous when sliced
     lo, hi = sim._travel[i]
-    done_watch = 0
+    done_watch, steps = 0, 0
     for start in range(0, max(len(frames.ticks), 1), SUB_CHUNK):
         stop = min(start + SUB_CHUNK, len(frames.ticks))
         end = int(frames.ticks[stop]) if stop < len(frames.ticks) else frames.end_tick
@@ -74,8 +76,9 @@ def feed_axis(sim, i: int, frames, watch: np.ndarray, watch_out: np.ndarray, cha
                 float(axis.steps_per_mm), float(lo), float(hi), *sw,
                 watch[done_watch:], w_out[done_watch:], np.int64(end))
         counts, strided = _decode(sim, sim.traces[axis.name], args, buffers)
-        done_watch += counts[3]
+        done_watch, steps = done_watch + counts[3], steps + counts[4]
         _events(sim, i, switches, (lo, hi), buffers, counts, strided)
+    busy[i] = 4 * steps > given           # its rises and falls were over half the chunk's frames
     driver.step, driver.direction = int(ds[0]), int(ds[1])
     driver.last_rise, driver.last_fall, driver.last_dir_change = int(ds[2]), int(ds[3]), int(ds[4])
     sim.motor_steps[i], sim._last_dir[i], sim.reversals[i] = int(ms[0]), int(ms[1]), int(ms[2])
@@ -119,9 +122,11 @@ def changing_bits(frames) -> int:
     return int(np.bitwise_or.reduce(frames.values)) ^ int(np.bitwise_and.reduce(frames.values))
 
 
-def _own_frames(axis, driver, frames, changing: int):
+def _own_frames(axis, driver, frames, changing: int, busy: bool = False):
     """The frames that change this axis's step or direction bits (the others change nothing for
-    its driver), as the driver last saw them; the chunk's end tick kept."""
+    its driver), as the driver last saw them; the chunk's end tick kept. ``busy``: most frames of
+    the last chunk were the axis's own, so all are kept (the decoder passes over a frame that
+    changes nothing for less than it costs to sort the frames out first)."""
     if driver.direction == 0 or not len(frames):
         return frames
     mask = (1 << axis.step_bit) | (1 << axis.dir_bit)
@@ -129,6 +134,8 @@ def _own_frames(axis, driver, frames, changing: int):
     seen = logical ^ ((axis.invert_step << axis.step_bit) | (axis.invert_dir << axis.dir_bit))
     if not changing & mask and int(frames.values[0]) & mask == seen:     # the axis's bits hold
         return PortFrames(frames.ticks[:0], frames.values[:0], frames.end_tick)
+    if busy:
+        return frames
     ticks, values = np.empty(len(frames), np.int64), np.empty(len(frames), np.uint8)
     n = own_changes(frames.ticks, frames.values, np.int64(mask), np.int64(seen), ticks, values)
     return PortFrames(ticks[:n], values[:n], frames.end_tick)
