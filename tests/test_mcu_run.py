@@ -148,7 +148,7 @@ def test_a_position_the_link_cannot_carry_is_err_3_and_the_device_keeps_serving(
             assert link.exchange(QUEUED, 2, bytes.fromhex("0C 01 7FFFFF")) == (0x02, Ack())  # PSTN
             assert link.exchange(QUEUED, 3, bytes.fromhex("03 00")) == (0x03, Ack())         # ZMOV
             answers = []
-            for n in range(1, 9):                                                          # RDPS
+            for n in range(1, 121):            # RDPS until the move has run past (at most 12 s; numbers < 128)
                 answers.append(link.exchange(IMMEDIATE, n, b"\x0d"))
                 if answers[-1][1] == Err(3, 0x0D):
                     break

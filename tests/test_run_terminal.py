@@ -40,7 +40,7 @@ def test_under_tmux_at_80_columns_only_the_summary_stays_on_the_screen(tmp_path)
                    check=True)
     try:
         screen = ""
-        for _ in range(600):
+        for _ in range(1200):                      # a ceiling of 2 minutes: the run's end is the event
             screen = subprocess.run(tmux + ["capture-pane", "-p", "-t", name], capture_output=True,
                                     text=True).stdout
             if "EXIT=" in screen:
