@@ -75,13 +75,15 @@ class HeldLoop(McuLoop):
     moment mid-move that lasts as long as the test needs, on any machine at any load."""
 
     def __init__(self, *args, at_steps: int, **kwargs):
-        super().__init__(*args, ticks_per_call=10, **kwargs)
+        super().__init__(*args, **kwargs)
         self.at_steps, self.go = at_steps, threading.Event()
 
     def _budget(self) -> int:
-        if not self.go.is_set() and self.controller.position_steps[0] >= self.at_steps:
+        if self.go.is_set():
+            return super()._budget()
+        if self.controller.position_steps[0] >= self.at_steps:
             return 0
-        return super()._budget()
+        return min(10, super()._budget())          # a few ticks at a time up to the moment
 
 
 @linux
