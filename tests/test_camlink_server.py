@@ -284,7 +284,7 @@ def test_retrofit_serve_prints_its_port_and_retrofit_send_streams_a_program(tmp_
         assert "ended at X10.000, Y10.000, Z-2.000 mm" in out
     finally:
         proc.terminate()
-        proc.wait(timeout=10)
+        proc.wait(timeout=CEILING_S)
 
 
 def read_all(sock) -> bytes:
