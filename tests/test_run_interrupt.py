@@ -36,7 +36,14 @@ def _start(folder: Path, plot: bool, moment: str | None = None) -> subprocess.Po
         env["RETROFIT_HOLD_AT"] = moment
     return subprocess.Popen([sys.executable, "-m", "retrofit.cli", "run", "lathe-profile.ngc",
                              "--output", "vcd://x.vcd", "--report", "r.json"] + (["--plot", "p.png"] if plot else []),
-                            cwd=folder, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
+                            cwd=folder, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env,
+                            preexec_fn=_ctrl_c_heard)
+
+
+def _ctrl_c_heard() -> None:
+    """In the child: Ctrl-C acts, as on a terminal, even when the tests run in the background of
+    a shell (which starts them with SIGINT ignored, and Python then leaves it ignored)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def _reference(folder: Path, plot: bool) -> dict[str, bytes]:
