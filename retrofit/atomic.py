@@ -30,6 +30,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+from . import hold
 from .errors import OutputError
 
 #: files a command means to write (it declares them with :func:`plan`) and those written so far
@@ -103,6 +104,8 @@ def staged(path: str | Path, keep_on_error: bool = False) -> Iterator[Path]:
         raise OutputError(f"{path}: cannot write the file: {reason(exc)}") from None
     try:
         try:
+            if hold.AT:
+                hold.hold(f"open {path.name}")
             yield tmp
         except BaseException:
             if keep_on_error:
@@ -123,9 +126,13 @@ def staged(path: str | Path, keep_on_error: bool = False) -> Iterator[Path]:
 def _finish(tmp: Path, made: os.stat_result, path: Path) -> None:
     _still_ours(tmp, made)
     fsync_file(tmp)
+    if hold.AT:
+        hold.hold(f"wrote {path.name}")
     os.replace(tmp, path)
     fsync_dir(path.parent)
     WRITTEN.append(path)
+    if hold.AT:
+        hold.hold(f"renamed {path.name}")
 
 
 def _keep(tmp: Path, made: os.stat_result, path: Path) -> None:

@@ -40,7 +40,7 @@ class ConsoleProcess:
         assert found, (line, self.proc.stderr.read() if self.proc.poll() is not None else "")
         self.client = Served.__new__(Served)
         self.client.port, self.client.token, self.client.control = self.port, found[2], None
-        for _ in range(500):
+        for _ in range(1200):                  # up to a minute for the server to answer
             try:
                 self.client.state()
                 break

@@ -14,7 +14,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "retrofit"
 #: lowest first; a unit (a package of retrofit/, or a module standing alone in it) may import its
 #: own layer and those below
 LAYERS = [
-    {"errors", "atomic", "failsafe"},
+    {"errors", "atomic", "failsafe", "hold"},
     {"machine"},
     {"commands", "frames", "runlog"},
     {"backlash"},

@@ -205,7 +205,7 @@ from retrofit.lab.process import become_subreaper, children_of, kill_children
 assert become_subreaper()
 double_fork = "import os, time\\nif os.fork() == 0:\\n    os.setsid()\\n    if os.fork() == 0:\\n        time.sleep(300)\\n    os._exit(0)\\n"
 subprocess.run([sys.executable, "-c", double_fork], check=True)
-for _ in range(500):                  # the grandchild, orphaned twice, is handed to this process
+for _ in range(6000):                 # the grandchild, orphaned twice, is handed to this process
     if children_of(os.getpid()):
         break
     time.sleep(0.01)

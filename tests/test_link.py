@@ -422,7 +422,7 @@ def drive(host_port, device_port):
     server = threading.Thread(target=DeviceLink(device_port, LATHE, app).serve, args=(stop,))
     server.start()
     try:
-        with HostLink(host_port, LATHE, timeout_s=0.5) as host:
+        with HostLink(host_port, LATHE, timeout_s=10.0) as host:       # a ceiling: the answers come at once
             answers = [host.request(parse_command(t)) for t in
                        ("INIT", "FFDR F1200", "PMOV X12.5 Z-3", "FMOV X-3.25 Z2.52", "RDPS")]
     finally:

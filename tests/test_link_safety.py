@@ -20,7 +20,7 @@ import serial
 from retrofit.cli import main
 from retrofit.commands import parse_command
 from retrofit.firmware.mcu import McuLoop, PtyPort, TcpServerPort, make_controller
-from retrofit.link import IMMEDIATE, QUEUED, Ack, DeviceLink, Err, Position, Status, StatusFlags
+from retrofit.link import IMMEDIATE, QUEUED, Ack, DeviceLink, Err, Position, Session, Status, StatusFlags
 from retrofit.link.script import SIMAVR_FIRST_SESSION, ScriptedHost
 from retrofit.machine.config import load_machine
 from retrofit.outputs import open_output
@@ -69,38 +69,28 @@ class DeviceThread:
 
 # -- a second host --------------------------------------------------------------------------------
 
-class PacedLoop(McuLoop):
-    """``retrofit mcu``'s loop held to about the machine's own pace (10 ticks a millisecond, a
-    tick being 100 us on mitic-lathe), so a move lasts as long as on the machine.
+class HeldLoop(McuLoop):
+    """``retrofit mcu``'s loop whose controller stops ticking once X has made ``at_steps`` steps,
+    until ``go`` is set; the port is served all the while (the host hears the move go on). A
+    moment mid-move that lasts as long as the test needs, on any machine at any load."""
 
-    ``hold_at_x``: once X has made that many steps the loop's clock stands still (``held`` is
-    set; it still answers the link, no tick passes) until the test clears ``held``: the machine
-    is held mid-move while another process starts, however long a busy computer takes."""
+    def __init__(self, *args, at_steps: int, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.at_steps, self.go = at_steps, threading.Event()
 
-    def __init__(self, *args, paced: bool = True, hold_at_x: int | None = None, **kwargs):
-        super().__init__(*args, slice_s=1e-4, ticks_per_call=10, **kwargs)
-        self.paced, self.hold_at_x = paced, hold_at_x
-        self.held = threading.Event()
-
-    def run_once(self) -> None:
-        if self.held.is_set():
-            self.port.timeout = 0.005
-            self.link.serve_once()
-            return
-        super().run_once()
-        if self.hold_at_x is not None and self.controller.position_steps[0] >= self.hold_at_x:
-            self.hold_at_x = None
-            self.held.set()
-        if self.paced:
-            time.sleep(0.001)
+    def _budget(self) -> int:
+        if self.go.is_set():
+            return super()._budget()
+        if self.controller.position_steps[0] >= self.at_steps:
+            return 0
+        return min(10, super()._budget())          # a few ticks at a time up to the moment
 
 
 @linux
 def test_a_second_host_on_a_running_tty_is_refused_and_the_first_run_ends_where_it_should(tmp_path):
     machine = load_machine(MACHINE)
     ctl = make_controller(machine)
-    device = DeviceThread(lambda port: PacedLoop(port, machine, ctl, paced=False, hold_at_x=100))
-    loop = device.link
+    device = DeviceThread(lambda port: HeldLoop(port, machine, ctl, at_steps=100))
     issued = device.link.link.endpoint.sessions
     program = tmp_path / "second.ngc"
     program.write_text("G21 G18 G90\nG0 X3 Z-2\nM30\n")
@@ -112,15 +102,14 @@ def test_a_second_host_on_a_running_tty_is_refused_and_the_first_run_ends_where_
         commands = [parse_command(t) for t in ("PFDR F300", "PMOV X30 Z-3")]   # 6 s at 5 mm/s
         runner = threading.Thread(target=lambda: result.update(first.send_program(commands)))
         runner.start()
-        assert loop.held.wait(120)                            # the first host's move is under way
-        try:                                                  # and stays so while the second tries
-            second = subprocess.run([sys.executable, "-m", "retrofit.cli", "run", str(program),
-                                     "--machine", MACHINE, "--output", f"serial://{device.name}",
-                                     "--progress", "off"], capture_output=True, text=True,
-                                    timeout=120)
-            moving_when_refused = runner.is_alive() and not ctl.idle
-        finally:
-            loop.held.clear()
+        deadline = time.monotonic() + 60
+        while ctl.position_steps[0] < 100 and time.monotonic() < deadline:
+            time.sleep(0.01)                                  # the first host's move is under way
+        second = subprocess.run([sys.executable, "-m", "retrofit.cli", "run", str(program),
+                                 "--machine", MACHINE, "--output", f"serial://{device.name}",
+                                 "--progress", "off"], capture_output=True, text=True, timeout=120)
+        moving_when_refused = runner.is_alive() and ctl.position_steps[0] < 3000
+        device.link.go.set()                                  # the first move goes on to its end
         runner.join(120)
         host_sessions = first.link.endpoint.stats.sessions
         first.close()
@@ -200,6 +189,11 @@ class Recording(RawLink):
         super().write(data)
 
 
+def sessions_in(machine, answers: bytes) -> int:
+    """How many SESS answers (to a SYNC) ``answers`` holds."""
+    return sum(isinstance(r, Session) for r in ScriptedHost(machine).replies(answers, keepalives=True))
+
+
 def test_bytes_of_an_earlier_session_replayed_to_retrofit_mcu_run_nothing():
     machine = load_machine(MACHINE)
     with McuTarget() as mcu:
@@ -219,7 +213,10 @@ def test_bytes_of_an_earlier_session_replayed_to_retrofit_mcu_run_nothing():
         replay = serial.serial_for_url(mcu.url, timeout=0.05)
         replay.write(bytes(first.recorded))                  # every byte, SYNCs included
         answers = b""
-        end = time.monotonic() + 2.0
+        end = time.monotonic() + 60                          # a ceiling: the replayed SYNCs answered
+        while sessions_in(machine, answers) < 2 and time.monotonic() < end:
+            answers += replay.read(4096)
+        end = time.monotonic() + 2.0                         # and any answer after them
         while time.monotonic() < end:
             answers += replay.read(4096)
         replay.close()
@@ -364,12 +361,12 @@ def test_retrofit_mcu_brakes_a_move_whose_host_fell_silent_and_knows_where_it_st
 @linux
 def test_a_retrofit_run_killed_mid_move_leaves_retrofit_mcu_braked_and_refusing_motion(tmp_path):
     """SIGKILL of the host process: nothing closes the port politely, nothing says STOP. The
-    device (on a pty, at about the machine's pace) brakes on its own, RDPS equals the steps on
+    device (on a pty, held at X 3 mm until the host is killed) brakes on its own, RDPS equals the steps on
     the wire, and motion is refused until INIT."""
     import signal
     machine = load_machine(MACHINE)
     ctl = make_controller(machine, backlash_comp=False)
-    device = DeviceThread(lambda port: PacedLoop(port, machine, ctl))
+    device = DeviceThread(lambda port: HeldLoop(port, machine, ctl, at_steps=300))
     program = tmp_path / "long.ngc"
     program.write_text("G21 G18 G90\nG1 X30 F600\nM30\n")          # 3 s at 10 mm/s
     try:
@@ -382,7 +379,8 @@ def test_a_retrofit_run_killed_mid_move_leaves_retrofit_mcu_braked_and_refusing_
             time.sleep(0.01)                                  # under way: X past 3 mm
         host.send_signal(signal.SIGKILL)
         host.wait(30)
-        deadline = time.monotonic() + 30
+        device.link.go.set()                                  # the move goes on, its host gone
+        deadline = time.monotonic() + 60
         while not (ctl.processor.host_lost and ctl.idle) and time.monotonic() < deadline:
             time.sleep(0.05)
     finally:

@@ -103,7 +103,8 @@ def test_a_refused_command_fails_the_run_naming_it():
     from retrofit.commands import parse_command
     machine = load_machine(MACHINE)
     with McuTarget() as mcu:
-        with open_output(mcu.output_url, machine) as out:
+        # sent once, however slow the host: no resend before 30 s without an answer
+        with open_output(f"{mcu.output_url}?timeout_ms=30000", machine) as out:
             with pytest.raises(OutputError, match=r"FMOV X45 \(sequence \d+, sent 1 times\): the "
                                                   r"device refused it: refused by the controller"):
                 out.send_program([parse_command("FMOV X1"), parse_command("FMOV X45")])
@@ -148,7 +149,7 @@ def test_a_position_the_link_cannot_carry_is_err_3_and_the_device_keeps_serving(
             assert link.exchange(QUEUED, 2, bytes.fromhex("0C 01 7FFFFF")) == (0x02, Ack())  # PSTN
             assert link.exchange(QUEUED, 3, bytes.fromhex("03 00")) == (0x03, Ack())         # ZMOV
             answers = []
-            for n in range(1, 9):                                                          # RDPS
+            for n in range(1, 121):            # RDPS until the move has run past (at most 12 s; numbers < 128)
                 answers.append(link.exchange(IMMEDIATE, n, b"\x0d"))
                 if answers[-1][1] == Err(3, 0x0D):
                     break
@@ -185,7 +186,7 @@ def test_prob_is_refused_err_6_and_error_until_init_the_controller_has_no_probe_
             assert not link.status().flags & F.ERROR          # a layout error changes nothing
         finally:
             link.close()
-        with HostLink.open(mcu.url, machine, timeout_s=0.5) as host:
+        with HostLink.open(mcu.url, machine, timeout_s=30.0) as host:      # sent once, however slow the host
             with pytest.raises(LinkError, match=r"PROB AWAY X1 \(sequence \d+, sent 1 times\): the "
                                                 r"device refused it: refused by the controller"):
                 probe_over_link(host, parse_command("PROB AWAY X1"))

@@ -201,7 +201,7 @@ def test_a_manual_change_on_a_real_output_waits_for_enter_at_the_terminal(tmp_pa
         proc = subprocess.Popen(["script", "-qefc", cmd, str(typescript)], cwd=tmp_path,
                                 stdin=subprocess.PIPE, stdout=subprocess.DEVNULL)
         import time
-        for _ in range(300):                       # the prompt comes when the moves before it are done
+        for _ in range(1200):                      # the prompt comes when the moves before it are done
             if "press Enter" in typescript.read_text(errors="replace") if typescript.exists() else False:
                 break
             time.sleep(0.1)

@@ -179,10 +179,12 @@ def plot_path(log: RunLog, sim: SimMachine, path: str | Path, title: str = "", c
     ``commands`` (the program's) let rapids be told from cuts; without them the commanded path
     is the controller's waypoints, drawn solid. ``source_text`` (the G-code) may name the stock.
     """
+    from .. import hold
     from ..atomic import staged
     plt = _pyplot()
     fig = run_figure(log, sim, title, commands, source_text)
     path = Path(path)
+    hold.on_draw(fig, path.name)
     try:
         with staged(path) as tmp:          # complete or absent, even on Ctrl-C
             fig.savefig(tmp, dpi=120, bbox_inches="tight", format=path.suffix.lstrip(".") or "png")

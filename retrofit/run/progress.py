@@ -12,6 +12,8 @@ from __future__ import annotations
 import sys
 from collections.abc import Iterator
 
+from .. import hold
+
 #: the bar's resolution: units of work in the whole run
 TOTAL = 1000
 
@@ -47,6 +49,8 @@ class Progress:
         """``done`` (0..1) of ``stage`` is finished."""
         share = (self.base[stage] + self.weights[stage] * min(max(done, 0.0), 1.0)) * self.scale
         units = int(share * TOTAL)
+        if hold.UNITS is not None:
+            hold.progress(units)
         if self.bar is not None and units > self.shown:
             self.bar.update(units - self.shown)
             self.shown = units
@@ -56,6 +60,8 @@ class Progress:
         one stage."""
         end = max(self.base[stage] + self.weights[stage] for stage in self.base)
         units = int(min(max(done, 0.0), 1.0) * end * self.scale * TOTAL)
+        if hold.UNITS is not None:
+            hold.progress(units)
         if self.bar is not None and units > self.shown:
             self.bar.update(units - self.shown)
             self.shown = units

@@ -41,7 +41,7 @@ def hexs(data: bytes) -> str:
 def dwell_forever(link):
     """Start a long dwell and wait until the device reports it."""
     assert link.send(LONG_DWELL) == Ack()
-    end = time.monotonic() + 10
+    end = time.monotonic() + 60
     while not link.status().flags & F.DWELLING:
         assert time.monotonic() < end, "the dwell never started"
         time.sleep(0.01)
