@@ -1,5 +1,6 @@
-"""Canned cycles' refusals and repeats on the mill, each naming the line and the rule: the paths a
-mutation run (bench/mutation.py) found no test took."""
+"""Canned cycles' refusals and repeats on the mill, and the Fanuc lathe cycles' and calls'
+refusals, each naming the line and the rule: the paths a mutation run (bench/mutation.py) found
+no test took."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import pytest
 from retrofit.errors import GcodeError
 from retrofit.gcode import compile_program
 from retrofit.machine.config import load_machine
+from retrofit.machine.tooltable import ToolTable
 
 MILL = load_machine(Path(__file__).resolve().parent / "gcode" / "rs274-mill.toml")
 HEAD = "G21 G17 G90 G98\nG0 X0 Y0 Z10\nF100\n"
@@ -50,3 +52,47 @@ def test_l_repeats_a_cycle_and_l0_drills_no_hole():
     bottoms = [p for p in pts if p[2] == pytest.approx(-2.0)]
     assert [p[0] for p in bottoms] == pytest.approx([5.0, 10.0, 15.0])
     assert not [p for p in holes("G81 X5 Y5 Z-2 R1 L0") if p[2] < 10]
+
+
+DATA = Path(__file__).resolve().parent / "data" / "fanuc"
+FANUC, FANUC_TOOLS = load_machine(DATA / "fanuc-school-lathe.toml"), ToolTable.load(DATA / "tools.tbl")
+FANUC_HEAD = "%\nO1\nG21 G98\nT0101\nG97 S800 M03\nG00 X42. Z2.\n"
+PROFILE = "N10 G00 X20.\nG01 Z-20.\nN50 X40.\n"
+G76_FIRST = "G76 P020060 Q50 R0.\n"
+
+
+@pytest.mark.parametrize("body, line, message", [
+    ("G71 P10 Q50 U0.4 W0.2 F200.\n" + PROFILE, 7,
+     r"G71 P Q: the cycle's first block \(G71 U \(depth of cut\) R \(retract\)\) must come before it"),
+    ("G71 U2. R1.\nG70 F100.\n" + PROFILE, 8, "G70 needs P and Q, the N numbers of the profile's first"),
+    ("G71 U2. R1.\nG71 P50 Q10 U0.4 W0.2 F200.\n" + PROFILE, 8, "G71: N10 comes before N50"),
+    ("G71 U2. R1.\nG71 P10 Q60 U0.4 W0.2 F200.\n" + PROFILE, 8, "G71 Q60: no block N60 in f.nc"),
+    ("G71 U2. R1.\nG71 P10 Q50 U0.4 W0.2 F200.\nN10 G00 X20.\nG04 X1.\nN50 G01 X40.\n", 8,
+     r"G71: G4 in the profile \(line 10\); a profile is G0, G1, G2, G3 moves"),
+    ("G71 U2. R1.\nG71 P10 Q50 U0.4 W0.2 F200.\nN10 G00 X20.\nM98 P2000\nN50 G01 X40.\n", 8,
+     r"G71: a subprogram call in the profile \(line 10\)"),
+    ("G71 U2. R1.\nG71 P10 Q50 U0.4 W0.2 F200.\nN10 G02 X20. Z0. R20.\nN50 G01 X40.\n", 8,
+     r"G71: the profile's first block N10 must be G0 or G1 \(line 9\)"),
+    ("G73 U3. W1.\nG73 P10 Q50 U0.4 W0.2 F120.\n" + PROFILE, 8,
+     r"G73: the first block needs U \(X relief\) W \(Z relief\) R \(passes\)"),
+    ("G76 X18.16 Z-20. P920 Q300 F1.5\n", 7, r"G76 X Z P Q F: the first block \(G76 P \(mmrraa"),
+    ("G76 P020045 Q50 R0.\nG76 X18.16 Z-20. P920 Q300 F1.5\n", 8,
+     "G76 P020045: the angle aa is one of 00 29 30 55 60 80"),
+    (G76_FIRST + "G76 X18.16 Z-20. P920 Q300\n", 8, r"G76: the second block needs F, the lead \(> 0\)"),
+    (G76_FIRST + "G76 X18.16 Z-20. P0 Q300 F1.5\n", 8,
+     "G76: the thread height P and the first depth Q must be > 0"),
+    ("G76 P000060 Q50 R0.\nG76 X18.16 Z-20. P920 Q300 F1.5\n", 8,
+     r"G76: m \(the first two digits of the first block's P\) counts the finishing passes, 01 to 99"),
+    ("G74 R0.5\nG74 Z-10. Q0 F50.\n", 8, r"G74: Q \(the peck depth\) must be > 0"),
+    ("G74 R0.5\nG74 X30. Z-10. P0 Q1000 F50.\n", 8, r"G74: P \(the shift between rows\) must be > 0"),
+    ("G75 R0.5\nG75 X20. Z-5. P0 Q1000 F50.\n", 8, r"G75: P \(the peck depth\) must be > 0"),
+    ("G75 R0.5\nG75 X20. Z-5. P1000 Q0 F50.\n", 8, r"G75: Q \(the shift between rows\) must be > 0"),
+    ("G92 X19. Z-20.\n", 7, "G92 needs F, the lead of the thread"),
+    ("M99 P5\n", 7, r"M99 P \(return to a sequence number\) is not read; return with M99"),
+    ("M98\n", 7, r"M98 needs P \(the program number to call\)"),
+    ("M98 P1000 L2.5\n", 7, "L2.5: the number of repeats is a whole number from 0 to 9999"),
+    ("M98 P1000 M03\n", 7, "M97, M98 and M99 stand on a block of their own with P and L only"),
+])
+def test_a_fanuc_cycle_or_call_missing_a_word_is_refused_naming_the_line(body, line, message):
+    with pytest.raises(GcodeError, match=f"^f.nc:{line}: {message}"):
+        compile_program(FANUC_HEAD + body + "M30\n%\n", FANUC, "f.nc", tool_table=FANUC_TOOLS)
