@@ -68,7 +68,7 @@ TESTS = {     # the new unit tests first: a mutant they kill stops the run early
               "tests/test_gcode_cam.py", "tests/test_gcode_corpus.py", "tests/test_plain_lines.py",
               "tests/test_plain_messages.py", "tests/test_canon_rs274.py", "tests/test_gcode_rs274.py",
               "tests/test_path_control.py", "tests/test_gcode_fuzz.py", *GCODE_CASES],
-    "controller": ["tests/test_mutants_controller.py", "tests/test_mutation_survivors.py",
+    "controller": ["tests/test_controller_paths.py", "tests/test_mutants_controller.py", "tests/test_mutation_survivors.py",
                    "tests/test_controller_pipeline.py", "tests/test_controller_equivalence.py",
                    "tests/test_controller_kernels.py", "tests/test_homing.py", "tests/test_threading.py"],
     "link": ["tests/test_mutants_link.py", "tests/test_link.py", "tests/test_link_hardening.py",
