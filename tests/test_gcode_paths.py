@@ -2,7 +2,8 @@
 every G and M code, an arc's end radius within LinuxCNC's tolerance, outside corners with the
 tool on the left, a contour offset towards the stock of a bore, G70's pass count, a Fanuc G76
 threading towards +Z, a Fanuc cycle arc whose R cannot reach, every operator and function of an
-expression and each of their refusals, the plain-line scanner's numbers."""
+expression and each of their refusals, the plain-line scanner's numbers, the words each code
+uses and the refusal of a word no code of its block uses."""
 
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ from retrofit.machine.tooltable import ToolTable
 
 HERE = Path(__file__).resolve().parent
 MILL = load_machine(HERE / "gcode" / "rs274-mill.toml")
+TOOLS = ToolTable.load(HERE / "gcode" / "tool.tbl")
 FANUC = load_machine(HERE / "data" / "fanuc" / "fanuc-school-lathe.toml")
 FANUC_TOOLS = ToolTable.load(HERE / "data" / "fanuc" / "tools.tbl")
 LATHE = load_machine("chivu-lathe")
@@ -218,3 +220,45 @@ def test_the_plain_line_scanner_reads_numbers_exactly_and_leaves_the_rest_to_the
     assert rows[3][1] == 123456789012345.0
     for line in ("X. Y1", "X- Y1", "G2 X1", "X1 M3"):
         assert scanned(["X1 Y1", line, "X2 Y2"])[1] == 1, line
+
+
+WORDS_HEAD = "G21 G17 G90 G94\nG0 X0 Y0 Z10\nF100\nM3 S1000\n"
+
+
+def test_each_word_is_taken_where_a_code_uses_it():
+    # the words LinuxCNC reads with each code (overrides M48-M53, G64's P Q, G10's L P R, arcs'
+    # P turns, the cycles' P Q L and I J K, G43's H, splines, the spindle selection $, M61's Q)
+    blocks = ["M48", "M49", "M50 P0", "M50 P1", "M51 P1", "M52 P1", "M53 P1", "G64 P0.01", "G64 P0.01 Q0.01",
+              "G4 P0.5", "G10 L2 P1 X0", "G10 L1 P1 R2", "G2 X10 Y0 I5 J0 P2", "G2 X10 Y0 Z-1 I5 J0 P1",
+              "G2 X10 Y0 R5", "G82 X1 Y1 Z-1 R1 P0.5", "G73 X1 Y1 Z-1 R1 Q0.5", "G83 X1 Y1 Z-1 R1 Q0.5",
+              "G81 X1 Y1 Z-1 R1 L2", "G87 X1 Y1 Z-1 R1 I1 J1 K-2", "G86 X1 Y1 Z-1 R1 P1",
+              "G89 X1 Y1 Z-1 R1 P1", "G84 X1 Y1 Z-1 R1 P1", "M4\nG74 X1 Y1 Z-1 R1 P1", "G43 H1",
+              "G5 X10 Y0 I1 J1 P1 Q-1", "G5.1 X10 Y0 I5 J1", "M3 $0 S500", "M5 $0", "G97 $0 S200",
+              "M51 P1 $0", "M61 Q1"]
+    for block in blocks:
+        compile_program(WORDS_HEAD + block + "\nM2\n", MILL, "u.ngc", tool_table=TOOLS)
+
+
+@pytest.mark.parametrize("block, message", [
+    ("G1 X1 I1", "I1: I word with no G code that uses it (G2/G3 arcs, G5, G5.1, G33.1, G76, G87)"),
+    ("G1 X1 J1", "J1: J word with no G code that uses it (G2/G3 arcs, G5, G5.1, G76, G87)"),
+    ("G1 X1 K1", "K1: K word with no G code that uses it (G2/G3 arcs, G33, G33.1, G76, G87)"),
+    ("G1 X1 R1", "R1: R word with no G code that uses it (G2/G3 arcs, canned cycles, G10, G76)"),
+    ("G1 X1 P1", "P1: P word with no G code that uses it (G4, G10, G2/G3 turns, G5, G5.2, G74, G82, G84, "
+                 "G86, G88, G89, G64, G76, M50-M53, M62-M66)"),
+    ("G1 X1 Q1", "Q1: Q word with no G code that uses it (G5, G73, G83, G64, G76, M61, M66)"),
+    ("G1 X1 L1", "L1: L word with no G code that uses it (G10, canned cycles, G5.2, G76, G41.1/G42.1, M66)"),
+    ("G1 X1 H1", "H1: H word with no G code that uses it (G43, G76)"),
+    ("G1 X1 E1", "E1: E word with no G code that uses it (G76, M66)"),
+    ("G1 X1 D1", "D1: D word with no G code that uses it (G41, G42, G41.1, G42.1, G96)"),
+    ("G1 X1 $0", "$0: $ (spindle selection) word with no M3, M4, M5, M51, G33, G76 or G97 to use it"),
+    ("G81 X1 Y1 Z-1 R1 P1", "P1: P word"), ("G81 X1 Y1 Z-1 R1 Q1", "Q1: Q word"),
+    ("G82 X1 Y1 Z-1 R1 Q1", "Q1: Q word"), ("G4 P1 Q1", "Q1: Q word"), ("M48 P1", "P1: P word"),
+    ("M5 P1", "P1: P word"), ("M3 S100 P1", "P1: P word"), ("G10 L2 P1 X0 Q1", "Q1: Q word"),
+    ("G43 H1 D1", "D1: D word"), ("G0 X1 I1 J1 K1", "I1: I word"), ("G33 X1 K1 I1", "I1: I word"),
+    ("G4", "G4 needs P<seconds>, e.g. G4 P0.5"), ("G92", "G92 with no axis words"),
+])
+def test_a_word_no_code_of_its_block_uses_is_refused_naming_the_line(block, message):
+    with pytest.raises(GcodeError) as info:
+        compile_program(WORDS_HEAD + block + "\nM2\n", MILL, "u.ngc", tool_table=TOOLS)
+    assert str(info.value).startswith(f"u.ngc:5: {message}")
