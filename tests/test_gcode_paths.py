@@ -220,6 +220,7 @@ def test_the_plain_line_scanner_reads_numbers_exactly_and_leaves_the_rest_to_the
     assert rows[3][1] == 123456789012345.0
     for line in ("X. Y1", "X- Y1", "G2 X1", "X1 M3"):
         assert scanned(["X1 Y1", line, "X2 Y2"])[1] == 1, line
+    assert scanned(["XY1", "X2 Y2"])[1] == 0        # an X with no number: the full reader refuses it
 
 
 WORDS_HEAD = "G21 G17 G90 G94\nG0 X0 Y0 Z10\nF100\nM3 S1000\n"
