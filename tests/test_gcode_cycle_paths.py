@@ -1,6 +1,6 @@
 """Canned cycles' refusals and repeats on the mill, and the Fanuc lathe cycles' and calls'
-refusals, each naming the line and the rule: the paths a mutation run (bench/mutation.py) found
-no test took."""
+refusals, LinuxCNC's G33, G76, G10, G43 and G96 refusals on a lathe, each naming the line and
+the rule: the paths a mutation run (bench/mutation.py) found no test took."""
 
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ from retrofit.machine.config import load_machine
 from retrofit.machine.tooltable import ToolTable
 
 MILL = load_machine(Path(__file__).resolve().parent / "gcode" / "rs274-mill.toml")
+LATHE = load_machine("mitic-lathe")             # a spindle encoder: G33, G76 and G96 run
 HEAD = "G21 G17 G90 G98\nG0 X0 Y0 Z10\nF100\n"
 
 
@@ -96,3 +97,45 @@ G76_FIRST = "G76 P020060 Q50 R0.\n"
 def test_a_fanuc_cycle_or_call_missing_a_word_is_refused_naming_the_line(body, line, message):
     with pytest.raises(GcodeError, match=f"^f.nc:{line}: {message}"):
         compile_program(FANUC_HEAD + body + "M30\n%\n", FANUC, "f.nc", tool_table=FANUC_TOOLS)
+
+
+G76 = "G76 P1.5 Z-12 I-0.5 J0.25 K0.92"
+
+
+@pytest.mark.parametrize("block, message", [
+    ("G33 Z-10", r"G33 needs K, the distance along the move per spindle revolution"),
+    ("G33 Z-10 K0", r"K0: G33's K must be > 0 \(mm per revolution\)"),
+    ("G33 Z3 K1", r"G33: a synchronised move must go somewhere \(start = end\)"),
+    ("G33 Z-10 K40", r"G33: 40 mm/rev at up to 345 rpm \(S300 and 15% margin\) is 230.00 mm/s; the axes "
+                     r"allow 40.00 mm/s; lower S"),
+    ("G1 " + G76, "G76 is a cycle of its own: no G1 in its block"),
+    (G76 + " X5", r"G76 takes Z as its only axis word \(the cycle starts at the current X\); X5"),
+    ("G76 P1.5 Z-12 I-0.5 J0.25", r"G76 needs P \(pitch\), Z \(end\), I \(peak offset\), J \(first depth\) "
+                                  r"and K \(full depth\); missing: K"),
+    (G76 + " R0.5", r"R0.5: the depth degression must be >= 1.0 \(R1 constant depth\)"),
+    (G76 + " H1.5", r"G76 H \(spring passes\) must be a whole number >= 0 and L one of 0, 1, 2, 3"),
+    (G76 + " L4", r"G76 H \(spring passes\) must be a whole number >= 0 and L one of 0, 1, 2, 3"),
+    (G76 + " Q90", r"Q90: the compound angle must be within -90..90 deg"),
+    ("G76 P1.5 Z3 I-0.5 J0.25 K0.92", "G76: Z is where the cycle starts; the thread needs a length"),
+    (G76 + " E8", r"E8: the taper must be >= 0 and at most half the drive"),
+    ("G76 P1.5 Z-12 I-0.5 J0.0001 K0.92 R1", "G76 would cut more than 1000 passes to reach K0.92 from "
+                                             "J0.0001 with R1; raise J or lower R"),
+    ("G10 L2 P1.5 X1", "P1.5: G10's P is a whole number"),
+    ("G10 L2 P10 X1", r"P10: G10 L2 P is 0 \(the system in use\) to 9 \(G59.3\)"),
+    ("G10 L2 P1 R5 X1", "G10 L2 R: rotated coordinate systems are not supported"),
+    ("G10 L3 P1 X1", "L3: G10 takes L1, L2, L10, L11 or L20"),
+    ("G43 H1.5", "H1.5: H is a tool number"), ("G43 H-1", "H-1: H is a tool number"),
+    ("G96 S0", "S0: G96's surface speed must be > 0"),
+    ("G70 Q100 X12 Z3\nO100 SUB\nG0 X4 Z1\nO100 ENDSUB", "G70: G7X error: the profile needs a move after "
+                                                         "its first point"),
+])
+def test_a_lathe_thread_offset_or_speed_word_out_of_its_range_is_refused_naming_the_line(block, message):
+    with pytest.raises(GcodeError, match=f"^r.ngc:4: {message}"):
+        compile_program("G18 G21 G90\nG0 X12 Z3\nS300 M3\n" + block + "\nM2\n", LATHE, "r.ngc")
+
+
+def test_g76_needs_the_zx_plane_and_a_bare_s_under_g96_must_be_above_0():
+    with pytest.raises(GcodeError, match=r"^r.ngc:5: G76 needs the ZX plane \(G18\), not G17"):
+        compile_program("G18 G21 G90\nG0 X12 Z3\nS300 M3\nG17\n" + G76 + "\nM2\n", LATHE, "r.ngc")
+    with pytest.raises(GcodeError, match="^r.ngc:5: S0: G96's surface speed must be > 0"):
+        compile_program("G18 G21 G90\nG0 X12 Z3\nM3 S300\nG96 S100 D1500\nS0\nM2\n", LATHE, "r.ngc")
