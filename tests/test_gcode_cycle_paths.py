@@ -4,6 +4,7 @@ the rule: the paths a mutation run (bench/mutation.py) found no test took."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pytest
@@ -93,6 +94,16 @@ G76_FIRST = "G76 P020060 Q50 R0.\n"
     ("M98\n", 7, r"M98 needs P \(the program number to call\)"),
     ("M98 P1000 L2.5\n", 7, "L2.5: the number of repeats is a whole number from 0 to 9999"),
     ("M98 P1000 M03\n", 7, "M97, M98 and M99 stand on a block of their own with P and L only"),
+    ("G96\n", 7, r"G96 needs S on its block \(the surface speed, m/min or ft/min\)"),
+    ("T1.5\n", 7, r"T1.5: a Fanuc tool word is T<tool><offset>, e.g. T0101"),
+    ("T-101\n", 7, r"T-101: a Fanuc tool word is T<tool><offset>"),
+    ("G04\n", 7, r"G4 needs the dwell: P \(ms, or s with a decimal point\), X or U \(s\)"),
+    ("G01 Y5. F100.\n", 7, "Y5: not read in this block under the Fanuc dialect"),
+    ("G32 Z-10.\n", 7, r"G32 needs F, the lead of the thread \(mm or inch per revolution\)"),
+    ("G32 X30. F1.5\n", 7, r"a thread move must move along Z \(the lead is per turn along Z\)"),
+    ("G53 G02 X10. Z10.\n", 7, r"G53 takes G0 or G1 with X and Z \(machine coordinates from home\)"),
+    ("G53 G00 U10.\n", 7, "G53 takes G0 or G1 with X and Z"),
+    ("G50 S0\n", 7, "G50 S0: the spindle speed cap must be > 0 rpm"),
 ])
 def test_a_fanuc_cycle_or_call_missing_a_word_is_refused_naming_the_line(body, line, message):
     with pytest.raises(GcodeError, match=f"^f.nc:{line}: {message}"):
@@ -139,3 +150,16 @@ def test_g76_needs_the_zx_plane_and_a_bare_s_under_g96_must_be_above_0():
         compile_program("G18 G21 G90\nG0 X12 Z3\nS300 M3\nG17\n" + G76 + "\nM2\n", LATHE, "r.ngc")
     with pytest.raises(GcodeError, match="^r.ngc:5: S0: G96's surface speed must be > 0"):
         compile_program("G18 G21 G90\nG0 X12 Z3\nM3 S300\nG96 S100 D1500\nS0\nM2\n", LATHE, "r.ngc")
+
+
+def test_a_fanuc_g50_cap_under_g96_holds_the_spindle_below_it_and_below_the_machines_top():
+    # 100 m/min: 757.88 rpm at X42 (diameter); towards X20 it would reach 1591.5 rpm: G50 S1500
+    # caps it; towards X2 (15915 rpm) G50 S99999 leaves the machine's own top, 3000 rpm
+    def spins(cap: str, x: str) -> list[float]:
+        text = FANUC_HEAD + f"G96 S100\nG50 S{cap}\nG01 X{x} F100.\nM30\n%\n"
+        prog = compile_program(text, FANUC, "f.nc", tool_table=FANUC_TOOLS)
+        return [c.rpm for c in prog.commands if str(c).startswith("SPIN") and c.direction]
+    low = spins("1500", "20.")
+    assert low[1] == pytest.approx(100_000 / (math.pi * 42), abs=1e-3) and low[-1] == 1500.0
+    assert max(low) == 1500.0
+    assert spins("99999", "2.")[-1] == 3000.0 == FANUC.parts["spindle"].max_rpm
