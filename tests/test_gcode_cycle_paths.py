@@ -163,3 +163,17 @@ def test_a_fanuc_g50_cap_under_g96_holds_the_spindle_below_it_and_below_the_mach
     assert low[1] == pytest.approx(100_000 / (math.pi * 42), abs=1e-3) and low[-1] == 1500.0
     assert max(low) == 1500.0
     assert spins("99999", "2.")[-1] == 3000.0 == FANUC.parts["spindle"].max_rpm
+
+
+@pytest.mark.parametrize("middle, message", [
+    ("#1=5", r"G71 Q100: the profile o100 may hold only moves \(line 6 sets a parameter\)"),
+    ("o200 call", r"G71 Q100: o200 call in the profile \(line 6\); loops and branches only"),
+    ("G4 P1", r"G71 Q100: G4 in the profile \(line 6\); the profile is G0, G1, G2, G3 moves"),
+    ("G2 X8 Z-8 R1", r"G71: an arc of R1 cannot reach from Z0 X6 to Z-8 X8 \(the radius is under half "
+                     r"the chord\)"),
+])
+def test_a_g71_profile_holding_more_than_moves_is_refused_naming_the_cycle_and_the_profile_line(middle, message):
+    text = ("G18 G21 G90 G94 G8\nF200\nO100 SUB\nG0 X4 Z1\nG1 X6 Z0\n" + middle +
+            "\nZ-5\nX10\nO100 ENDSUB\nG0 X12 Z3\nG71 Q100 X12 Z3 I1\nM2\n")
+    with pytest.raises(GcodeError, match=f"^p.ngc:11: {message}"):
+        compile_program(text, load_machine("chivu-lathe"), "p.ngc")
