@@ -263,3 +263,38 @@ def test_a_word_no_code_of_its_block_uses_is_refused_naming_the_line(block, mess
     with pytest.raises(GcodeError) as info:
         compile_program(WORDS_HEAD + block + "\nM2\n", MILL, "u.ngc", tool_table=TOOLS)
     assert str(info.value).startswith(f"u.ngc:5: {message}")
+
+
+def arc_points(block: str) -> list[tuple[float, float]]:
+    prog = compile_program("G21 G17 G90\nG0 X0 Y0\nF100\n" + block + "\nM2\n", MILL, "a.ngc")
+    return [tuple(v for _, v in c.axes)[:2] for c in prog.commands if hasattr(c, "axes")][1:]
+
+
+def test_an_arc_by_r_takes_the_short_way_or_with_r_negative_the_long_way_round_its_centre():
+    # G2 from (0, 0) to (10, 0) with R-6: the centre left of the chord, at (5, sqrt(11)); the arc
+    # runs clockwise the long way over it, through (5, sqrt(11) + 6), 247 degrees
+    pts = arc_points("G2 X10 Y0 R-6")
+    assert all(math.dist(p, (5.0, math.sqrt(11))) == pytest.approx(6.0) for p in pts)
+    assert max(p[1] for p in pts) == pytest.approx(math.sqrt(11) + 6.0, abs=0.05)   # chord ends
+    assert min(p[1] for p in pts) == pytest.approx(0.0, abs=1e-9)
+    # G3 with R 0.0001 short of half the chord is within reach: a half circle about (5, 0)
+    pts = arc_points("G3 X10 Y0 R4.9999")
+    assert all(math.dist(p, (5.0, 0.0)) == pytest.approx(5.0) for p in pts)
+    assert pts[-1] == pytest.approx((10.0, 0.0)) and min(p[1] for p in pts) == pytest.approx(-5.0, abs=0.05)
+
+
+@pytest.mark.parametrize("block, message", [
+    ("G2 X10 Y0 R4", r"4: G2 radius 4.000 mm is too small for the 10.000 mm from start to end \(needs "
+                     r"\|R\| >= 5.000 mm\)"),
+    ("G20\nG2 X1 Y0 R0.4", r"5: G2 radius 10.160 mm is too small for the 25.400 mm from start to end "
+                           r"\(needs \|R\| >= 12.700 mm\)"),
+    ("G2 X10 Y0 R0", "4: G2 with R0: the radius must not be 0"),
+    ("G2 X0 Y0 R5", r"4: G2 with R cannot make a full circle \(end point = start point\); use I/J/K"),
+    ("G2 X10 Y0", r"4: G2: R, I, J and K words all missing for arc \(plane G17 takes I/J or R\)"),
+    ("G18\nG2 X10 Z0", r"5: G2: R, I, J and K words all missing for arc \(plane G18 takes K/I or R\)"),
+    ("G19\nG3 Y10 Z0", r"5: G3: R, I, J and K words all missing for arc \(plane G19 takes J/K or R\)"),
+    ("G2 X10 Y0 I0 J0", "4: G2 radius 0: the centre offsets put the centre on the start point"),
+])
+def test_an_arc_that_cannot_be_cut_is_refused_with_the_reason_and_the_numbers(block, message):
+    with pytest.raises(GcodeError, match=f"^a.ngc:{message}$"):
+        arc_points(block)
