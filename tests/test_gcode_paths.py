@@ -298,3 +298,16 @@ def test_an_arc_by_r_takes_the_short_way_or_with_r_negative_the_long_way_round_i
 def test_an_arc_that_cannot_be_cut_is_refused_with_the_reason_and_the_numbers(block, message):
     with pytest.raises(GcodeError, match=f"^a.ngc:{message}$"):
         arc_points(block)
+
+
+@pytest.mark.parametrize("line, message", [
+    ("G0 X1)", r"'\)' without an opening '\('"),
+    ("G0 X1 (open", r"comment '\(' is not closed on this line \(a comment ends with '\)'\)"),
+    ("#1", "a parameter at the start of a word must be assigned: #1=2.5"),
+    ("G0 X1 ~", r"unexpected character '~' \(a word is a letter and a value, e.g. X12.5, X#1 or X\[#1\+2\]\)"),
+    ("o# sub", r"bad O-word 'O#SUB': expected o<name> or o<number> and a keyword \(sub endsub call"),
+    ("o100 frobnicate", r"unknown O-word keyword 'frobnicate' after o100 \(keywords: sub endsub call"),
+])
+def test_a_line_the_reader_cannot_split_into_words_is_refused_naming_it(line, message):
+    with pytest.raises(GcodeError, match=f"^l.ngc:2: {message}"):
+        compile_program("G21 G17 G90\n" + line + "\nM2\n", MILL, "l.ngc")
