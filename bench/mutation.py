@@ -54,6 +54,13 @@ GCODE_CASES = [
     "tests/test_read_ahead.py::test_the_interpreter_runs_only_as_far_as_the_first_batch_needs",
     "tests/test_z_convention.py::test_the_same_pocket_lands_at_the_same_machine_z_on_every_mill",
 ]
+#: the rigid tap through the controller (the spindle's turnaround), from the tapping file
+CONTROLLER_CASES = [f"tests/test_rigid_tapping.py::test_{name}" for name in (
+    "the_carriage_follows_the_spindle_angle_in_through_the_reversal_and_out",
+    "the_tap_reaches_the_programmed_depth_and_ends_where_it_started",
+    "the_spindle_turns_its_programmed_way_again_after_the_tap",
+    "the_two_way_encoder_counts_down_backwards_and_indexes_both_ways",
+    "a_spindle_that_turns_back_before_the_end_halts_the_move")]
 TESTS = {     # the new unit tests first: a mutant they kill stops the run early (-x)
     "motion": ["tests/test_mutants_motion.py", "tests/test_bresenham.py", "tests/test_dda.py",
                "tests/test_profile.py", "tests/test_stepgen.py", "tests/test_arcs.py", "tests/test_plan_arrays.py",
@@ -70,7 +77,8 @@ TESTS = {     # the new unit tests first: a mutant they kill stops the run early
               "tests/test_path_control.py", "tests/test_gcode_fuzz.py", *GCODE_CASES],
     "controller": ["tests/test_controller_paths.py", "tests/test_mutants_controller.py", "tests/test_mutation_survivors.py",
                    "tests/test_controller_pipeline.py", "tests/test_controller_equivalence.py",
-                   "tests/test_controller_kernels.py", "tests/test_homing.py", "tests/test_threading.py"],
+                   "tests/test_controller_kernels.py", "tests/test_homing.py", "tests/test_threading.py",
+                   *CONTROLLER_CASES],
     "link": ["tests/test_mutants_link.py", "tests/test_link.py", "tests/test_link_hardening.py",
              "tests/test_protocol_table.py"],
     "backlash": ["tests/test_backlash_units.py", "tests/test_backlash.py"],
