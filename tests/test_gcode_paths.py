@@ -3,7 +3,8 @@ every G and M code, an arc's end radius within LinuxCNC's tolerance, outside cor
 tool on the left, a contour offset towards the stock of a bore, G70's pass count, a Fanuc G76
 threading towards +Z, a Fanuc cycle arc whose R cannot reach, every operator and function of an
 expression and each of their refusals, the plain-line scanner's numbers, the words each code
-uses and the refusal of a word no code of its block uses."""
+uses and the refusal of a word no code of its block uses, arcs by R, line ends at any piece
+boundary."""
 
 from __future__ import annotations
 
@@ -14,10 +15,11 @@ import numpy as np
 import pytest
 
 from retrofit.errors import GcodeError
-from retrofit.gcode import compile_program, plainscan
+from retrofit.gcode import compile_program, lazylines, plainscan
 from retrofit.gcode.blocks import make_block
 from retrofit.gcode.errors import RuleError
 from retrofit.gcode.lathepasses import Segment, rough
+from retrofit.gcode.lazylines import LazyLines
 from retrofit.machine.config import load_machine
 from retrofit.machine.tooltable import ToolTable
 
@@ -311,3 +313,14 @@ def test_an_arc_that_cannot_be_cut_is_refused_with_the_reason_and_the_numbers(bl
 def test_a_line_the_reader_cannot_split_into_words_is_refused_naming_it(line, message):
     with pytest.raises(GcodeError, match=f"^l.ngc:2: {message}"):
         compile_program("G21 G17 G90\n" + line + "\nM2\n", MILL, "l.ngc")
+
+
+def test_line_ends_are_the_same_whatever_piece_of_the_text_they_fall_at_the_end_of(monkeypatch):
+    # CR, LF and CR LF line ends, read in pieces of every size from 1 byte: a CR at the end of
+    # a piece ends its line unless the next piece starts with the LF of the same line end
+    text = "G0 X1\rG0 X2\r\nG0 X3\nG0 X4\r\rG0 X5\r\n\r\nG0 X6"
+    whole = [(line.number, line.words) for line in LazyLines(text)]
+    assert [n for n, _ in whole] == [1, 2, 3, 4, 6, 8]
+    for size in range(1, len(text) + 1):
+        monkeypatch.setattr(lazylines, "SCAN_BYTES", size)
+        assert [(line.number, line.words) for line in LazyLines(text)] == whole, size
