@@ -1,6 +1,7 @@
 """Controller paths a mutation run (bench/mutation.py) found no test took: a move entered faster
-than its feed after MFDR lowered it too late for the move before to slow down, and a thread
-pass's backlash take-up of an odd number of steps."""
+than its feed after MFDR lowered it too late for the move before to slow down, a thread
+pass's backlash take-up of an odd number of steps, a tick budget counted from the tick it is
+given at."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import pytest
 from retrofit.commands import MFdr, PFdr
 from retrofit.controller import Controller
 from retrofit.controller.program import run_commands
+from retrofit.errors import MotionError
 from retrofit.gcode import compile_program
 from retrofit.machine.config import load_machine
 from retrofit.sim import SimMachine
@@ -55,3 +57,20 @@ def test_a_thread_pass_takes_up_an_odd_backlash_before_it_cuts_and_ends_at_its_z
     trace = sim.traces["Z"]
     assert trace.carriage_mm[-1] == pytest.approx(-2.0, abs=1e-9)
     assert trace.motor_steps[-1] - max(trace.motor_steps) == -(5 * 80 + 3)
+
+
+def test_run_until_idle_gives_exactly_the_ticks_asked_counted_from_the_tick_it_is_called_at():
+    def started():
+        ctl = Controller(LATHE)
+        feed(ctl, [PFdr(600.0), z(-1)])
+        for _ in range(3):
+            ctl.tick()
+        return ctl
+    ctl = started()
+    ctl.run_until_idle(10**6)
+    needed = ctl.ticks - 3                                   # the 1 mm move's ticks from tick 3
+    ctl = started()
+    ctl.run_until_idle(needed)
+    assert ctl.ticks == 3 + needed and ctl.position_steps == (0, -50)
+    with pytest.raises(MotionError, match=f"still busy after {needed - 1} ticks"):
+        started().run_until_idle(needed - 1)
