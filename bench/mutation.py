@@ -32,17 +32,53 @@ from cosmic_ray.mutating import mutate_and_test
 from cosmic_ray.work_item import TestOutcome, WorkerOutcome
 
 ROOT = Path(__file__).resolve().parent.parent
+#: the quick cases (the interpreter alone) of files whose other tests run whole programs
+GCODE_CASES = [
+    "tests/test_rigid_tapping.py::test_taps_agree_with_rs274",
+    "tests/test_rigid_tapping.py::test_the_golden_set_has_taps_in_inch_incremental_m4_and_subroutines",
+    "tests/test_rigid_tapping.py::test_a_machine_without_a_reversible_spindle_refuses_with_the_reason",
+    "tests/test_rigid_tapping.py::test_tap_words_are_checked_with_the_line",
+    "tests/test_gcode_probing.py::test_a_machine_without_a_probe_input_refuses_with_the_line",
+    "tests/test_gcode_probing.py::test_g38_2_along_y_meets_the_near_side_of_the_beam",
+    "tests/test_gcode_probing.py::test_g38_2_without_contact_names_the_line",
+    "tests/test_gcode_probing.py::test_g38_4_backs_off_until_the_beam_clears_and_g38_3_may_miss",
+    "tests/test_gcode_probing.py::test_probing_from_a_tripped_beam_is_refused",
+    "tests/test_gcode_probing.py::test_probing_rules_as_linuxcnc",
+    "tests/test_gcode_probing.py::test_the_program_goes_on_from_the_trip_point_in_the_new_coordinates",
+    "tests/test_digital_io.py::test_a_machine_without_io_refuses_m62_with_its_line",
+    "tests/test_digital_io.py::test_m66_rising_edge_already_past_times_out",
+    "tests/test_digital_io.py::test_outputs_come_in_rs274s_order_between_the_moves",
+    "tests/test_digital_io.py::test_refusals_name_the_line_and_the_rule",
+    "tests/test_read_ahead.py::test_a_late_error_names_its_line_when_read_ahead",
+    "tests/test_read_ahead.py::test_a_plan_made_batch_by_batch_is_the_whole_plan_move_for_move",
+    "tests/test_read_ahead.py::test_the_interpreter_runs_only_as_far_as_the_first_batch_needs",
+    "tests/test_z_convention.py::test_the_same_pocket_lands_at_the_same_machine_z_on_every_mill",
+]
+#: the rigid tap through the controller (the spindle's turnaround), from the tapping file
+CONTROLLER_CASES = [f"tests/test_rigid_tapping.py::test_{name}" for name in (
+    "the_carriage_follows_the_spindle_angle_in_through_the_reversal_and_out",
+    "the_tap_reaches_the_programmed_depth_and_ends_where_it_started",
+    "the_spindle_turns_its_programmed_way_again_after_the_tap",
+    "the_two_way_encoder_counts_down_backwards_and_indexes_both_ways",
+    "a_spindle_that_turns_back_before_the_end_halts_the_move")]
 TESTS = {     # the new unit tests first: a mutant they kill stops the run early (-x)
     "motion": ["tests/test_mutants_motion.py", "tests/test_bresenham.py", "tests/test_dda.py",
                "tests/test_profile.py", "tests/test_stepgen.py", "tests/test_arcs.py", "tests/test_plan_arrays.py",
                "tests/test_stream.py", "tests/test_fast_equals_reference.py", "tests/test_lab_12.py"],
-    "gcode": ["tests/test_mutants_gcode.py", "tests/test_mutation_survivors.py", "tests/test_gcode.py",
+    "gcode": ["tests/test_gcode_paths.py", "tests/test_gcode_cycle_paths.py",
+              "tests/test_mutants_gcode.py", "tests/test_mutation_survivors.py", "tests/test_gcode.py",
               "tests/test_gcode_modal.py", "tests/test_spindle_modes.py", "tests/test_gcode_language.py",
               "tests/test_gcode_cutter.py", "tests/test_splines.py", "tests/test_lathe_passes.py",
-              "tests/test_fanuc_dialect.py", "tests/test_gcode_g76.py"],
-    "controller": ["tests/test_mutants_controller.py", "tests/test_mutation_survivors.py",
+              "tests/test_fanuc_dialect.py", "tests/test_gcode_g76.py", "tests/test_fanuc_programs.py",
+              "tests/test_fanuc_manuals.py", "tests/test_fanuc_twins.py", "tests/test_fanuc_rs274.py",
+              "tests/test_gcode_feedcap.py", "tests/test_gcode_rotary.py", "tests/test_cycles_spindle.py",
+              "tests/test_gcode_cam.py", "tests/test_gcode_corpus.py", "tests/test_plain_lines.py",
+              "tests/test_plain_messages.py", "tests/test_canon_rs274.py", "tests/test_gcode_rs274.py",
+              "tests/test_path_control.py", "tests/test_gcode_fuzz.py", *GCODE_CASES],
+    "controller": ["tests/test_controller_paths.py", "tests/test_mutants_controller.py", "tests/test_mutation_survivors.py",
                    "tests/test_controller_pipeline.py", "tests/test_controller_equivalence.py",
-                   "tests/test_controller_kernels.py", "tests/test_homing.py", "tests/test_threading.py"],
+                   "tests/test_controller_kernels.py", "tests/test_homing.py", "tests/test_threading.py",
+                   *CONTROLLER_CASES],
     "link": ["tests/test_mutants_link.py", "tests/test_link.py", "tests/test_link_hardening.py",
              "tests/test_protocol_table.py"],
     "backlash": ["tests/test_backlash_units.py", "tests/test_backlash.py"],

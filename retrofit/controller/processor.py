@@ -223,6 +223,7 @@ class Processor(FeedOverrides):
                 pieces = ramp_pieces(kin.length_mm, v0, kin.v_max_mm_s, exit_v, accel)
                 profile = MoveProfile(pieces[0][1])
                 profile.replan(0.0, pieces)
+                profile.length = kin.length_mm    # the whole move, not its first piece
                 exit_v = profile.exit_speed
         line = prepare_line(self._real(entry.start), self._real(entry.end))
         run = ClockRun(entry, line, kin, profile, self.t_plan, self.rate, self.dda)

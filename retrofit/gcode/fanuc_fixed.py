@@ -110,10 +110,11 @@ def pecking(start, x: float, z: float, shift: float, peck: float, back: float, r
     end = (x, z) if along_z else (z, x)
     d0, c0 = a                       # across (the shifted axis), along (the pecked axis)
     across, along = end
+    code, peck_word, shift_word = ("G74", "Q", "P") if along_z else ("G75", "P", "Q")
     if along != c0 and not peck > 0.0:
-        raise RuleError("G74/G75: Q (the peck depth) must be > 0")
+        raise RuleError(f"{code}: {peck_word} (the peck depth) must be > 0")
     if across != d0 and not shift > 0.0:
-        raise RuleError("G74/G75: P (the shift between rows) must be > 0")
+        raise RuleError(f"{code}: {shift_word} (the shift between rows) must be > 0")
     rows = [d0] if across == d0 else _steps(d0, across, shift)
     into = 1.0 if along >= c0 else -1.0
     side = 1.0 if across >= d0 else -1.0

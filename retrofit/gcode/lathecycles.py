@@ -119,17 +119,17 @@ def _profile(runner, src, sub: str, start: tuple, name: str, across: float) -> l
              for k, t in line.words}
         if "G" in w:
             motion = w["G"]
+            if motion not in (0.0, 1.0, 2.0, 3.0):      # named on its own line, moving or not
+                raise RuleError(f"{name} Q{sub}: G{motion:g} in the profile (line {line.number}); "
+                                f"the profile is G0, G1, G2, G3 moves")
         end = (w.get("Z", here[0]), w["X"] / across if "X" in w else here[1])
         if end == here or motion is None:
             continue
         if motion in (0.0, 1.0):
             path.append(Segment("line", here, end))
-        elif motion in (2.0, 3.0):
+        else:
             kind = "ccw" if motion == 3.0 else "cw"
             path.append(Segment(kind, here, end, _centre(runner, here, end, motion, w, name)))
-        else:
-            raise RuleError(f"{name} Q{sub}: G{motion:g} in the profile (line {line.number}); "
-                            f"the profile is G0, G1, G2, G3 moves")
         here = end
     return path
 

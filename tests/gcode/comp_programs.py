@@ -65,6 +65,10 @@ def compensation() -> dict[str, str]:
     p["crc-g18-lathe-orientation"] = ("G18 G21 G90 G94 G40\nF100\nG0 X30 Z5\nG41.1 D1.6 L3\n"
                                       "G1 X20 Z0\nG1 Z-20\nG3 X10 Z-30 R10\nG1 Z-40\n"
                                       "G40 G1 X5 Z-45\nM2\n")
+    # every insert orientation L1..L9 on one profile: each shifts the reference corner its own way
+    p["crc-g18-lathe-orientations"] = "G18 G21 G90 G94 G40\nF100\n" + "".join(
+        f"G0 X30 Z5\nG42.1 D1.6 L{q}\nG1 X20 Z0\nG1 Z-20\nG2 X25 Z-25 R5\nG40 G1 X40 Z-30\n"
+        for q in range(1, 10)) + "M2\n"
     p["crc-g18-lathe-arc-entry"] = ("G18 G21 G90 G94 G40\nF100\nG0 X30 Z5\nG42.1 D1.6 L2\n"
                                     "G2 X20 Z-5 R10\nG1 Z-30\nG40 G1 X40 Z-30\nM2\n")
     return p

@@ -25,6 +25,10 @@ POCKET_ARC = ("O100 SUB\nG0 X8 Z1\nG1 Z-5\nG2 X8 Z-13 I0 K-4\nG1 Z-16\nX10 Z-18\
 FACE = ("O100 SUB\nG0 X0 Z0\nG1 X4\nZ-1\nX8 Z-2\nZ-4\nG3 X10 Z-6 I0 K-2\nG1 X14\nO100 ENDSUB\n")
 #: a facing profile with a pocket on the face
 FACE_POCKET = ("O100 SUB\nG0 X0 Z-1\nG1 X3\nZ-4\nX6\nZ-2\nX9\nZ-6\nX14\nO100 ENDSUB\n")
+#: a diameter running into a concave G3 and a G3 rising from the axis: offset, each meets the
+#: next segment inside the corner, not at its end
+CONCAVE = ("O100 SUB\nG0 X4 Z1\nG1 X6 Z0\nZ-5\nG3 X10 Z-9 I0 K-4\nG1 Z-12\nX14\nO100 ENDSUB\n")
+BALL = ("O100 SUB\nG0 X2 Z1\nG1 X2 Z0\nG3 X6 Z-4 I0 K-4\nG1 Z-12\nX14\nO100 ENDSUB\n")
 #: a bore: X climbs from the start (inside the part)
 BORE = ("O100 SUB\nG0 X10 Z1\nG1 Z-3\nX8 Z-5\nZ-10\nG3 X6 Z-12 I-2 K0\nG1 Z-18\nX2\n"
         "O100 ENDSUB\n")
@@ -39,6 +43,9 @@ def lathe_cycles() -> dict[str, str]:
     g0 = "G0 X16 Z3\n"
     p["g71-turn"] = _prog(TURN, g0 + "G71 Q100 X16 Z3 I1 R0.5\n")
     p["g71-turn-allowance"] = _prog(TURN, g0 + "G71 Q100 X16 Z3 D0.4 I0.8 R0.3\n")
+    p["g71-turn-allowance-under"] = _prog(TURN, g0 + "G71 Q100 X16 Z3 D-0.3 I0.8 R0.3\n")   # under size
+    p["g71-concave-arc-allowance"] = _prog(CONCAVE, g0 + "G71 Q100 X16 Z3 D0.4 I0.8 R0.3\n")
+    p["g71-arc-from-axis-allowance"] = _prog(BALL, g0 + "G71 Q100 X16 Z3 D0.4 I0.8 R0.3\n")
     p["g71-turn-no-xz"] = _prog(TURN, g0 + "G71 Q100 D0.2 I1.5\n")
     p["g71-turn-r-arcs"] = _prog(TURN_R, g0 + "G71 Q100 X16 Z3 D0.3 I1 R0.5\n")
     p["g71-turn-then-g70"] = _prog(TURN, g0 + "G71 Q100 X16 Z3 D0.5 I1\nG70 Q100 X16 Z3 D0.5 E0.1 P3\n")
