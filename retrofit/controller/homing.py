@@ -58,6 +58,7 @@ class HomeRun:
         self.axis: str | None = None
         self.phase = "next"
         self.jog: Jog | None = None
+        self.backoff_from: int | None = None
 
     @property
     def done(self) -> bool:
@@ -101,11 +102,17 @@ class HomeRun:
         return min(mm_min / 60.0, axis.max_velocity_mm_s) * axis.steps_per_mm
 
     def _travel(self, tick: int, pulses, mm_min: float, what: str) -> None:
-        if self.jog.steps > self.max_steps:
+        jog = self._jog()
+        if jog.steps > self.max_steps:
             raise MotionError(f"homing {self.axis}: {what} not found within {self.max_steps} steps "
                               f"({self.max_steps / self.machine.axes[self.i].steps_per_mm:.1f} mm); "
                               f"check the switch and its wiring ([switches] in {self.machine.name})")
-        self.jog.step(tick, pulses, self._speed(mm_min))
+        jog.step(tick, pulses, self._speed(mm_min))
+
+    def _jog(self) -> Jog:
+        if self.jog is None:
+            raise MotionError(f"homing {self.axis}: no phase under way")
+        return self.jog
 
     def _stop(self, pulses) -> None:
         pulses.queues[self.i].clear()
@@ -119,9 +126,10 @@ class HomeRun:
 
     def _backoff(self, tick: int, closed: set[str], pulses) -> None:
         clear = self.seek_switch.name not in closed and self.ref_switch.name not in closed
+        steps = self._jog().steps
         if clear and self.backoff_from is None:
-            self.backoff_from = self.jog.steps
-        if clear and self.jog.steps - self.backoff_from >= round(
+            self.backoff_from = steps
+        if clear and self.backoff_from is not None and steps - self.backoff_from >= round(
                 self.how.backoff_mm * self.machine.axes[self.i].steps_per_mm):
             self._stop(pulses)
             self._phase("latch", self.ref_switch.side)

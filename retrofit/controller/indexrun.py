@@ -30,6 +30,7 @@ from fractions import Fraction
 from ..errors import MotionError
 from ..motion.bresenham import LineMove
 from ..motion.indexer import IndexerExecutor, IndexerTrack, lead_in_counts, steps_per_rev
+from .turnaround import Turnaround
 
 #: a pass that sees no index pulse this long while it waits to synchronise stops with an error
 #: (the firmware's INDEX_TIMEOUT_MS too)
@@ -54,10 +55,11 @@ class IndexRun:
         self.sign = -1 if self.signed and direction < 0 else 1   # the move's frame of counts
         # where the previous ISTP move's line ended (given in the encoder's counts)
         self.origin = None if chained_from is None else chained_from * self.sign
-        self.turn = None                      # a Turnaround when the spindle reverses at the end
+        self.turn: Turnaround | None = None   # a Turnaround when the spindle reverses at the end
         self.phase = "takeup"
         self.seen = None                      # the index count last seen while waiting
-        self.index_at = None                  # the tick it was last seen to change
+        self.index_at: int | None = None      # the tick it was last seen to change
+        self._last_index = -1                 # the index count at that tick
         self.timeout_ticks = round(INDEX_TIMEOUT_S * self.rate)
         self.track: IndexerTrack | None = None
         self.executor: IndexerExecutor | None = None
@@ -100,24 +102,28 @@ class IndexRun:
             self._watch_index(tick, inputs)
         if self.phase == "sync":
             self._synchronise(inputs, pulses)
-        if self.phase == "armed" and inputs.count >= self.track.start_count:
+        track, executor = self.track, self.executor
+        if self.phase == "armed" and track is not None and inputs.count >= track.start_count:
             self.phase = "run"
         if self.phase == "run":
+            assert track is not None and executor is not None, "a run without its track"
             if self.turn is not None:
-                self._turning(tick, inputs.count)
-            for cycle in self.executor.advance(inputs.count):
+                self._turning(tick, inputs.count, track)
+            for cycle in executor.advance(inputs.count):
                 for axis, step in enumerate(cycle):
                     if step:
                         pulses.request(axis, tick + 1, step)
-            if self.executor.done:
+            if executor.done:
                 self.phase = "done"
                 if self.turn is not None and self.turn.issued_at is None:
                     self.turn.issue(tick)         # not due earlier (a very short move): now
 
-    def _turning(self, tick: int, count: int) -> None:
+    def _turning(self, tick: int, count: int, track: IndexerTrack) -> None:
+        turn = self.turn
+        assert turn is not None
         step_counts = self.spindle.encoder_counts_per_rev / float(self.s)
-        self.turn.watch(tick, count, float(self.track.start_count), float(self.track.end_count), step_counts)
-        self.turn.check(count, step_counts, str(self.entry.cmd))
+        turn.watch(tick, count, float(track.start_count), float(track.end_count), step_counts)
+        turn.check(count, step_counts, str(self.entry.cmd))
 
     def _take_up(self, tick: int, pulses) -> None:
         """The clearance steps, timed as a start from rest at the axis's acceleration."""

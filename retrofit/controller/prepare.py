@@ -225,10 +225,12 @@ class Walker:
         if isinstance(cmd, ZMov):             # machine zero, on a machine without switches
             for name in cmd.names or machine.axis_names:
                 target[self._axis(name)] = 0
-        else:
+        elif isinstance(cmd, (FMov, PMov, Prob, Pstn)):
             for name, mm in cmd.axes:
                 i = self._axis(name)
                 target[i] = machine.axes[i].to_steps(mm) + self.offset[i]
+        else:
+            raise MotionError(f"{cmd}: not a move; no target to plan")
         for i, axis in enumerate(machine.axes):
             if not axis.min_steps <= target[i] <= axis.max_steps:
                 raise MotionError(f"{cmd}: {axis.name} {axis.to_mm(target[i]):.3f} mm is outside the "

@@ -43,8 +43,10 @@ class ClockRun:
 
     def _tick_at(self, position: float) -> int:
         """The tick nearest the time the tool is ``position`` base steps along the move."""
-        s = position * self.profile.length / self.line.n
-        return tick_of(self.t0 + self.profile.time_at(s), self.rate)
+        prof = self.profile
+        assert prof is not None, "a move without a profile has no ticks"
+        s = position * prof.length / self.line.n
+        return tick_of(self.t0 + prof.time_at(s), self.rate)
 
     def next_due(self) -> int | None:
         """Tick of the next cycle's base step (None when the move is done)."""
@@ -56,8 +58,7 @@ class ClockRun:
 
     def generate(self, limit: int, pulses) -> None:
         """Compute every cycle whose base step is due by tick ``limit``; queue its steps."""
-        while not self.done and self.next_due() <= limit:
-            due = self._due
+        while (due := self.next_due()) is not None and due <= limit:
             self.cycle += 1
             self._due = None
             if self.bresenham is not None:
@@ -65,8 +66,9 @@ class ClockRun:
                     if step:
                         pulses.request(axis, due, step)
                 continue
-            line = self.line
-            for axis, delay in enumerate(self.dda.step()):
+            line, dda = self.line, self.dda
+            assert dda is not None
+            for axis, delay in enumerate(dda.step()):
                 if delay is not None:
                     self.sent[axis] += 1
                     d = abs(line.delta[axis])
@@ -84,27 +86,30 @@ class ClockRun:
 
     def position_mm(self) -> float:
         """How far along the move (mm) the cycles computed so far have got."""
-        return float(self.cycle) * self.profile.length / self.line.n
+        prof = self.profile
+        return 0.0 if prof is None else float(self.cycle) * prof.length / self.line.n
 
     def position_at_tick(self, tick: int) -> float:
         """Where along the move (mm) the tool is on the profile at ``tick``: past the last cycle
         computed, short of the next one (whose step is due later)."""
         s = self.position_mm()
         t = tick / self.rate - self.t0
-        if self.done or self.profile.time_at(s) >= t:
+        prof = self.profile
+        if self.done or prof is None or prof.time_at(s) >= t:
             return s
-        nxt = min(float(self.cycle + 1) * self.profile.length / self.line.n, self.profile.length)
-        return self.profile.position_at(t, s, nxt)
+        nxt = min(float(self.cycle + 1) * prof.length / self.line.n, prof.length)
+        return prof.position_at(t, s, nxt)
 
     def replan(self, kin: Kinematics, exit_speed: float, accel: float, s: float) -> None:
         """Follow a new speed cap from ``s`` mm on (see :meth:`position_at_tick`): the rest of the
         move re-planned from the speed there, so the steps owed since the last cycle come at the
         new pace, not at once."""
         self.kin = kin
-        if self.done:
+        prof = self.profile
+        if self.done or prof is None:
             return
-        v = self.profile.speed_at(s)
-        self.profile.replan(s, ramp_pieces(self.profile.length - s, v, kin.v_max_mm_s, exit_speed, accel))
+        v = prof.speed_at(s)
+        prof.replan(s, ramp_pieces(prof.length - s, v, kin.v_max_mm_s, exit_speed, accel))
         self._due = None
 
 

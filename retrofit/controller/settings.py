@@ -161,6 +161,7 @@ def read_homing_section(sec: Section, axes: tuple[Axis, ...]) -> Homing:
     per_axis = {}
     for key in [k for k in sec._data if k != "order"]:
         sub = sec.section(key)
+        assert sub is not None          # a required section is there or refused
         axis = key.upper()
         if axis not in order:
             raise ConfigError(f"{sec.file} [homing.{key}]: axis {axis} is not in [homing] order "

@@ -125,7 +125,7 @@ class DeviceEndpoint:
             self.on_frame()                     # an intact frame: a sign of life of a host
         if frame.payload[0] == SYNC and not frame.bound:
             self._sync(channel, number, frame)
-        elif not frame.bound:                   # rule 2: of no session this device runs
+        elif not frame.bound or last is None:   # rule 2: of no session this device runs
             self.stats.unbound += 1
             self._error(frame.seq, ERR_NOT_SYNCED, 0, bound=False)
         elif number == last:
@@ -144,9 +144,9 @@ class DeviceEndpoint:
         taken since): only a new nonce opens a new session."""
         if len(frame.payload) != SYNC_LEN:
             self._error(frame.seq, ERR_LENGTH, SYNC, bound=False)
-        elif frame.payload[1:] == self._nonce[channel] and self._session[channel] is not None:
+        elif frame.payload[1:] == self._nonce[channel] and (session := self._session[channel]) is not None:
             self.stats.stale_syncs += 1          # the running session's SESS again, unbound
-            self._out += encode_frame(frame.seq, encode_reply(Session(self._session[channel]), self.machine))
+            self._out += encode_frame(frame.seq, encode_reply(Session(session), self.machine))
         else:
             self._nonce[channel] = frame.payload[1:]
             self._session[channel] = None          # the SESS answer itself is not bound

@@ -97,6 +97,13 @@ class _Channel:
     busy_since: float | None = None   # first BUSY for the current frame
 
 
+def _current(ch: _Channel) -> Transaction:
+    """The channel's frame in flight; a channel asked for one with none is the link's own fault."""
+    if ch.current is None:
+        raise LinkError(f"serial link, channel {ch.number}: no frame in flight (sequence {ch.seq})")
+    return ch.current
+
+
 class HostEndpoint:
     """The host side of the link for one machine (its axes turn mm into steps)."""
 
@@ -183,8 +190,9 @@ class HostEndpoint:
             if ch.current is None:
                 continue
             if ch.busy_wait:
-                if self.busy_limit_s is not None and now - ch.busy_since >= self.busy_limit_s:
-                    self._fail(ch, f"the device answered BUSY for {now - ch.busy_since:.3g} s "
+                waited = now - (now if ch.busy_since is None else ch.busy_since)
+                if self.busy_limit_s is not None and waited >= self.busy_limit_s:
+                    self._fail(ch, f"the device answered BUSY for {waited:.3g} s "
                                f"(limit {self.busy_limit_s:g} s)", now)
                 elif now >= ch.deadline:
                     ch.busy_wait = False
@@ -226,16 +234,17 @@ class HostEndpoint:
         self._transmit(ch, now)
 
     def _transmit(self, ch: _Channel, now: float) -> None:
+        t = _current(ch)
         ch.tries += 1
-        ch.current.sends += 1
+        t.sends += 1
         self.stats.frames_sent += 1
-        self.stats.resends += ch.current.sends > 1
+        self.stats.resends += t.sends > 1
         ch.deadline = now + self.timeout_s
         self._out += ch.frame
 
     def _resend(self, ch: _Channel, now: float) -> None:
         if ch.tries >= self.max_tries:
-            ch.current.unacknowledged = True
+            _current(ch).unacknowledged = True
             self._fail(ch, f"{MAY_HAVE_RUN} ({ch.tries} tries, {self.timeout_s:g} s timeout each; "
                        "is the device on, at the same baud rate, running the same protocol?)", now)
         else:
@@ -265,14 +274,14 @@ class HostEndpoint:
                        f"{ch.current.expected.__name__.upper()}; is it running the same protocol?",
                        now)
         else:
-            if ch.current.cmd is None:
+            if ch.current.cmd is None and isinstance(reply, Session):
                 ch.synced, ch.session = True, reply.number
                 self.stats.sessions += 1
             ch.current.reply = reply
             self._next(ch, now)
 
     def _fail(self, ch: _Channel, why: str, now: float) -> None:
-        t = ch.current
+        t = _current(ch)
         t.error = LinkError(f"serial link, {'immediate' if ch.number else 'queued'} channel: "
                             f"{t.name} (sequence {ch.seq}, sent {t.sends} times): {why}")
         self._failures.append(t.error)

@@ -70,6 +70,8 @@ def _wait_until_ended(link: HostLink, cmd: Prob, deadline: float | None, poll_s:
     """RDST until the device has no move, dwell or queued command left; its last status."""
     while True:
         status = link.request(Rdst())
+        if not isinstance(status, Status):
+            raise MotionError(f"{cmd} over {link.name}: RDST answered {status}, not a status")
         names = ", ".join(flag_names(status.flags)) or "no flags"
         if status.flags & _FAILED:
             raise MotionError(f"{cmd} over {link.name}: the device reports "
