@@ -656,17 +656,7 @@ static void events(void)
     }
 }
 
-/* ---- the firmware's idle sleep ----------------------------------------------------------- */
-
-/* While the CPU sleeps, simavr jumps to its next cycle timer. Its own sleep callback would also
- * wait that time out on the wall clock: the harness paces with --speed instead. */
-static void no_wall_sleep(avr_t *a, avr_cycle_count_t how_long) { (void)a; (void)how_long; }
-
-static avr_cycle_count_t alarm_rang(avr_t *a, avr_cycle_count_t when, void *param)
-{
-    (void)a; (void)when; (void)param;
-    return 0;
-}
+/* ---- the harness's own events ------------------------------------------------------------ */
 
 /* The harness's own next event after now (a grant's end, a script's bytes, a glitch's edge, the
  * stall, the bootloader's end, a socket poll, the run's end; ~0: none): now itself while the
@@ -691,13 +681,6 @@ static unsigned long long next_event(unsigned long long next_poll, unsigned long
     return stall_at && !stall_state && now >= stall_at ? now : next;
 }
 
-/* A cycle timer at that event, so that a sleeping CPU does not jump past it. */
-static void set_alarm(unsigned long long next)
-{
-    if (next > avr->cycle && next != ~0ULL)
-        avr_cycle_timer_register(avr, next - avr->cycle, alarm_rang, NULL);
-}
-
 /* ---- interrupt figures ------------------------------------------------------------------ */
 
 static int want_stats;
@@ -705,7 +688,6 @@ static unsigned long long off_start, off_longest_main, off_longest_isr, isr_cycl
 static unsigned long long isr_longest, off_pc, off_main_pc, off_isr_pc, off_isr_end;
 static int was_off, was_isr, last_ptr;
 static unsigned long entries[64];          /* interrupts taken, by vector */
-static unsigned long long slept;           /* cycles the CPU slept (simavr jumped over them) */
 
 static void account(void)
 {
@@ -899,7 +881,6 @@ int main(int argc, char **argv)
     fw.frequency = 16000000;
     avr_load_firmware(avr, &fw);
     avr->frequency = 16000000;
-    avr->sleep = no_wall_sleep;
 
     static const char ports[] = "ABCDFHKL";
     for (const char *p = ports; *p; p++)
@@ -980,13 +961,7 @@ int main(int argc, char **argv)
          * signal: run the AVR in a tight loop (per instruction for --stats, and while bytes
          * wait for the receiver) */
         do {
-            unsigned long long before = avr->cycle;
-            int sleeping = avr->state == cpu_Sleeping;
-            if (sleeping)
-                set_alarm(next);
             state = avr_run(avr);
-            if (sleeping)
-                slept += avr->cycle - before;
             if (want_stats)
                 account();
         } while (avr->cycle < next && !want_stats && rx_tail == rx_head && !flag_sent && !stop_now
@@ -995,9 +970,9 @@ int main(int argc, char **argv)
     if (vcd_path)
         avr_vcd_stop(&vcd);
     if (want_stats) {
-        printf("stats cycles=%llu sleep_cycles=%llu isr_cycles=%llu isr_longest=%llu off_main_longest=%llu "
+        printf("stats cycles=%llu isr_cycles=%llu isr_longest=%llu off_main_longest=%llu "
                "off_isr_longest=%llu off_main_pc=%llu off_isr_pc=%llu off_isr_end=%llu", (unsigned long long)avr->cycle,
-               slept, isr_cycles, isr_longest, off_longest_main, off_longest_isr, off_main_pc, off_isr_pc, off_isr_end);
+               isr_cycles, isr_longest, off_longest_main, off_longest_isr, off_main_pc, off_isr_pc, off_isr_end);
         for (int v = 0; v < 64; v++)          /* the interrupts taken, by vector number */
             if (entries[v])
                 printf(" vector%d=%lu", v, entries[v]);
