@@ -27,6 +27,10 @@
  * --pipe runs in lockstep with the process that started it: stdin gives "B HEXBYTES" (bytes for the
  * USART now) and "R CYCLE" (run until then), stdout answers "U CYCLE BYTE" for each byte sent and
  * "A CYCLE" when it got there; the run ends at EOF. The AVR's time is then the host's only clock.
+ * Each "U" line ends with every axis's step count (--axis order) at that cycle; "W CYCLE" runs
+ * like "R CYCLE" but stops early just after the firmware sends a 0x7E (a frame's flag), so a
+ * host may grant long stretches and still see each answer at once. --no-port-log leaves the P
+ * lines out of the log (a long run that checks its steps on the "U" lines' counts).
  * --glitch PIN,CYCLE,CYCLES,LEVEL drives an input to LEVEL for CYCLES from CYCLE, then gives it
  * back its level (a switch's bounce; repeatable). --stall CYCLE[,cli] makes the main loop hang at
  * the first instruction it runs from CYCLE on: the CPU jumps to a loop of its own (with ",cli"
@@ -63,6 +67,7 @@
 
 static avr_t *avr;
 static FILE *log_file;
+static int log_ports = 1;                 /* --no-port-log: no P lines */
 static volatile sig_atomic_t stop_now;
 
 /* ---- the machine on the pins ----------------------------------------------------------- */
@@ -211,7 +216,7 @@ static void port_changed(struct avr_irq_t *irq, uint32_t value, void *param)
     if (old == (uint8_t)value)
         return;
     out_ports[port - 'A'] = (uint8_t)value;
-    if (log_file)
+    if (log_file && log_ports)
         fprintf(log_file, "P %llu %c %02x\n", (unsigned long long)avr->cycle, port, value & 0xFF);
     int moved = 0;
     for (int i = 0; i < n_axes; i++) {
@@ -375,7 +380,7 @@ static void pwm_pin_changed(struct avr_irq_t *irq, uint32_t value, void *param)
     if ((int)(value & 1) == last)
         return;
     last = (int)(value & 1);
-    if (log_file)
+    if (log_file && log_ports)
         fprintf(log_file, "P %llu W %02x\n", (unsigned long long)avr->cycle, (value & 1) << 4);
 }
 
@@ -412,6 +417,7 @@ static int uart_xon = 1;
 static int client = -1;
 static int pipe_mode;                     /* --pipe: lockstep with the parent over stdin / stdout */
 static unsigned long long run_until;
+static int stop_at_flag, flag_sent;       /* "W CYCLE": stop early after a 0x7E sent */
 
 static void uart_out(struct avr_irq_t *irq, uint32_t value, void *param)
 {
@@ -422,8 +428,13 @@ static void uart_out(struct avr_irq_t *irq, uint32_t value, void *param)
         fprintf(log_file, "U %llu %02x\n", (unsigned long long)avr->cycle, byte);
     if (client >= 0 && send(client, &byte, 1, MSG_NOSIGNAL) < 0)
         client = -1;
-    if (pipe_mode)
-        printf("U %llu %02x\n", (unsigned long long)avr->cycle, byte);
+    if (pipe_mode) {
+        printf("U %llu %02x", (unsigned long long)avr->cycle, byte);
+        for (int i = 0; i < n_axes; i++)
+            printf(" %ld", axes[i].steps);
+        printf("\n");
+        flag_sent |= stop_at_flag && byte == 0x7E;
+    }
 }
 
 static void uart_xon_cb(struct avr_irq_t *irq, uint32_t value, void *param)
@@ -553,13 +564,17 @@ static void pipe_turn(void)
     static size_t cap;
     printf("A %llu\n", (unsigned long long)avr->cycle);
     fflush(stdout);
-    while (avr->cycle >= run_until) {
+    flag_sent = 0;
+    for (int granted = 0; !granted;) {
         if (getline(&line, &cap, stdin) <= 0) {
             stop_now = 1;
             return;
         }
-        if (line[0] == 'R')
+        if (line[0] == 'R' || line[0] == 'W') {
             run_until = strtoull(line + 1, NULL, 10);
+            stop_at_flag = line[0] == 'W';
+            granted = run_until > avr->cycle;
+        }
         else if (line[0] == 'B')
             for (char *p = line + 2; p[0] && p[1] && p[0] != '\n'; p += 2) {
                 unsigned v;
@@ -639,6 +654,31 @@ static void events(void)
         if (log_file)
             fprintf(log_file, "S %llu\n", now);
     }
+}
+
+/* ---- the harness's own events ------------------------------------------------------------ */
+
+/* The harness's own next event after now (a grant's end, a script's bytes, a glitch's edge, the
+ * stall, the bootloader's end, a socket poll, the run's end; ~0: none): now itself while the
+ * stall waits for its moment. */
+static unsigned long long next_event(unsigned long long next_poll, unsigned long long max_cycles)
+{
+    unsigned long long next = next_poll, now = avr->cycle;
+#define SOONER(c) if ((c) > now && (c) < next) next = (c)
+    if (pipe_mode)
+        SOONER(run_until);
+    if (script_next < n_script)
+        SOONER(script[script_next].cycle);
+    if (max_cycles)
+        SOONER(max_cycles);
+    if (boot_cycles)
+        SOONER(boot_cycles);
+    if (stall_at && !stall_state)
+        SOONER(stall_at);
+    for (int i = 0; i < n_glitches; i++)
+        SOONER(glitches[i].state == 0 ? glitches[i].at : glitches[i].at + glitches[i].cycles);
+#undef SOONER
+    return stall_at && !stall_state && now >= stall_at ? now : next;
 }
 
 /* ---- interrupt figures ------------------------------------------------------------------ */
@@ -728,6 +768,7 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--speed")) { speed = atof(v); i++; }
         else if (!strcmp(a, "--once")) once = 1;
         else if (!strcmp(a, "--pipe")) pipe_mode = 1;
+        else if (!strcmp(a, "--no-port-log")) log_ports = 0;
         else if (!strcmp(a, "--boot-ms")) { boot_cycles = (unsigned long long)(atof(v) * 16000.0); i++; }
         else if (!strcmp(a, "--stats")) want_stats = 1;
         else if (!strcmp(a, "--stall")) {
@@ -893,7 +934,7 @@ int main(int argc, char **argv)
     while (!stop_now && state != cpu_Done && state != cpu_Crashed) {
         if (max_cycles && avr->cycle >= max_cycles)
             break;
-        if (pipe_mode && avr->cycle >= run_until) {
+        if (pipe_mode && (avr->cycle >= run_until || flag_sent)) {
             pipe_turn();
             if (stop_now)
                 break;
@@ -915,9 +956,16 @@ int main(int argc, char **argv)
             }
         }
         events();
-        state = avr_run(avr);
-        if (want_stats)
-            account();
+        unsigned long long next = next_event(listen_at || speed > 0 ? next_poll : ~0ULL, max_cycles);
+        /* up to the harness's next event nothing above can happen but a frame's flag sent or a
+         * signal: run the AVR in a tight loop (per instruction for --stats, and while bytes
+         * wait for the receiver) */
+        do {
+            state = avr_run(avr);
+            if (want_stats)
+                account();
+        } while (avr->cycle < next && !want_stats && rx_tail == rx_head && !flag_sent && !stop_now
+                 && state != cpu_Done && state != cpu_Crashed);
     }
     if (vcd_path)
         avr_vcd_stop(&vcd);

@@ -23,13 +23,17 @@ from .sim import F_CPU, Harness, HarnessError, HarnessLog, _die_with_parent
 class Lockstep:
     """One harness run in lockstep: :meth:`write` bytes, :meth:`advance` the AVR, :meth:`stop`."""
 
-    def __init__(self, elf: Path, machine: Machine, **harness_options):
+    def __init__(self, elf: Path, machine: Machine, *, port_log: bool = True, **harness_options):
         """``harness_options``: those of :class:`retrofit.firmware.sim.Harness` (wiring, spindle,
-        start steps...), except ``listen``, ``script`` and ``speed``."""
+        start steps...), except ``listen``, ``script`` and ``speed``; ``port_log=False``: the log
+        holds no pin changes (a long run checks its steps on :attr:`sent`'s counts instead)."""
         self.harness = Harness(elf, machine, **harness_options)
-        self.harness.args.append("--pipe")
+        self.harness.args += ["--pipe"] + ([] if port_log else ["--no-port-log"])
         self.cycle = 0
         self._pending = bytearray()
+        #: (cycle, byte, the harness's step count of each axis then) of every byte the firmware
+        #: sent; the counts in the firmware's axis order (sim.firmware_axes)
+        self.sent: list[tuple[int, int, tuple[int, ...]]] = []
 
     @property
     def now(self) -> float:
@@ -49,13 +53,14 @@ class Lockstep:
 
     sendall = write                       # so that a line filter written for a socket takes it
 
-    def advance(self, cycles: int) -> bytes:
-        """Run ``cycles`` more AVR cycles; the bytes the firmware sent meanwhile."""
+    def advance(self, cycles: int, early: bool = False) -> bytes:
+        """Run ``cycles`` more AVR cycles (``early``: or until just after the firmware sends a
+        frame's flag, 0x7E); the bytes the firmware sent meanwhile."""
         proc = self.harness.proc
         out = f"B {self._pending.hex()}\n" if self._pending else ""
         self._pending.clear()
         try:
-            proc.stdin.write(out + f"R {self.cycle + max(1, int(cycles))}\n")
+            proc.stdin.write(out + f"{'W' if early else 'R'} {self.cycle + max(1, int(cycles))}\n")
             proc.stdin.flush()
         except BrokenPipeError:
             raise HarnessError(f"the harness ended at cycle {self.cycle}") from None
@@ -65,7 +70,9 @@ class Lockstep:
         got = bytearray()
         for line in self.harness.proc.stdout:
             if line.startswith("U "):
-                got.append(int(line.split()[2], 16))
+                _, cycle, byte, *counts = line.split()
+                got.append(int(byte, 16))
+                self.sent.append((int(cycle), got[-1], tuple(map(int, counts))))
             elif line.startswith("A "):
                 self.cycle = int(line.split()[1])
                 return bytes(got)

@@ -35,12 +35,13 @@ from ..link.host import HostEndpoint
 from ..link.replies import Position, Status, StatusFlags, flag_names
 from ..machine.config import Machine
 from .lockstep import Lockstep
-from .sim import F_CPU, ROOT, HarnessLog
+from .sim import F_CPU, ROOT, HarnessLog, firmware_axes
 from .stress import _Line, _text, answer_cycles, pin_positions, random_moves
 
 MACHINE = ROOT / "bench" / "stressmix.toml"
 SPAN = 40_000                                      # steps from zero the moves keep within
-QUANTUM = 32_000                                   # cycles the host waits at most between looks: 2 ms
+QUANTUM = 32_000                                   # cycles of a pause at rest: 2 ms
+LONGEST = 320_000                                  # cycles the host lets pass at most between looks
 BAD = StatusFlags.ERROR | StatusFlags.STOPPED | StatusFlags.STEP_ERROR
 
 
@@ -63,6 +64,7 @@ class MixRun:
     garbage_bytes: int = 0
     dropped_bytes: int = 0
     log: HarnessLog | None = None
+    sent: list[tuple[int, int, tuple[int, ...]]] = field(default_factory=list)   # Lockstep.sent
     link: dict = field(default_factory=dict)
     error: str = ""
     host_gap_s: float = 0.0                          # (for firmware_stress._Line; no wall clock here)
@@ -144,9 +146,10 @@ class _Host:
                 self.last_poll = self.host.send(parse_command("RDST"), now)
             self.host.poll(now)
             self.line.write(self.host.take_output())
-            due = [d for d in (self.host.next_deadline(), self.next_poll if polling else None) if d]
-            ahead = min([QUANTUM / F_CPU] + [d - now for d in due])
-            data = self.board.advance(max(QUANTUM // 8, int(ahead * F_CPU)))
+            due = [d for d in (self.host.next_deadline(), self.next_poll if polling else None,
+                               getattr(t, "until", 0) / F_CPU) if d]
+            ahead = min([LONGEST / F_CPU] + [d - now for d in due])
+            data = self.board.advance(max(QUANTUM // 8, int(ahead * F_CPU)), early=True)
             if data:
                 self.host.receive(data, self.board.now)
 
@@ -183,13 +186,15 @@ class _Later:
 
 def mix_run(elf: Path, machine: Machine, *, seed: int, parts: int, top_rate: float = 60_000.0,
             garbage: float = 0.05, drop: float = 0.02, poll_ms: tuple[float, float] = (2.0, 20.0),
-            limit_s: float = 600.0, spindle_rpm: float = 0.0, min_s: float = 0.0) -> MixRun:
+            limit_s: float = 600.0, spindle_rpm: float = 0.0, min_s: float = 0.0,
+            pins: bool = True) -> MixRun:
     """Run ``parts`` random parts (seeded) on the firmware in simavr; see the module's text.
     ``min_s``: stop after the part that brings the AVR's time to it (the parts not run are
-    dropped); ``spindle_rpm``: an encoder at that fixed speed instead of the spindle model."""
+    dropped); ``spindle_rpm``: an encoder at that fixed speed instead of the spindle model;
+    ``pins=False``: no log of the pins, the harness's step counts as each byte left are checked."""
     rng = random.Random(seed)
     run = MixRun(seed, random_parts(machine, rng, parts, top_rate))
-    board = Lockstep(elf, machine, spindle_rpm=spindle_rpm).start()
+    board = Lockstep(elf, machine, spindle_rpm=spindle_rpm, port_log=pins).start()
     try:
         host = _Host(board, machine, rng, run, garbage, drop, poll_ms, limit_s)
         for part in run.parts:
@@ -207,6 +212,7 @@ def mix_run(elf: Path, machine: Machine, *, seed: int, parts: int, top_rate: flo
         run.error = f"{type(exc).__name__}: {exc} (at {board.now:.3f} simulated s)"
     finally:
         run.log = board.stop()
+        run.sent = board.sent
     return run
 
 
@@ -229,9 +235,7 @@ def check(run: MixRun, machine: Machine) -> list[str]:
     positions = [(c, r) for c, r in answers if isinstance(r, Position)]
     offset = {a: 0 for a in machine.axis_names}       # pins - RDPS: the latch's error once homed
     homings = list(run.homed_at)
-    pins = pin_positions(run.log, machine, [c for c, _ in positions]) if positions else []
-    for (cycle, reply), counted in zip(positions, pins):
-        on_pins = {a.name: int(x) for a, x in zip(machine.axes, counted)}
+    for (cycle, reply), on_pins in zip(positions, steps_at(run, machine, [c for c, _ in positions])):
         said = dict(reply.steps)
         while homings and homings[0][0] <= cycle:      # the first RDPS after a homing
             for a in homings.pop(0)[1]:
@@ -248,6 +252,26 @@ def check(run: MixRun, machine: Machine) -> list[str]:
     if run.log.answer_bytes().count(b"retrofit firmware") != 1:
         bad.append(f"seed {run.seed}: the board restarted")
     return bad
+
+
+def steps_at(run: MixRun, machine: Machine, cycles: list[int]) -> list[dict[str, int]]:
+    """Each axis's position on the step pins at each of ``cycles`` (cycles a byte was sent at):
+    decoded from the pin log when there is one (:func:`pins_at`), else the harness's own counts
+    (:func:`counts_at`)."""
+    return pins_at(run, machine, cycles) if run.log.ports else counts_at(run, machine, cycles)
+
+
+def pins_at(run: MixRun, machine: Machine, cycles: list[int]) -> list[dict[str, int]]:
+    """The positions decoded here from the pin log's step and direction edges."""
+    counted = pin_positions(run.log, machine, cycles) if cycles else []
+    return [{a.name: int(x) for a, x in zip(machine.axes, row)} for row in counted]
+
+
+def counts_at(run: MixRun, machine: Machine, cycles: list[int]) -> list[dict[str, int]]:
+    """The harness's count of each axis's step edges as the byte of each cycle left the board."""
+    names = [a.name for a in firmware_axes(machine)]
+    at = {cycle: counts for cycle, _, counts in run.sent}
+    return [dict(zip(names, at[c])) for c in cycles]
 
 
 def simulated_s(run: MixRun) -> float:
