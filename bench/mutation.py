@@ -36,7 +36,9 @@ TESTS = {     # the new unit tests first: a mutant they kill stops the run early
     "motion": ["tests/test_mutants_motion.py", "tests/test_mutants_profile.py", "tests/test_mutants_indexer.py",
                "tests/test_bresenham.py", "tests/test_dda.py",
                "tests/test_profile.py", "tests/test_stepgen.py", "tests/test_arcs.py", "tests/test_plan_arrays.py",
-               "tests/test_stream.py", "tests/test_fast_equals_reference.py", "tests/test_lab_12.py"],
+               "tests/test_stream.py", "tests/test_fast_equals_reference.py", "tests/test_lab_12.py",
+               "tests/test_stream_pauses.py",
+               "tests/test_read_ahead.py::test_a_plan_made_batch_by_batch_is_the_whole_plan_move_for_move"],
     "gcode": ["tests/test_mutants_gcode.py", "tests/test_mutation_survivors.py", "tests/test_gcode.py",
               "tests/test_gcode_modal.py", "tests/test_spindle_modes.py", "tests/test_gcode_language.py",
               "tests/test_gcode_cutter.py", "tests/test_splines.py", "tests/test_lathe_passes.py",
@@ -45,7 +47,7 @@ TESTS = {     # the new unit tests first: a mutant they kill stops the run early
                    "tests/test_controller_pipeline.py", "tests/test_controller_equivalence.py",
                    "tests/test_controller_kernels.py", "tests/test_homing.py", "tests/test_threading.py"],
     "link": ["tests/test_mutants_link.py", "tests/test_link.py", "tests/test_link_hardening.py",
-             "tests/test_protocol_table.py"],
+             "tests/test_protocol_table.py", "tests/test_probing_link.py", "tests/test_link_faults.py"],
     "backlash": ["tests/test_backlash_units.py", "tests/test_backlash.py"],
 }
 #: modules that are not the package's logic (compiled-kernel plumbing, benches inside the package)

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import random
 
+import pytest
+
 from retrofit.commands import PMov
 from retrofit.link.codec import OPCODES, SYNC, decode_command
 from retrofit.link.framing import FrameDecoder, stuff
@@ -39,3 +41,32 @@ def test_a_scripted_hosts_first_command_opens_its_session_then_follows_bound():
     frames = list(FrameDecoder(lambda seq: SIMAVR_FIRST_SESSION if seq == 1 else None).events(data))
     assert [(f.seq, f.payload[0], f.bound) for f in frames] == [(0, SYNC, False)] * SYNC_COPIES + [(1, OPCODES[PMov], True)]
     assert decode_command(frames[-1].payload, machine) == PMov((("X", 12.5), ("Z", -3.0)))
+
+
+def test_a_scripted_host_renews_its_session_before_the_numbers_wrap_and_reads_the_answers_back():
+    # 200 moves on the queued channel: numbers 1..127 of the first session, then a new SYNC
+    # (three copies, all answered with the second session) and 1..73 of the second
+    from retrofit.link.device import DeviceEndpoint, SessionNumbers
+    from retrofit.link.framing import IMMEDIATE, QUEUED
+    from retrofit.link.replies import Ack, Err, Session
+    machine = load_machine("chivu-lathe")
+    host = ScriptedHost(machine)
+    delivered = []
+    device = DeviceEndpoint(machine, delivered.append, sessions=SessionNumbers(SIMAVR_FIRST_SESSION))
+    moves = [PMov((("Z", -float(k)),)) for k in range(200)]
+    script = b"".join(host.frame(m) for m in moves) + host.keepalive()
+    device.receive(script)
+    assert delivered == moves                                    # each once, in order
+    assert host.sessions[QUEUED] == SIMAVR_FIRST_SESSION + 1 and host.sessions[IMMEDIATE] is None
+    assert host.next[QUEUED] == 74
+    out = device.take_output()
+    answers = host.replies(out)
+    sess = [Session(SIMAVR_FIRST_SESSION)] * SYNC_COPIES
+    renewed = [Session(SIMAVR_FIRST_SESSION + 1)] * SYNC_COPIES
+    assert answers == sess + [Ack()] * 127 + renewed + [Ack()] * 73
+    assert host.replies(out, keepalives=True) == answers + [Err(4, 0)]    # the keep-alive: no session
+    with pytest.raises(ValueError, match="a raw payload needs its channel"):
+        host.frame(payload=b"\x01")
+    raw = host.frame(payload=bytes((OPCODES[PMov],)) + bytes(1), channel=QUEUED)
+    assert [f.seq for f in FrameDecoder(lambda seq: host.sessions[QUEUED]).events(raw)] == [74]
+
