@@ -33,7 +33,8 @@ from cosmic_ray.work_item import TestOutcome, WorkerOutcome
 
 ROOT = Path(__file__).resolve().parent.parent
 TESTS = {     # the new unit tests first: a mutant they kill stops the run early (-x)
-    "motion": ["tests/test_mutants_motion.py", "tests/test_mutants_profile.py", "tests/test_mutants_indexer.py",
+    "motion": ["tests/test_mutants_motion.py", "tests/test_mutants_profile.py", "tests/test_mutants_planner.py",
+               "tests/test_mutants_indexer.py",
                "tests/test_bresenham.py", "tests/test_dda.py",
                "tests/test_profile.py", "tests/test_stepgen.py", "tests/test_arcs.py", "tests/test_plan_arrays.py",
                "tests/test_stream.py", "tests/test_fast_equals_reference.py", "tests/test_lab_12.py",
