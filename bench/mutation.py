@@ -34,12 +34,13 @@ from cosmic_ray.work_item import TestOutcome, WorkerOutcome
 ROOT = Path(__file__).resolve().parent.parent
 TESTS = {     # the new unit tests first: a mutant they kill stops the run early (-x)
     "motion": ["tests/test_mutants_motion.py", "tests/test_mutants_profile.py", "tests/test_mutants_planner.py",
-               "tests/test_mutants_indexer.py",
+               "tests/test_mutants_indexer.py", "tests/test_mutants_pulses.py",
                "tests/test_bresenham.py", "tests/test_dda.py",
                "tests/test_profile.py", "tests/test_stepgen.py", "tests/test_arcs.py", "tests/test_plan_arrays.py",
                "tests/test_stream.py", "tests/test_fast_equals_reference.py", "tests/test_lab_12.py",
                "tests/test_stream_pauses.py",
-               "tests/test_read_ahead.py::test_a_plan_made_batch_by_batch_is_the_whole_plan_move_for_move"],
+               "tests/test_read_ahead.py::test_a_plan_made_batch_by_batch_is_the_whole_plan_move_for_move",
+               "tests/test_read_ahead.py::test_a_reversal_planned_in_blocks_streams_the_fast_paths_frames_bit_for_bit"],
     "gcode": ["tests/test_mutants_gcode.py", "tests/test_mutation_survivors.py", "tests/test_gcode.py",
               "tests/test_gcode_modal.py", "tests/test_spindle_modes.py", "tests/test_gcode_language.py",
               "tests/test_gcode_cutter.py", "tests/test_splines.py", "tests/test_lathe_passes.py",
