@@ -70,3 +70,72 @@ def test_a_scripted_host_renews_its_session_before_the_numbers_wrap_and_reads_th
     raw = host.frame(payload=bytes((OPCODES[PMov],)) + bytes(1), channel=QUEUED)
     assert [f.seq for f in FrameDecoder(lambda seq: host.sessions[QUEUED]).events(raw)] == [74]
 
+
+
+class DevicePort:
+    """pyserial's interface over a device endpoint in the same process; ``dead`` stops it answering."""
+
+    def __init__(self, machine):
+        from retrofit.link.device import DeviceEndpoint
+        self.delivered, self.dead, self.timeout, self.out = [], False, None, b""
+        self.device = DeviceEndpoint(machine, self.delivered.append)
+
+    @property
+    def in_waiting(self):
+        return len(self.out)
+
+    def write(self, data):
+        if not self.dead:
+            self.device.receive(data)
+            self.out += self.device.take_output()
+        return len(data)
+
+    def read(self, size=1):
+        data, self.out = self.out[:size], self.out[size:]
+        return data
+
+
+def test_a_host_link_over_a_port_delivers_and_names_a_dead_device_and_the_unknown_position():
+    from retrofit.errors import LinkError
+    from retrofit.link.replies import Ack
+    from retrofit.link.transport import HostLink
+    machine = load_machine("chivu-lathe")
+    port, now = DevicePort(machine), [0.0]
+
+    def clock():
+        now[0] += 0.01
+        return now[0]
+    link = HostLink(port, machine, clock=clock, poll_s=0.5, name="bench", timeout_s=0.05, max_tries=2)
+    assert port.timeout == 0.5
+    assert link.request(PMov((("X", 1.0),))) == Ack() and port.delivered == [PMov((("X", 1.0),))]
+    port.dead = True
+    with pytest.raises(LinkError, match=r"PMOV Z-2 .*may have run; RDPS says nothing either \(no answer\)"):
+        link.request(PMov((("Z", -2.0),)))
+
+
+class BrokenPort:
+    timeout = None
+    in_waiting = 3
+
+    def __init__(self, data=b""):
+        self.data = data
+
+    def read(self, size=1):
+        if not self.data:
+            raise OSError(5, "Input/output error")
+        data, self.data = self.data[:size], self.data[size:]
+        return data
+
+    def write(self, data):
+        raise OSError(5, "Input/output error")
+
+
+def test_a_port_that_fails_is_a_link_error_naming_it_and_waiting_bytes_are_taken_at_once():
+    from retrofit.errors import LinkError
+    from retrofit.link.transport import read_some, write_all
+    assert read_some(BrokenPort(b"abcdef"), "p") == b"abcd"      # one byte, then the 3 waiting
+    with pytest.raises(LinkError, match=r"serial link /dev/ttyUSB0: read failed: .*Input/output error"):
+        read_some(BrokenPort(), "/dev/ttyUSB0")
+    with pytest.raises(LinkError, match=r"serial link COM3: write failed: .*Input/output error"):
+        write_all(BrokenPort(), b"\x7e", "COM3")
+    write_all(BrokenPort(), b"", "COM3")                          # nothing to write: no call
