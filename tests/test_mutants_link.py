@@ -1,5 +1,6 @@
 """The link's pieces checked where a mutation run found them unchecked (bench/mutation.py): the
-bytes stuffing writes, a scripted host's first frames, and how often a simulated noisy wire inserts bytes."""
+bytes stuffing writes, a scripted host's frames and sessions, how often a simulated noisy wire inserts
+bytes, and a host link over a port that dies."""
 
 from __future__ import annotations
 
