@@ -98,3 +98,56 @@ def test_the_look_ahead_window_and_the_following_error_of_the_fast_paths():
     assert lag_of(wanted, rises, 0, 0) == 2                               # by 6: four wanted, two risen
     assert lag_of(wanted, rises[2:], 0, 2) == 1 and lag_of(wanted[2:], rises[2:], 2, 2) == 1
     assert lag_of(wanted, np.array([1, 2, 3, 4], np.int64), 0, 0) == 0
+
+
+def requests(dda, delta, windows, pieces=((0.0, 0.0, 1.0),), length_mm=6.0, rate=1000.0):
+    """(ticks each axis's steps are wanted on, ticks of the cycles that make them, tick of every
+    cycle) of a move of ``length_mm`` taken in ``windows``; ``pieces``: (start mm, start s, speed
+    mm/s) of a profile kept in constant-speed pieces, as the controller keeps a re-planned move."""
+    n = max(abs(d) for d in delta)
+    delta = np.array(delta, np.int64)
+    state = np.zeros((2, len(delta)), np.int64)
+    out, made = np.zeros((len(delta), n + 2), np.int64), np.zeros((len(delta), n + 2), np.int64)
+    fill = np.zeros(len(delta), np.int64)
+    starts = np.array([p[0] for p in pieces])
+    rows = np.array([trapezoid(length_mm - p[0], p[2], p[2], p[2], 1.0) for p in pieces])
+    due = []
+    for c0, c_stop in windows:
+        cycles = np.zeros(c_stop - c0, np.int64)
+        move_requests(dda, n, c0, c_stop, delta, state, length_mm, 0.0, starts, np.array([p[1] for p in pieces]),
+                      rows, rate, out, made, fill, cycles)
+        due += cycles.tolist()
+    return ([out[a, :fill[a]].tolist() for a in range(len(delta))],
+            [made[a, :fill[a]].tolist() for a in range(len(delta))], due)
+
+
+def test_a_bresenham_move_requests_each_step_on_the_cycle_nearest_the_line():
+    # 6 cycles, 4 steps on the short axis: after cycle k it should be at round(4k/6) = 1 1 2 3 3 4,
+    # so it steps on cycles 1, 3, 4, 6 (ticks 1000 ... at 1 mm/s)
+    ticks, made, due = requests(False, (6, -4), [(0, 6)])
+    assert ticks == made == [[1000, 2000, 3000, 4000, 5000, 6000], [1000, 3000, 4000, 6000]]
+    assert due == [1000, 2000, 3000, 4000, 5000, 6000]
+    assert requests(False, (6, -4), [(0, 2), (2, 3), (3, 6)])[:2] == (ticks, made)
+    # a tie in the middle (half a step after cycle 1 of 2): a positive axis steps late, a negative
+    # one early, so a move and its reverse visit the same points
+    assert requests(False, (2, 1), [(0, 2)], length_mm=2.0)[0] == [[1000, 2000], [2000]]
+    assert requests(False, (2, -1), [(0, 2)], length_mm=2.0)[0] == [[1000, 2000], [1000]]
+    # ties after cycles 1 and 3 of 4 round towards the nearer end: late, then early
+    assert requests(False, (-4, 2), [(0, 4)], length_mm=4.0)[0][1] == [2000, 3000]
+
+
+def test_a_dda_moves_pulses_and_the_cycles_that_send_them():
+    # the short axis's pulses at 1.5, 3, 4.5 and 6 mm are sent by cycles 6j // 4 = 1, 3, 4, 6
+    ticks, made, due = requests(True, (6, -4), [(0, 6)])
+    assert ticks[1] == [1500, 3000, 4500, 6000] and made[1] == [1000, 3000, 4000, 6000]
+    assert due == [1000, 2000, 3000, 4000, 5000, 6000]
+    assert requests(True, (6, -4), [(0, 4), (4, 6)])[:2] == (ticks, made)
+
+
+def test_a_re_planned_move_is_timed_by_the_piece_each_step_falls_in():
+    # 1 mm/s for the first 3 mm, then 2 mm/s from 3 s on: cycles at 1 2 3 3.5 4 4.5 s
+    pieces = ((0.0, 0.0, 1.0), (3.0, 3.0, 2.0))
+    ticks, _, due = requests(False, (6, 3), [(0, 6)], pieces)
+    assert due == [1000, 2000, 3000, 3500, 4000, 4500]
+    assert ticks[1] == [2000, 3500, 4000]                     # cycles 2, 4, 5 (ties towards the nearer end)
+    assert requests(True, (6, 4), [(0, 6)], pieces)[0][1] == [1500, 3000, 3750, 4500]
