@@ -12,7 +12,7 @@ import pytest
 from retrofit.commands import Dely, FFdr, FMov, PFdr, PMov, Pstn, ZMov
 from retrofit.errors import MotionError
 from retrofit.machine.config import load_machine
-from retrofit.motion.fast import execute_fast
+from retrofit.motion.fast import execute_fast, plan_steps
 from retrofit.motion.planner import plan_program, plan_walked
 
 from tests.helpers import step_times
@@ -57,7 +57,9 @@ def test_each_moves_motor_steps_take_up_the_clearance_on_reversal_only():
 
 
 def test_the_wire_carries_the_clearance_steps_on_each_reversal():
-    rises = step_times(LATHE, execute_fast(plan_program(PROGRAM, LATHE)).frames)
+    plan = plan_program(PROGRAM, LATHE)
+    assert plan_steps(plan) == 80 + 124 + 50 + (24 + 29) + (20 + 25)     # the dwell has none
+    rises = step_times(LATHE, execute_fast(plan).frames)
     x, z = rises["X"][1], rises["Z"][1]
     # X: 80 down, 124 up, 24 down, 20 down; Z: 50 down, 29 up, 25 up
     assert (int(np.sum(x < 0)), int(np.sum(x > 0))) == (124, 124)
