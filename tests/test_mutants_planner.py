@@ -114,3 +114,25 @@ def test_an_exponential_profile_plans_from_the_start_speed_with_a_quarter_of_the
     assert first.profile[2] == 10.0                                         # 600 mm/min
     assert first.profile[3] == pytest.approx(10.0) and second.profile[1] == first.profile[3]
     assert second.profile[3] == 1.0                                         # and ends at 1 mm/s
+
+
+def test_planning_in_batches_hands_on_final_moves_and_names_a_late_refusal_by_its_program_index():
+    from retrofit.commands import Wait
+    from retrofit.motion.planblocks import BlockPlanner, NotInBlocks
+    machine = replace(LATHE, motion=replace(LATHE.motion, lookahead=2))
+    planner = BlockPlanner(machine, False)
+    planner.add([PFdr(600)] + [PMov((("Z", -float(k)),)) for k in range(1, 5)])
+    first = planner.planned()                       # 4 moves seen, 2 held back for the look-ahead
+    assert [tuple(t) for t in first[0].targets] == [(0, -50)]
+    with pytest.raises(MotionError, match=r"X 41\.000 mm is outside the soft limits") as err:
+        planner.add([PMov((("Z", -5.0),)), PMov((("X", 41.0),))])
+    assert err.value.command_index == 6             # counted from the program's first command
+    planner.add([PMov((("Z", -5.0),))])             # the refused batch left no trace
+    rest = planner.planned(final=True)
+    assert [tuple(t) for t in rest[0].targets] == [(0, -100), (0, -150), (0, -200), (0, -250)]
+    whole = plan_program([PFdr(600)] + [PMov((("Z", -float(k)),)) for k in range(1, 6)], machine, False)
+    assert rest[1] == whole.end_s
+    with pytest.raises(NotInBlocks, match="an input wait or a probing move"):
+        BlockPlanner(machine).add([Wait(0, 3, 1.0)])
+    with pytest.raises(NotInBlocks, match="the exponential profile"):
+        BlockPlanner(replace(machine, motion=replace(machine.motion, profile="exponential")))
