@@ -140,3 +140,27 @@ def test_a_port_that_fails_is_a_link_error_naming_it_and_waiting_bytes_are_taken
     with pytest.raises(LinkError, match=r"serial link COM3: write failed: .*Input/output error"):
         write_all(BrokenPort(), b"\x7e", "COM3")
     write_all(BrokenPort(), b"", "COM3")                          # nothing to write: no call
+
+
+def test_a_simulated_line_takes_a_byte_time_for_every_byte_each_way():
+    from retrofit.commands import Init
+    from retrofit.link.device import DeviceEndpoint
+    from retrofit.link.host import HostEndpoint
+    from retrofit.link.simwire import LinkBench
+    machine = load_machine("chivu-lathe")
+    host, device = HostEndpoint(machine), DeviceEndpoint(machine, lambda cmd: None)
+    carried = []
+    for end in (host, device):
+        def counted(take=end.take_output):
+            data = take()
+            carried.append(len(data))
+            return data
+        end.take_output = counted
+    seen = []
+    bench = LinkBench(host, device, byte_time_s=0.001, on_time=seen.append)
+    host.send(Init(), 0.0)
+    host.send(PMov((("X", 1.0),)), 0.0)
+    bench.run()
+    assert host.idle and sum(carried) > 40                    # SYNC, SESS, INIT, ACK, PMOV, ACK
+    assert bench.now == pytest.approx(0.001 * sum(carried))
+    assert seen and seen[-1] <= bench.now
