@@ -10,8 +10,15 @@ import pytest
 
 from retrofit.errors import MotionError
 from retrofit.motion.bresenham import prepare_line
-from retrofit.motion.indexer import (IndexerExecutor, IndexerTrack, lead_in_counts, lead_in_mm,
-                                     steps_per_rev, stopping_revs, thread_speed_mm_s)
+from retrofit.motion.indexer import (
+    IndexerExecutor,
+    IndexerTrack,
+    lead_in_counts,
+    lead_in_mm,
+    steps_per_rev,
+    stopping_revs,
+    thread_speed_mm_s,
+)
 
 
 def test_steps_a_revolution_speed_and_lead_in_distance_of_a_thread():
