@@ -1,6 +1,6 @@
 """The link's pieces checked where a mutation run found them unchecked (bench/mutation.py): the
 bytes stuffing writes, a scripted host's frames and sessions, how often a simulated noisy wire inserts
-bytes, and a host link over a port that dies."""
+bytes, a host link over a port that dies, and a host's answer to an answer it cannot read."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 
 from retrofit.commands import PMov
 from retrofit.link.codec import OPCODES, SYNC, decode_command
-from retrofit.link.framing import FrameDecoder, stuff
+from retrofit.link.framing import FrameDecoder, encode_frame, stuff
 from retrofit.link.script import SIMAVR_FIRST_SESSION, SYNC_COPIES, ScriptedHost
 from retrofit.link.simwire import FaultyWire
 from retrofit.machine.config import load_machine
@@ -164,3 +164,35 @@ def test_a_simulated_line_takes_a_byte_time_for_every_byte_each_way():
     assert host.idle and sum(carried) > 40                    # SYNC, SESS, INIT, ACK, PMOV, ACK
     assert bench.now == pytest.approx(0.001 * sum(carried))
     assert seen and seen[-1] <= bench.now
+
+
+def test_a_host_resends_on_an_answer_it_cannot_read_and_ignores_one_of_no_session():
+    from retrofit.commands import Init
+    from retrofit.link.device import DeviceEndpoint
+    from retrofit.link.host import HostEndpoint
+    from retrofit.link.replies import Ack, encode_reply
+    machine = load_machine("chivu-lathe")
+    host, device = HostEndpoint(machine), DeviceEndpoint(machine, lambda cmd: None)
+    host.send(Init(), 0.0)
+    device.receive(host.take_output())
+    host.receive(device.take_output(), 0.0)                 # SESS: the INIT goes out
+    sent = host.stats.frames_sent
+    init = host.take_output()
+    session = device.session(0)
+    garbled = encode_frame(list(FrameDecoder(lambda seq: session).events(init))[0].seq, b"\xee\x01", session)
+    host.receive(garbled, 0.01)                              # intact frame, unreadable answer
+    assert host.stats.bad_frames == 1 and host.stats.frames_sent == sent + 1
+    host.receive(encode_frame(0x01, encode_reply(Ack())), 0.02)   # an ACK bound to no session
+    assert host.stats.unbound == 1 and not host.idle
+    device.receive(host.take_output())
+    host.receive(device.take_output(), 0.03)
+    assert host.idle
+
+
+def test_a_host_needs_positive_timeouts_and_at_least_one_try():
+    from retrofit.link.host import HostEndpoint
+    machine = load_machine("chivu-lathe")
+    for options in ({"timeout_s": 0.0}, {"busy_retry_s": 0.0}, {"max_tries": 0}):
+        with pytest.raises(ValueError, match="timeout_s and busy_retry_s must be > 0, max_tries >= 1"):
+            HostEndpoint(machine, **options)
+    assert HostEndpoint(machine, max_tries=1, timeout_s=1e-6).max_tries == 1
