@@ -136,3 +136,38 @@ def test_planning_in_batches_hands_on_final_moves_and_names_a_late_refusal_by_it
         BlockPlanner(machine).add([Wait(0, 3, 1.0)])
     with pytest.raises(NotInBlocks, match="the exponential profile"):
         BlockPlanner(replace(machine, motion=replace(machine.motion, profile="exponential")))
+
+
+def test_a_reversal_seen_late_waits_for_the_set_up_on_the_numpy_path_as_on_the_tick_loop():
+    # one move of look-ahead and a 1000-tick (50 ms) set-up: X turns positive only when its move
+    # enters the window (when the short Z move two before it starts), and its first step waits the
+    # set-up after that turn, later than the ramp alone would put it; the NumPy path (no
+    # compiler) and the reference tick loop put the same frames on the wire
+    from retrofit.motion.execute import execute_reference
+    from retrofit.motion.vectorised import execute_numpy
+    slow_x = replace(LATHE.axes[0], dir_setup_ticks=1000, dir_hold_ticks=0)
+    machine = replace(LATHE, axes=(slow_x, LATHE.axes[1]), motion=replace(LATHE.motion, lookahead=1))
+    commands = [PFdr(600), PMov((("X", -0.5),)), PMov((("Z", -1.0),)), PMov((("Z", -1.02),)), Dely(0.0),
+                PMov((("X", 0.0),))]
+    plan = plan_program(commands, machine, False)
+    numpy_frames, reference = execute_numpy(plan).frames, execute_reference(plan).frames
+    assert np.array_equal(numpy_frames.ticks, reference.ticks)
+    assert np.array_equal(numpy_frames.values, reference.values)
+    rises, dirs = step_times(machine, reference)["X"]
+    assert (int(np.sum(dirs < 0)), int(np.sum(dirs > 0))) == (20, 20)
+    seen = round(plan.moves[2].t0_s / machine.tick_s)              # the Z move two before X's
+    assert rises[20] == seen + 1000 < round(plan.moves[4].t0_s / machine.tick_s) + 1000
+
+
+def test_a_small_program_streamed_from_batches_reports_its_progress_as_command_indices():
+    from retrofit.motion.planblocks import BlockPlanner
+    from retrofit.motion.stream import stream_blocks
+    commands = [PFdr(600), PMov((("X", -0.5),)), Dely(0.1), PMov((("Z", -1.0),))]
+    planner = BlockPlanner(LATHE, False)
+    planner.add(commands)
+    arrays, end_s = planner.planned(final=True)
+    seen = []
+    chunks = list(stream_blocks(LATHE, (0, 0), iter([(arrays, end_s)]), progress=seen.append))
+    whole = execute_fast(plan_program(commands, LATHE, False)).frames
+    assert np.array_equal(np.concatenate([c.ticks for c in chunks]), whole.ticks)
+    assert seen and seen[-1] == 4 and seen == sorted(seen) and set(seen) <= {0, 2, 3, 4}
