@@ -1,6 +1,7 @@
 """The planner on a worked program: where each move starts and ends in motor steps (the backlash
 clearance taken up on each reversal, at segment boundaries), the offsets PSTN sets, dwells and
-homing moves in the timeline, and the refusals; then the steps the fast path puts on the wire."""
+homing moves in the timeline, and the refusals; then the steps the fast path puts on the wire, a
+late reversal's set-up on the NumPy path, and planning and streaming in batches."""
 
 from __future__ import annotations
 
