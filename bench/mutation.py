@@ -62,9 +62,14 @@ CONTROLLER_CASES = [f"tests/test_rigid_tapping.py::test_{name}" for name in (
     "the_two_way_encoder_counts_down_backwards_and_indexes_both_ways",
     "a_spindle_that_turns_back_before_the_end_halts_the_move")]
 TESTS = {     # the new unit tests first: a mutant they kill stops the run early (-x)
-    "motion": ["tests/test_mutants_motion.py", "tests/test_bresenham.py", "tests/test_dda.py",
+    "motion": ["tests/test_mutants_motion.py", "tests/test_mutants_profile.py", "tests/test_mutants_planner.py",
+               "tests/test_mutants_indexer.py", "tests/test_mutants_pulses.py",
+               "tests/test_bresenham.py", "tests/test_dda.py",
                "tests/test_profile.py", "tests/test_stepgen.py", "tests/test_arcs.py", "tests/test_plan_arrays.py",
-               "tests/test_stream.py", "tests/test_fast_equals_reference.py", "tests/test_lab_12.py"],
+               "tests/test_stream.py", "tests/test_fast_equals_reference.py", "tests/test_lab_12.py",
+               "tests/test_stream_pauses.py",
+               "tests/test_read_ahead.py::test_a_plan_made_batch_by_batch_is_the_whole_plan_move_for_move",
+               "tests/test_read_ahead.py::test_a_reversal_planned_in_blocks_streams_the_fast_paths_frames_bit_for_bit"],
     "gcode": ["tests/test_gcode_paths.py", "tests/test_gcode_cycle_paths.py",
               "tests/test_mutants_gcode.py", "tests/test_mutation_survivors.py", "tests/test_gcode.py",
               "tests/test_gcode_modal.py", "tests/test_spindle_modes.py", "tests/test_gcode_language.py",
@@ -80,7 +85,7 @@ TESTS = {     # the new unit tests first: a mutant they kill stops the run early
                    "tests/test_controller_kernels.py", "tests/test_homing.py", "tests/test_threading.py",
                    *CONTROLLER_CASES],
     "link": ["tests/test_mutants_link.py", "tests/test_link.py", "tests/test_link_hardening.py",
-             "tests/test_protocol_table.py"],
+             "tests/test_protocol_table.py", "tests/test_probing_link.py", "tests/test_link_faults.py"],
     "backlash": ["tests/test_backlash_units.py", "tests/test_backlash.py"],
 }
 #: modules that are not the package's logic (compiled-kernel plumbing, benches inside the package)

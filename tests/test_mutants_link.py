@@ -1,13 +1,16 @@
 """The link's pieces checked where a mutation run found them unchecked (bench/mutation.py): the
-bytes stuffing writes, a scripted host's first frames, and how often a simulated noisy wire inserts bytes."""
+bytes stuffing writes, a scripted host's frames and sessions, how often a simulated noisy wire inserts
+bytes, a host link over a port that dies, and a host's answer to an answer it cannot read."""
 
 from __future__ import annotations
 
 import random
 
+import pytest
+
 from retrofit.commands import PMov
 from retrofit.link.codec import OPCODES, SYNC, decode_command
-from retrofit.link.framing import FrameDecoder, stuff
+from retrofit.link.framing import FrameDecoder, encode_frame, stuff
 from retrofit.link.script import SIMAVR_FIRST_SESSION, SYNC_COPIES, ScriptedHost
 from retrofit.link.simwire import FaultyWire
 from retrofit.machine.config import load_machine
@@ -39,3 +42,157 @@ def test_a_scripted_hosts_first_command_opens_its_session_then_follows_bound():
     frames = list(FrameDecoder(lambda seq: SIMAVR_FIRST_SESSION if seq == 1 else None).events(data))
     assert [(f.seq, f.payload[0], f.bound) for f in frames] == [(0, SYNC, False)] * SYNC_COPIES + [(1, OPCODES[PMov], True)]
     assert decode_command(frames[-1].payload, machine) == PMov((("X", 12.5), ("Z", -3.0)))
+
+
+def test_a_scripted_host_renews_its_session_before_the_numbers_wrap_and_reads_the_answers_back():
+    # 200 moves on the queued channel: numbers 1..127 of the first session, then a new SYNC
+    # (three copies, all answered with the second session) and 1..73 of the second
+    from retrofit.link.device import DeviceEndpoint, SessionNumbers
+    from retrofit.link.framing import IMMEDIATE, QUEUED
+    from retrofit.link.replies import Ack, Err, Session
+    machine = load_machine("chivu-lathe")
+    host = ScriptedHost(machine)
+    delivered = []
+    device = DeviceEndpoint(machine, delivered.append, sessions=SessionNumbers(SIMAVR_FIRST_SESSION))
+    moves = [PMov((("Z", -float(k)),)) for k in range(200)]
+    script = b"".join(host.frame(m) for m in moves) + host.keepalive()
+    device.receive(script)
+    assert delivered == moves                                    # each once, in order
+    assert host.sessions[QUEUED] == SIMAVR_FIRST_SESSION + 1 and host.sessions[IMMEDIATE] is None
+    assert host.next[QUEUED] == 74
+    out = device.take_output()
+    answers = host.replies(out)
+    sess = [Session(SIMAVR_FIRST_SESSION)] * SYNC_COPIES
+    renewed = [Session(SIMAVR_FIRST_SESSION + 1)] * SYNC_COPIES
+    assert answers == sess + [Ack()] * 127 + renewed + [Ack()] * 73
+    assert host.replies(out, keepalives=True) == answers + [Err(4, 0)]    # the keep-alive: no session
+    with pytest.raises(ValueError, match="a raw payload needs its channel"):
+        host.frame(payload=b"\x01")
+    raw = host.frame(payload=bytes((OPCODES[PMov],)) + bytes(1), channel=QUEUED)
+    assert [f.seq for f in FrameDecoder(lambda seq: host.sessions[QUEUED]).events(raw)] == [74]
+
+
+
+class DevicePort:
+    """pyserial's interface over a device endpoint in the same process; ``dead`` stops it answering."""
+
+    def __init__(self, machine):
+        from retrofit.link.device import DeviceEndpoint
+        self.delivered, self.dead, self.timeout, self.out = [], False, None, b""
+        self.device = DeviceEndpoint(machine, self.delivered.append)
+
+    @property
+    def in_waiting(self):
+        return len(self.out)
+
+    def write(self, data):
+        if not self.dead:
+            self.device.receive(data)
+            self.out += self.device.take_output()
+        return len(data)
+
+    def read(self, size=1):
+        data, self.out = self.out[:size], self.out[size:]
+        return data
+
+
+def test_a_host_link_over_a_port_delivers_and_names_a_dead_device_and_the_unknown_position():
+    from retrofit.errors import LinkError
+    from retrofit.link.replies import Ack
+    from retrofit.link.transport import HostLink
+    machine = load_machine("chivu-lathe")
+    port, now = DevicePort(machine), [0.0]
+
+    def clock():
+        now[0] += 0.01
+        return now[0]
+    link = HostLink(port, machine, clock=clock, poll_s=0.5, name="bench", timeout_s=0.05, max_tries=2)
+    assert port.timeout == 0.5
+    assert link.request(PMov((("X", 1.0),))) == Ack() and port.delivered == [PMov((("X", 1.0),))]
+    port.dead = True
+    with pytest.raises(LinkError, match=r"PMOV Z-2 .*may have run; RDPS says nothing either \(no answer\)"):
+        link.request(PMov((("Z", -2.0),)))
+
+
+class BrokenPort:
+    timeout = None
+    in_waiting = 3
+
+    def __init__(self, data=b""):
+        self.data = data
+
+    def read(self, size=1):
+        if not self.data:
+            raise OSError(5, "Input/output error")
+        data, self.data = self.data[:size], self.data[size:]
+        return data
+
+    def write(self, data):
+        raise OSError(5, "Input/output error")
+
+
+def test_a_port_that_fails_is_a_link_error_naming_it_and_waiting_bytes_are_taken_at_once():
+    from retrofit.errors import LinkError
+    from retrofit.link.transport import read_some, write_all
+    assert read_some(BrokenPort(b"abcdef"), "p") == b"abcd"      # one byte, then the 3 waiting
+    with pytest.raises(LinkError, match=r"serial link /dev/ttyUSB0: read failed: .*Input/output error"):
+        read_some(BrokenPort(), "/dev/ttyUSB0")
+    with pytest.raises(LinkError, match=r"serial link COM3: write failed: .*Input/output error"):
+        write_all(BrokenPort(), b"\x7e", "COM3")
+    write_all(BrokenPort(), b"", "COM3")                          # nothing to write: no call
+
+
+def test_a_simulated_line_takes_a_byte_time_for_every_byte_each_way():
+    from retrofit.commands import Init
+    from retrofit.link.device import DeviceEndpoint
+    from retrofit.link.host import HostEndpoint
+    from retrofit.link.simwire import LinkBench
+    machine = load_machine("chivu-lathe")
+    host, device = HostEndpoint(machine), DeviceEndpoint(machine, lambda cmd: None)
+    carried = []
+    for end in (host, device):
+        def counted(take=end.take_output):
+            data = take()
+            carried.append(len(data))
+            return data
+        end.take_output = counted
+    seen = []
+    bench = LinkBench(host, device, byte_time_s=0.001, on_time=seen.append)
+    host.send(Init(), 0.0)
+    host.send(PMov((("X", 1.0),)), 0.0)
+    bench.run()
+    assert host.idle and sum(carried) > 40                    # SYNC, SESS, INIT, ACK, PMOV, ACK
+    assert bench.now == pytest.approx(0.001 * sum(carried))
+    assert seen and seen[-1] <= bench.now
+
+
+def test_a_host_resends_on_an_answer_it_cannot_read_and_ignores_one_of_no_session():
+    from retrofit.commands import Init
+    from retrofit.link.device import DeviceEndpoint
+    from retrofit.link.host import HostEndpoint
+    from retrofit.link.replies import Ack, encode_reply
+    machine = load_machine("chivu-lathe")
+    host, device = HostEndpoint(machine), DeviceEndpoint(machine, lambda cmd: None)
+    host.send(Init(), 0.0)
+    device.receive(host.take_output())
+    host.receive(device.take_output(), 0.0)                 # SESS: the INIT goes out
+    sent = host.stats.frames_sent
+    init = host.take_output()
+    session = device.session(0)
+    garbled = encode_frame(list(FrameDecoder(lambda seq: session).events(init))[0].seq, b"\xee\x01", session)
+    host.receive(garbled, 0.01)                              # intact frame, unreadable answer
+    assert host.stats.bad_frames == 1 and host.stats.frames_sent == sent + 1
+    host.receive(encode_frame(0x01, encode_reply(Ack())), 0.02)   # an ACK bound to no session
+    assert host.stats.unbound == 1 and not host.idle
+    device.receive(host.take_output())
+    host.receive(device.take_output(), 0.03)
+    assert host.idle
+
+
+def test_a_host_needs_positive_timeouts_and_at_least_one_try():
+    from retrofit.link.host import HostEndpoint
+    machine = load_machine("chivu-lathe")
+    for options in ({"timeout_s": 0.0}, {"busy_retry_s": 0.0}, {"max_tries": 0}):
+        with pytest.raises(ValueError, match="timeout_s and busy_retry_s must be > 0, max_tries >= 1"):
+            HostEndpoint(machine, **options)
+    assert HostEndpoint(machine, max_tries=1, timeout_s=1e-6).max_tries == 1
