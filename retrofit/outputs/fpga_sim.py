@@ -1,6 +1,6 @@
 """fpga-sim:// — 004's FPGA pulse engine (Amaranth HDL, ``retrofit.fpga``) in simulation.
 
-URL grammar: ``fpga-sim://[?limit_s=SECONDS&clocks_per_tick=K]``.
+URL grammar: ``fpga-sim://[?limit_s=SECONDS&clocks_per_tick=K&sim=amaranth|compiled]``.
 
 The run's port frames are read back into each axis's pulse records (delay, direction, width:
 what 004's ARM sends its FPGA), streamed into the simulated gateware chunk by chunk, and the
@@ -11,6 +11,8 @@ no underrun and no refused record: anything else is an error naming the first ti
 
 Amaranth's simulator takes about 6 000 ticks a CPU-second (docs/fpga.md), so a run longer than
 ``limit_s`` seconds of machine time (default 0.5) is refused before it is simulated.
+``sim=compiled`` runs the same gateware compiled (``retrofit.fpga.compiled``: Yosys's CXXRTL and
+g++, built once into the cache), about a thousand times faster: raise ``limit_s`` with it.
 """
 
 from __future__ import annotations
@@ -27,9 +29,9 @@ class FpgaSimOutput(SimOutput):
     """fpga-sim:// — the gateware in Amaranth's simulator, its pins driving the simulated machine."""
 
     scheme = "fpga-sim"
-    grammar = "fpga-sim://[?limit_s=SECONDS&clocks_per_tick=K]"
+    grammar = "fpga-sim://[?limit_s=SECONDS&clocks_per_tick=K&sim=amaranth|compiled]"
     summary = "004's FPGA pulse engine simulated in Amaranth HDL; its pins checked against the run's and drive sim://"
-    options = {"limit_s": (float, 0.5), "clocks_per_tick": (int, 1)}
+    options = {"limit_s": (float, 0.5), "clocks_per_tick": (int, 1), "sim": (str, "amaranth")}
 
     def open(self) -> None:
         if self.is_open:
@@ -37,8 +39,11 @@ class FpgaSimOutput(SimOutput):
         from ..fpga.host import RecordCompiler  # lazily: only this output needs Amaranth
         from ..fpga.simulate import GateSim
         k, limit = self.opts["clocks_per_tick"], self.opts["limit_s"]
-        if not 1 <= k <= 1000 or not limit > 0:
-            raise OutputError(f"{self.url.text}: clocks_per_tick must be 1..1000 and limit_s > 0; "
+        if self.opts["sim"] == "compiled":
+            from ..fpga.compiled import CompiledSim as GateSim  # noqa: F811 (the same methods)
+        if not 1 <= k <= 1000 or not limit > 0 or self.opts["sim"] not in ("amaranth", "compiled"):
+            raise OutputError(f"{self.url.text}: clocks_per_tick must be 1..1000, limit_s > 0 and sim amaranth "
+                              f"or compiled; "
                               f"expected {self.grammar}")
         self.limit_ticks = round(limit * 1e6 / self.machine.tick_us)
         self.records = RecordCompiler(self.machine)
