@@ -9,14 +9,17 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from retrofit.errors import OutputError
 from retrofit.fpga.compiled import CompiledSim, compiler
 from retrofit.fpga.host import compile_records
 from retrofit.fpga.lines import compile_lines
 from retrofit.fpga.record import pack
 from retrofit.fpga.simulate import GateSim, first_difference
+from retrofit.frames import PortFrames
 from retrofit.gcode import compile_program
 from retrofit.machine.config import load_machine
 from retrofit.motion.fast import execute_fast
+from retrofit.outputs import open_output
 from retrofit.run.program import plan_compiled
 
 pytestmark = pytest.mark.skipif(shutil.which(compiler()) is None,
@@ -58,25 +61,33 @@ def records(*events):
 
 
 def test_compiled_pulse_engine_equals_amaranth_on_a_reversal_a_stop_and_an_underrun():
-    """Three clocks a tick (the registered decision): a move with a reversal; a stop inside a
-    pulse; a record held back until its tick has passed."""
+    """A move with a reversal, through fpga-sim://?sim=compiled; a stop inside a pulse; a record
+    held back until its tick has passed; a turn too close to a rise (the output's error)."""
     plan, frames = plan_and_frames("G1 X0.1 Y0.05 Z0.005 F3000\nG1 X0.05 Y0.1 Z-0.005\n", COARSE)
-    amaranth, compiled = both(COARSE, words_of("pulse", plan, frames), frames.end_tick, clocks_per_tick=3)
+    with open_output("fpga-sim://?sim=compiled", COARSE) as out:
+        out.write(frames)
+    assert isinstance(out.gate, CompiledSim) and out.run.positions == [4, 8, -2]
+    amaranth, compiled = both(COARSE, words_of("pulse", plan, frames), frames.end_tick)
     assert_same(amaranth, compiled, "reversal")
-    assert first_difference(frames, compiled.frames) is None
-    assert compiled.positions == [4, 8, -2] and compiled.cycles == 3 * (frames.end_tick - 1) + 1
+    assert first_difference(frames, compiled.frames) is None and compiled.frames == out.run.frames
     stopped = both(COARSE, [records((1, 1, 0), *[(10, 1, 8)] * 10), records(*[(11, 0, 8)] * 10), []], 120,
-                   clocks_per_tick=3, stop_tick=33)
+                   stop_tick=33)
     assert_same(*stopped, "stop")
     assert stopped[1].positions == [3, -2, 0]
     late = both(COARSE, [records((2, 0, 5), *[(20, 0, 5)] * 6), records((3, 0, 5), *[(20, 0, 5)] * 6), []], 200,
-                clocks_per_tick=3, late_feed={0: 60})
+                late_feed={0: 60})
     assert_same(*late, "underrun")
     assert late[1].underrun and 60 <= late[1].fault_tick <= 63
+    x_dir, x_step = 1 << COARSE.axes[0].dir_bit, 1 << COARSE.axes[0].step_bit
+    bad = PortFrames(np.array([0, 10, 11, 16]), np.array([0, x_dir, x_dir | x_step, x_dir]), 40)
+    with pytest.raises(OutputError, match="stopped at tick 11 .a record refused"):
+        with open_output("fpga-sim://?sim=compiled", COARSE) as out:
+            out.write(bad)
 
 
-#: random programs compared (compiled against Amaranth): each is its own design (random driver
-#: timing), a g++ build of about 5 CPU-seconds; RETROFIT_FPGA_COMPILED_PROGRAMS=N compares N a variant
+#: random programs compared (compiled against Amaranth), two FPGA clocks a tick (the registered
+#: decision): each is its own design (random driver timing), a g++ build of about 5 CPU-seconds;
+#: RETROFIT_FPGA_COMPILED_PROGRAMS=N compares N a variant
 PROGRAMS = int(os.environ.get("RETROFIT_FPGA_COMPILED_PROGRAMS", "1"))
 
 
@@ -90,7 +101,8 @@ def test_compiled_equals_amaranth_on_random_programs(variant):
         if variant == "di":                  # the variant runs 004's interpolator
             machine = replace(machine, motion=replace(machine.motion, interpolator="dda"))
         plan, frames = plan_and_frames(text, machine)
-        amaranth, compiled = both(machine, words_of(variant, plan, frames), frames.end_tick, variant=variant)
+        amaranth, compiled = both(machine, words_of(variant, plan, frames), frames.end_tick, variant=variant,
+                                  clocks_per_tick=2)
         assert_same(amaranth, compiled, f"seed {seed}\n{text}")
         assert first_difference(frames, compiled.frames) is None, f"seed {seed}"
 
