@@ -154,3 +154,9 @@ def test_the_whole_shipped_engraving_on_the_compiled_pulse_engine_equals_sim(eng
                     reason="about 40 CPU-seconds (docs/fpga.md): run with RETROFIT_FPGA_WHOLE_DI=1")
 def test_the_whole_shipped_engraving_on_the_compiled_digital_integration_equals_sim(engraving):
     whole(engraving, "di")
+
+
+def test_an_unknown_simulator_is_refused_naming_the_choices():
+    with pytest.raises(OutputError, match="sim amaranth or compiled.*sim=amaranth.compiled"):
+        with open_output("fpga-sim://?sim=verilog", COARSE):
+            pass
