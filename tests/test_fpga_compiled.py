@@ -144,12 +144,14 @@ def whole(engraving, variant: str):
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(900)        # about 20 CPU-seconds: far more than 150 s on a loaded machine
 def test_the_whole_shipped_engraving_on_the_compiled_pulse_engine_equals_sim(engraving):
     run = whole(engraving, "pulse")
     assert run.cycles == engraving[1].end_tick
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(900)
 @pytest.mark.skipif(os.environ.get("RETROFIT_FPGA_WHOLE_DI") != "1",
                     reason="about 40 CPU-seconds (docs/fpga.md): run with RETROFIT_FPGA_WHOLE_DI=1")
 def test_the_whole_shipped_engraving_on_the_compiled_digital_integration_equals_sim(engraving):

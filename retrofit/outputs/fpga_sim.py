@@ -12,7 +12,7 @@ no underrun and no refused record: anything else is an error naming the first ti
 Amaranth's simulator takes about 6 000 ticks a CPU-second (docs/fpga.md), so a run longer than
 ``limit_s`` seconds of machine time (default 0.5) is refused before it is simulated.
 ``sim=compiled`` runs the same gateware compiled (``retrofit.fpga.compiled``: Yosys's CXXRTL and
-g++, built once into the cache), about a thousand times faster: raise ``limit_s`` with it.
+g++, built once into the cache), 500 to 800 times faster: raise ``limit_s`` with it.
 """
 
 from __future__ import annotations
