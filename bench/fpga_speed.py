@@ -8,12 +8,17 @@ rate it sustains, measured on its simulated pins.
    counted on the pins over 20 000 ticks, per axis and in all, for the engraver's timing
    (5 + 5 us) and for the shortest (1 + 1 tick), beside the SPI bus's bound at a quarter of
    the board's clock.
+3. The compiled simulation (``retrofit.fpga.compiled``: Yosys's CXXRTL, g++): its build from an
+   empty cache (Amaranth, Yosys and g++, CPU-seconds with the children's), then the whole
+   engraving on each variant: CPU-seconds, clock cycles a CPU-second, pins equal to sim://'s.
 
     python bench/fpga_speed.py
 """
 
 from __future__ import annotations
 
+import os
+import tempfile
 import time
 from dataclasses import replace
 from importlib import resources
@@ -32,10 +37,14 @@ from retrofit.run.program import plan_compiled
 TICKS = 20_000
 
 
-def sim_speed(machine) -> None:
+def engraving(machine):
     text = (resources.files("retrofit") / "examples" / "engraving.ngc").read_text()
     _, plan = plan_compiled(compile_program(text, machine, file="engraving.ngc"), machine)
-    frames = execute_fast(plan).frames
+    return plan, execute_fast(plan).frames
+
+
+def sim_speed(machine) -> None:
+    _, frames = engraving(machine)
     end = 30_000
     lo = int(np.searchsorted(frames.ticks, end))
     from retrofit.frames import PortFrames
@@ -71,8 +80,34 @@ def step_rate(machine, high: int, low: int) -> None:
           f"underrun {run.underrun}, fault {run.fault}")
 
 
+def cpu() -> float:
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
+def compiled_speed(machine) -> None:
+    from retrofit.fpga.compiled import CompiledSim
+    from retrofit.fpga.lines import compile_lines
+    plan, frames = engraving(machine)
+    os.environ["XDG_CACHE_HOME"] = tempfile.mkdtemp()        # an empty cache: the build is measured
+    for variant in ("pulse", "di"):
+        start = cpu()
+        gate = CompiledSim(machine, variant=variant)
+        built = cpu()
+        words = compile_lines(plan, frames) if variant == "di" else compile_records(machine, frames)
+        made = cpu()
+        gate.add(words)
+        run = gate.result(frames.end_tick)
+        done = cpu()
+        same = first_difference(frames, run.frames) is None
+        print(f"compiled, {variant}: build {built - start:.1f} CPU-s; records {made - built:.1f} CPU-s; the whole "
+              f"engraving ({frames.end_tick:,} ticks) {done - made:.1f} CPU-s = {run.cycles / (done - made):,.0f} "
+              f"cycles/s; pins equal: {same}")
+
+
 def main() -> None:
     machine = load_machine("engraver")
+    compiled_speed(machine)
     sim_speed(machine)
     step_rate(machine, 5, 5)
     step_rate(machine, 1, 1)

@@ -1,6 +1,6 @@
 """fpga-sim:// — 004's FPGA (Amaranth HDL, ``retrofit.fpga``) in simulation, either split of its work.
 
-URL grammar: ``fpga-sim://[?variant=pulse|di&limit_s=SECONDS&clocks_per_tick=K]``.
+URL grammar: ``fpga-sim://[?variant=pulse|di&limit_s=SECONDS&clocks_per_tick=K&sim=amaranth|compiled]``.
 
 ``variant=pulse`` (the default): the run's port frames are read back into each axis's pulse
 records (delay, direction, width: what 004's ARM sends its FPGA). ``variant=di``: the digital
@@ -15,7 +15,9 @@ shows the gateware's pins too).
 
 Amaranth's simulator takes about 6 000 ticks a CPU-second (docs/fpga.md), so a run longer than
 ``limit_s`` seconds of machine time (default 0.5) is refused before it is simulated (on the
-plan's end when the run hands the plan over, else on each chunk's end).
+plan's end when the run hands the plan over, else on each chunk's end). ``sim=compiled`` runs the
+same gateware compiled (``retrofit.fpga.compiled``: Yosys's CXXRTL and g++, built once into the
+cache), 500 to 800 times faster: raise ``limit_s`` with it.
 """
 
 from __future__ import annotations
@@ -32,10 +34,11 @@ class FpgaSimOutput(SimOutput):
     """fpga-sim:// — the gateware in Amaranth's simulator, its pins driving the simulated machine."""
 
     scheme = "fpga-sim"
-    grammar = "fpga-sim://[?variant=pulse|di&limit_s=SECONDS&clocks_per_tick=K]"
+    grammar = "fpga-sim://[?variant=pulse|di&limit_s=SECONDS&clocks_per_tick=K&sim=amaranth|compiled]"
     summary = ("004's FPGA simulated in Amaranth HDL (the pulse engine, or di: the digital integration in it); "
                "its pins checked against the run's and drive sim://")
-    options = {"variant": (str, "pulse"), "limit_s": (float, 0.5), "clocks_per_tick": (int, 1)}
+    options = {"variant": (str, "pulse"), "limit_s": (float, 0.5), "clocks_per_tick": (int, 1),
+               "sim": (str, "amaranth")}
 
     def __init__(self, url, machine):
         super().__init__(url, machine)
@@ -63,8 +66,11 @@ class FpgaSimOutput(SimOutput):
         from ..fpga.host import RecordCompiler  # lazily: only this output needs Amaranth
         from ..fpga.simulate import GateSim
         k, limit = self.opts["clocks_per_tick"], self.opts["limit_s"]
-        if not 1 <= k <= 1000 or not limit > 0:
-            raise OutputError(f"{self.url.text}: clocks_per_tick must be 1..1000 and limit_s > 0; "
+        if self.opts["sim"] == "compiled":
+            from ..fpga.compiled import CompiledSim as GateSim  # noqa: F811 (the same methods)
+        if not 1 <= k <= 1000 or not limit > 0 or self.opts["sim"] not in ("amaranth", "compiled"):
+            raise OutputError(f"{self.url.text}: clocks_per_tick must be 1..1000, limit_s > 0 and sim amaranth "
+                              f"or compiled; "
                               f"expected {self.grammar}")
         self.limit_ticks = round(limit * 1e6 / self.machine.tick_us)
         self.records = self._records(RecordCompiler)
