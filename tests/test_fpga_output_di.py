@@ -88,7 +88,7 @@ def test_frames_handed_over_in_short_slices_make_the_same_pins():
 
 @pytest.mark.parametrize("url, says", [
     ("fpga-sim://?variant=dda", r"variant='dda' is not one of pulse, di; expected fpga-sim://\[\?variant=pulse\|di&"),
-    ("fpga-sim://?varient=di", r"unknown option 'varient'.*\(options: variant, limit_s, clocks_per_tick\)"),
+    ("fpga-sim://?varient=di", r"unknown option 'varient'.*\(options: variant, limit_s, clocks_per_tick, sim\)"),
 ], ids=["bad-variant", "unknown-key"])
 def test_a_bad_variant_or_key_is_refused_in_one_line_naming_what_is_accepted(tmp_path, monkeypatch, capsys, url, says):
     (tmp_path / "p.ngc").write_text("G21 G90\nG1 X0.01 F3000\n")
