@@ -74,6 +74,16 @@ def library_paths() -> tuple[list[str], list[str]]:
 
 
 
+def waited_for_cpu(pid: int) -> float:
+    """Seconds the process has sat ready to run while no processor was free (``/proc/PID/schedstat``;
+    0 where the kernel does not say): on a busy computer, wall time the process could not use."""
+    try:
+        with open(f"/proc/{pid}/schedstat", "rb") as handle:
+            return int(handle.read().split()[1]) / 1e9
+    except (OSError, ValueError, IndexError):
+        return 0.0
+
+
 def cpu_seconds(pid: int) -> float:
     try:
         with open(f"/proc/{pid}/stat", "rb") as handle:

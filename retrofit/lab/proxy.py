@@ -2,7 +2,8 @@
 requests, time them, and give the checks proxies for the student's module and objects.
 
 A check's time limit lives here, in the grader's process: the student's processor time is read
-from ``/proc`` while the grader waits, with ten times as much wall time as a backstop. When the
+from ``/proc`` while the grader waits, with ten times as much wall time as a backstop (less the
+time the process sat ready while every processor was busy, so a loaded computer is no timeout). When the
 time is up the student's process gets SIGUSR1 (to say where it was) and, if it does not answer
 within :data:`GRACE_S`, is killed and started afresh for the next check.
 
@@ -41,6 +42,7 @@ from .process import (
     needs_handle,
     send_signal,
     sweep_uid,
+    waited_for_cpu,
 )
 from .wire import CheckTimeout, StudentProcessEnded, WireError, again, rebuild, where_text
 
@@ -294,9 +296,10 @@ class Session:
         else:
             key, seconds, wall0 = ("call", self.calls, self.gen), self._seconds(), None
         if self.mark is None or self.mark[0] != key:
-            self.mark = (key, cpu_seconds(self.proc.pid), wall0 or time.monotonic())
+            self.mark = (key, cpu_seconds(self.proc.pid), wall0 or time.monotonic(), waited_for_cpu(self.proc.pid))
         used = cpu_seconds(self.proc.pid) - self.mark[1]
-        return used > seconds or time.monotonic() - self.mark[2] > 10 * seconds
+        waited = time.monotonic() - self.mark[2] - (waited_for_cpu(self.proc.pid) - self.mark[3])
+        return used > seconds or waited > 10 * seconds
 
     def _ended(self):
         code = self.proc.wait() if self.proc is not None else None
