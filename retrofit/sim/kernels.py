@@ -34,20 +34,6 @@ _EPS_MM = 1e-9
 
 
 @kernel
-def own_changes(ticks, values, mask, seen, out_ticks, out_values):
-    """The frames whose ``mask`` bits differ from the frame before (``seen``: the bits before the
-    first); returns how many were written to ``out_ticks`` / ``out_values``."""
-    n = 0
-    for i in range(ticks.shape[0]):
-        bits = np.int64(values[i]) & mask
-        out_ticks[n] = ticks[i]
-        out_values[n] = values[i]
-        n += 1 if bits != seen else 0
-        seen = bits
-    return n
-
-
-@kernel
 def decode_axis(ticks, values, par, ds, ms, gap, width, spm, lo, hi,
                 sw_side, sw_trip, sw_hyst, sw_closed,
                 watch, watch_out, end_tick, trace_first, trace_stride,
