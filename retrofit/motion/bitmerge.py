@@ -125,6 +125,9 @@ def follow_two_axes(rises_a, i_rise_a, turns_a, high_a, step_a, dir_a,
     axis with no rises and no turns changes nothing). ``taken`` gets per axis (falls, rises,
     turns) taken: a, then b. The two axes' steps are written out twice, not shared through a
     function taking the arrays: that call costs more than the walk (three times the time).
+    While one axis's next change comes before any of the other's, and before its own next turn,
+    its pulses (a fall, then the next rise) are walked a pair at a time: a long pass along one
+    axis costs half the time it would one change at a time.
     """
     n_ra, n_rb = np.searchsorted(rises_a, limit), np.searchsorted(rises_b, limit)
     n_ta, n_tb = np.searchsorted(turns_a, limit), np.searchsorted(turns_b, limit)
@@ -142,6 +145,50 @@ def follow_two_axes(rises_a, i_rise_a, turns_a, high_a, step_a, dir_a,
         tick = min(next_a, next_b)
         if tick >= limit:
             break
+        if next_a < next_b:                               # a alone: its steps, fall then rise, at once
+            cap = min(next_b, limit, turn_a)
+            while fall_a < rise_a and rise_a < cap:
+                bits ^= step_a
+                value = bits ^ invert
+                out_ticks[count] = fall_a
+                out_values[count] = value
+                count += 1 if value != last else 0
+                last = value
+                bits ^= step_a
+                value = bits ^ invert
+                out_ticks[count] = rise_a
+                out_values[count] = value
+                count += 1 if value != last else 0
+                last = value
+                fall_a = rise_a + high_a
+                ra += 1
+                rise_a = rises_a[ra] if ra < n_ra else _BIG
+            next_a = min(fall_a, rise_a, turn_a)
+            tick = min(next_a, next_b)
+            if tick >= limit:
+                break
+        if next_b < next_a:                               # b alone: the same walk
+            cap = min(next_a, limit, turn_b)
+            while fall_b < rise_b and rise_b < cap:
+                bits ^= step_b
+                value = bits ^ invert
+                out_ticks[count] = fall_b
+                out_values[count] = value
+                count += 1 if value != last else 0
+                last = value
+                bits ^= step_b
+                value = bits ^ invert
+                out_ticks[count] = rise_b
+                out_values[count] = value
+                count += 1 if value != last else 0
+                last = value
+                fall_b = rise_b + high_b
+                rb += 1
+                rise_b = rises_b[rb] if rb < n_rb else _BIG
+            next_b = min(fall_b, rise_b, turn_b)
+            tick = min(next_a, next_b)
+            if tick >= limit:
+                break
         flip = 0
         if next_a == tick:
             if fall_a == tick:

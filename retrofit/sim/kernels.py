@@ -34,20 +34,6 @@ _EPS_MM = 1e-9
 
 
 @kernel
-def own_changes(ticks, values, mask, seen, out_ticks, out_values):
-    """The frames whose ``mask`` bits differ from the frame before (``seen``: the bits before the
-    first); returns how many were written to ``out_ticks`` / ``out_values``."""
-    n = 0
-    for i in range(ticks.shape[0]):
-        bits = np.int64(values[i]) & mask
-        out_ticks[n] = ticks[i]
-        out_values[n] = values[i]
-        n += 1 if bits != seen else 0
-        seen = bits
-    return n
-
-
-@kernel
 def decode_axis(ticks, values, par, ds, ms, gap, width, spm, lo, hi,
                 sw_side, sw_trip, sw_hyst, sw_closed,
                 watch, watch_out, end_tick, trace_first, trace_stride,
@@ -62,6 +48,9 @@ def decode_axis(ticks, values, par, ds, ms, gap, width, spm, lo, hi,
     """
     logical_mask = par[P_INVERT]
     sb, db = par[P_STEP_BIT], par[P_DIR_BIT]
+    p_hold, p_high, p_low, p_setup = par[P_HOLD], par[P_HIGH], par[P_LOW], par[P_SETUP]
+    n_watch, n_sw_k = watch.shape[0], sw_side.shape[0]
+    lo_in, hi_in = lo - 1e-9, hi + 1e-9
     n_tr = 0
     n_v = 0
     n_sw = 0
@@ -78,14 +67,14 @@ def decode_axis(ticks, values, par, ds, ms, gap, width, spm, lo, hi,
         s = (logical >> sb) & 1
         d = np.int64(1) if (logical >> db) & 1 else np.int64(-1)
         if d != direction:                                     # direction changed
-            if tick - last_rise < par[P_HOLD]:
+            if tick - last_rise < p_hold:
                 v_ticks[n_v] = tick
                 v_codes[n_v] = V_DIR_HOLD
                 v_values[n_v] = tick - last_rise
                 n_v += 1
             last_turn = tick
         if step == 1 and s == 0:                                # step fell
-            if tick - last_rise < par[P_HIGH]:
+            if tick - last_rise < p_high:
                 v_ticks[n_v] = tick
                 v_codes[n_v] = V_PULSE_HIGH
                 v_values[n_v] = tick - last_rise
@@ -93,12 +82,12 @@ def decode_axis(ticks, values, par, ds, ms, gap, width, spm, lo, hi,
             last_fall = tick
         rise = step == 0 and s == 1
         if rise:                                                # step rose
-            if tick - last_fall < par[P_LOW]:
+            if tick - last_fall < p_low:
                 v_ticks[n_v] = tick
                 v_codes[n_v] = V_PULSE_LOW
                 v_values[n_v] = tick - last_fall
                 n_v += 1
-            if tick - last_turn < par[P_SETUP]:
+            if tick - last_turn < p_setup:
                 v_ticks[n_v] = tick
                 v_codes[n_v] = V_DIR_SETUP
                 v_values[n_v] = tick - last_turn
@@ -107,7 +96,7 @@ def decode_axis(ticks, values, par, ds, ms, gap, width, spm, lo, hi,
         step, direction = s, d
         if not rise:
             continue
-        while w < watch.shape[0] and watch[w] < tick:          # the state before this step
+        while w < n_watch and watch[w] < tick:          # the state before this step
             watch_out[w, 0] = motor
             watch_out[w, 1] = (motor - g) / spm
             w += 1
@@ -124,7 +113,7 @@ def decode_axis(ticks, values, par, ds, ms, gap, width, spm, lo, hi,
             n_tr += 1
             kept_next += trace_stride
         steps += 1
-        outside = not (lo - 1e-9 <= carriage <= hi + 1e-9)
+        outside = not (lo_in <= carriage <= hi_in)
         if outside and out == 0:
             v_ticks[n_v] = tick
             v_codes[n_v] = V_TRAVEL
@@ -132,7 +121,7 @@ def decode_axis(ticks, values, par, ds, ms, gap, width, spm, lo, hi,
             v_carriage[n_v] = carriage
             n_v += 1
         out = 1 if outside else 0
-        for k in range(sw_side.shape[0]):
+        for k in range(n_sw_k):
             slack = sw_hyst[k] if sw_closed[k] else 0.0
             now = 1 if sw_side[k] * (carriage - sw_trip[k]) >= -slack - _EPS_MM else 0
             if now != sw_closed[k]:
