@@ -109,6 +109,7 @@ class IndexerTrack:
     --------
     75 steps a revolution, 100 counts, no lead-in: after one revolution exactly 75 steps.
 
+    >>> from fractions import Fraction
     >>> track = IndexerTrack(Fraction(75), 100, Fraction(400), 0, 10_000)
     >>> track.target(400), track.target(500), track.target(500 + 100 * 100)
     (0, 75, 7575)
