@@ -38,6 +38,17 @@ def machine_state_in_tmp(tmp_path_factory, monkeypatch):
     monkeypatch.delenv("RETROFIT_STATE_DIR", raising=False)
 
 
+@pytest.fixture(autouse=True)
+def ctrl_c_handler_restored():
+    """A test that runs the command line in this process and ends it by Ctrl-C leaves SIGINT
+    ignored (the command's "one Ctrl-C ends the run"); restore it, or every later subprocess of
+    this worker would inherit a Ctrl-C that does nothing."""
+    import signal
+    handler = signal.getsignal(signal.SIGINT)
+    yield
+    signal.signal(signal.SIGINT, handler)
+
+
 @pytest.fixture(scope="session", autouse=True)
 def machine_state_in_tmp_for_wider_fixtures(tmp_path_factory):
     """Fixtures wider than one test (a module's console, set up before any test's own fixtures)
