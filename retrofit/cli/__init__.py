@@ -114,7 +114,7 @@ def _raise_ctrl_c(frame, event, arg):
 
 def _command(argv: list[str] | None) -> int:
     try:
-        parser = _parser(_named(argv))
+        parser = _parser()
         args = parser.parse_args(argv)
         if not getattr(args, "func", None):
             parser.print_help()
