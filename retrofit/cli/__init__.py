@@ -174,23 +174,10 @@ def _say_stopped(what: str) -> None:
         pass
 
 
-def _named(argv: list[str] | None) -> str | None:
-    """The command word of ``argv`` (the first word not an option), None without one."""
-    words = [w for w in (sys.argv[1:] if argv is None else argv) if not w.startswith("-")]
-    return words[0] if words else None
-
-
-def _parser(command: str | None = None) -> argparse.ArgumentParser:
-    """The parser of every command; for ``command``, of the group in the module of that name
-    when it has the command (``retrofit run`` loads no other group's module), else of all."""
-    modules = command_modules()
-    if command and f"{__name__}.{command}" in modules:
-        p, sub = _empty_parser()
-        import_module(f"{__name__}.{command}").add_commands(sub)
-        if command in sub.choices:
-            return p
+def _parser() -> argparse.ArgumentParser:
+    """The parser of every command (each command module adds its group)."""
     p, sub = _empty_parser()
-    for module in modules:
+    for module in command_modules():
         import_module(module).add_commands(sub)
     return p
 
