@@ -32,19 +32,27 @@ from .errors import RuleError
 from .expressions import read_expression, read_parameter, read_value
 
 _LINE_END = re.compile(r"\r\n|\r|\n")
-_PLAIN = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+))")
+_PLAIN = re.compile(r"([A-NP-Z])([-+]?(?:\d+\.?\d*|\.\d+))")   # not O: an O-word opens its line
 #: a whole line of plain words and nothing else, after an optional line number (the fast path:
 #: most CAM lines); group 1 is the words
 _PLAIN_LINE = re.compile(r"\s*(?:[Nn]\s*\d+\s*)?((?:[A-MP-Za-mp-z]\s*[-+]?\s*(?:\d+\.?\d*|\.\d+)\s*)+)")
 _LINE_NUMBER = re.compile(r"N\d*\.?\d*")
 _OWORD = re.compile(r"O(<[^>]*>|\d+)([A-Z]+)")
 _LABEL = re.compile(r"O(\d+)")
+_NAME = re.compile(r"O(?:<[^>]*>|\d*)")
 #: O-word keywords and whether they take a bracketed argument (None: no, 1: one, "*": any number)
 KEYWORDS = {"SUB": None, "ENDSUB": 1, "CALL": "*", "RETURN": 1, "IF": 1, "ELSEIF": 1, "ELSE": None,
             "ENDIF": None, "WHILE": 1, "ENDWHILE": None, "DO": None, "REPEAT": 1, "ENDREPEAT": None,
             "BREAK": None, "CONTINUE": None}
 #: the message comments LinuxCNC acts on
 MESSAGE_KINDS = ("MSG", "DEBUG", "PRINT")
+#: the keyword a line carries when its O-word cannot be read (its ``error`` says why)
+UNREADABLE = "UNREADABLE"
+
+
+class OwordError(RuleError):
+    """An O-word that cannot be read: the file's O-word structure is unknown without it, so
+    :func:`retrofit.gcode.ocode.scan` refuses the file, naming this line, before it runs."""
 
 
 @dataclass(slots=True)
@@ -87,6 +95,8 @@ def lex_text_line(number: int, raw: str, plain=_PLAIN_LINE.fullmatch, findall=_P
         return Line(number, [(a, float(b)) for a, b in findall(code)], plain=True)
     try:
         return lex_line(number, raw)
+    except OwordError as exc:
+        return Line(number, oword=("", UNREADABLE, []), error=str(exc))
     except RuleError as exc:
         return Line(number, error=str(exc))
 
@@ -113,7 +123,10 @@ def lex_line(number: int, raw: str) -> Line | None:
     if code[0] == "N":
         pos = _LINE_NUMBER.match(code).end()  # type: ignore[union-attr]  # N always matches
     if code.startswith("O", pos):
-        line.oword = _oword(code, pos)
+        try:
+            line.oword = _oword(code, pos)
+        except RuleError as exc:
+            raise OwordError(str(exc)) from None
         return line
     if "#" not in code and "[" not in code:
         _plain_words(code, pos, line)
@@ -195,7 +208,9 @@ def _words(code: str, pos: int, line: Line) -> None:
             value, pos = read_value(code, pos + 1)
             line.words.append((ch, value))
         elif ch == "O":
-            raise RuleError("an O-word must be the first word of its line (after N)")
+            said = _NAME.match(code, pos).group()  # type: ignore[union-attr]  # O always matches
+            raise OwordError(f"{said} after other words: an O-word must be the first "
+                             f"word of its line (after an optional / and N number), e.g. o100 call")
         else:
             raise RuleError(f"unexpected character {ch!r} (a word is a letter and a value, "
                             f"e.g. X12.5, X#1 or X[#1+2])")
@@ -222,13 +237,24 @@ def _oword(code: str, pos: int) -> tuple:
         args.append(tree)
     if pos != len(code):
         raise RuleError(f"o{name} {keyword.lower()}: unexpected {code[pos:pos + 8]!r} after the "
-                        f"O-word (arguments are [expressions])")
+                        f"O-word; it takes {_takes(name, keyword)}")
     wanted = KEYWORDS[keyword]
-    if wanted is None and args:
-        raise RuleError(f"o{name} {keyword.lower()} takes no argument")
-    if keyword in ("IF", "ELSEIF", "WHILE", "REPEAT") and len(args) != 1:
-        raise RuleError(f"o{name} {keyword.lower()} needs one [condition]" if keyword != "REPEAT"
-                        else f"o{name} repeat needs a [count]")
-    if wanted == 1 and len(args) > 1:
-        raise RuleError(f"o{name} {keyword.lower()} takes at most one [value]")
+    if (wanted is None and args) or (wanted == 1 and len(args) > 1) or \
+            (keyword in ("IF", "ELSEIF", "WHILE", "REPEAT") and len(args) != 1):
+        given = f"{len(args)} [...] expression{'s' * (len(args) > 1)}" if args else "no [...] expression"
+        raise RuleError(f"o{name} {keyword.lower()} has {given}: it takes {_takes(name, keyword)}")
     return name, keyword, args
+
+
+def _takes(name: str, keyword: str) -> str:
+    """What the O-word ``keyword`` accepts after it, with an example."""
+    said = f"o{name} {keyword.lower()}"
+    if keyword == "REPEAT":
+        return f"exactly one [count] ({said} [3])"
+    if keyword in ("IF", "ELSEIF", "WHILE"):
+        return f"exactly one [condition] ({said} [#1 LT 3])"
+    if KEYWORDS[keyword] == 1:
+        return f"one optional [value] ({said} or {said} [#1])"
+    if KEYWORDS[keyword] == "*":
+        return f"[arguments] only ({said} [1] [#2])"
+    return f"nothing after it ({said})"

@@ -20,7 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from .errors import RuleError
-from .lexer import Line
+from .lexer import UNREADABLE, Line
 
 LOOPS = ("WHILE", "DO", "REPEAT")
 
@@ -58,6 +58,8 @@ def scan(source: Source) -> Source:
                 source.fanuc.add(i)
             continue
         name, kw, _ = line.oword
+        if kw == UNREADABLE:                      # its partners cannot be known: refuse it here
+            raise _err(line, line.error or "")
         if kw == "LABEL":
             if name in source.labels:
                 raise _err(line, f"O{name} marks two places (lines {source.where(source.labels[name])} "
