@@ -3,7 +3,8 @@
 ``G70 Q<sub> [X Z] [D E P]`` finishes, ``G71 Q<sub> [X Z] [D I R]`` roughs along Z and
 ``G72`` along X (``.1``: no pockets, ``.2``: the pockets alone). The profile is the moves of
 ``o<sub> sub`` (X and Z words, G0/G1 lines and G2/G3 arcs by I K or R), read from its text, not
-called; its first segment is the approach from the start point (X Z, or where the tool is). The
+called (a line of it that cannot be read is refused as the run refuses it, never left out); its
+first segment is the approach from the start point (X Z, or where the tool is). The
 passes are made by :mod:`retrofit.gcode.lathepasses` and go through the translator as G0, G1,
 G2 and G3 moves, in the program's units with X as written. F, S and T on the cycle's line act
 before its moves. rs274's word defaults: D0 E0 P1 for G70; D0 I1 R0.5 for G71/G72.
@@ -103,6 +104,13 @@ def _profile(runner, src, sub: str, start: tuple, name: str, across: float) -> l
     repeats: dict = {}
     while pc < last:
         line = src.lines[pc]
+        if line.error:                  # as the run would when it reached the line: told, not skipped
+            exc = RuleError(f"{name} Q{sub}: in the profile o{sub}: {line.error}")
+            exc.file, exc.line = src.file, line.number
+            raise exc
+        if line.dollar is not None:
+            raise RuleError(f"{name} Q{sub}: the grbl line {line.dollar!r} in the profile o{sub} (line "
+                            f"{line.number}); the profile is G0, G1, G2, G3 moves")
         if line.assigns:
             raise RuleError(f"{name} Q{sub}: the profile o{sub} may hold only moves (line "
                             f"{line.number} sets a parameter)")

@@ -106,4 +106,7 @@ def lathe_cycles() -> dict[str, str]:
         "O100 SUB\nG0 X4 Z1\nG1 Z-6\nX6\nZ-3\nX8\nZ-10\nX14\nO100 ENDSUB\n", g0 + "G71 Q100 X16 Z3 I1\n")
     p["err-g72-arc-no-ik"] = _prog("O100 SUB\nG0 X0 Z0\nG1 X4\nG3 X8 Z-2\nG1 X14\nO100 ENDSUB\n",
                                    "G0 X16 Z2\nG72 Q100 X16 Z2 I0.5\n")
+    unreadable = TURN.replace("Z-20\n", "Z-20 ~\n")            # a profile line that cannot be read
+    p["err-g71-profile-unreadable"] = _prog(unreadable, g0 + "G71 Q100 X16 Z3 I1\n")
+    p["err-g70-profile-unreadable"] = _prog(unreadable, g0 + "G70 Q100 X16 Z3\n")
     return p
