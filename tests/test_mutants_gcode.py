@@ -1,7 +1,7 @@
 """G-code paths checked where a mutation run found them unchecked (bench/mutation.py): a plain
 cylinder roughed in layers, an entry arc under cutter compensation, where a roughing level
 meets an arc of a Fanuc profile, G71.1's pockets, the move after G40, an if block's number, G74's
-pecks, a G96 move across the axis, two arcs at an inside corner, a dip roughed between its sides."""
+pecks, a G96 move across the axis, two arcs at an inside corner, a dip roughed between its sides, G70's arc in a bore."""
 
 from __future__ import annotations
 
@@ -117,3 +117,21 @@ def test_a_dip_in_the_profile_is_roughed_in_layers_between_its_two_sides():
     in_dip = sorted({round(m.end[1], 6) for m in moves if m.kind == "feed" and -8.0 < m.end[0] < -2.0})
     assert in_dip == [2.9, 3.6, 4.3]
     assert min(m.end[1] for m in moves) >= 2.75 - 1e-9
+
+
+def test_g70_in_a_bore_runs_the_profiles_g2_the_short_way_inside_the_bore():
+    # a bore: from the mouth at X30 Z0 a G2 quarter circle (centre X30 Z-5) down to X25 Z-5,
+    # then along X25. The profile's X falls, so the passes are made mirrored and turned back:
+    # the arc must come back a G2 through X30-5/sqrt(2) Z-5+5/sqrt(2), not a G3 the long way
+    # round through X35 (into the bore's wall)
+    lathe = load_machine("chivu-lathe")
+    text = ("G18 G21 G90 G94 G8\nF200\nO100 SUB\nG1 X30 Z0\nG2 X25 Z-5 I0 K-5\nG1 Z-20\nO100 ENDSUB\n"
+            "G0 X10 Z2\nG70 Q100 X10 Z2\nM2\n")
+    points = [dict(c.axes) for c in compile_program(text, lathe, file="bore.ngc").commands
+              if hasattr(c, "axes")]
+    arc = points[points.index({"X": 30.0, "Z": 0.0}) + 1:points.index({"X": 25.0, "Z": -5.0}) + 1]
+    assert len(arc) > 10
+    assert all(25.0 - 1e-9 <= p["X"] <= 30.0 + 1e-9 and -5.0 - 1e-9 <= p["Z"] <= 0.0 + 1e-9 for p in arc)
+    assert all(math.hypot(p["X"] - 30.0, p["Z"] + 5.0) == pytest.approx(5.0, abs=0.01) for p in arc)
+    assert min(math.hypot(p["X"] - (30.0 - 5.0 / math.sqrt(2)), p["Z"] - (-5.0 + 5.0 / math.sqrt(2)))
+               for p in arc) < 0.2
