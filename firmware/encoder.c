@@ -70,7 +70,11 @@ __attribute__((noinline)) uint8_t enc_begin(uint16_t wait, uint16_t lead)
  * does not take a flag raised while its interrupt was masked; the CPU would). */
 ISR(INT0_vect)
 {
-    if (st_state != ENCODER || st_index_wait)
+    if (st_state != ENCODER) {                   /* no line follows the encoder: its counts */
+        EIMSK &= (uint8_t)~_BV(INT0);            /* cost nothing until one does (tick.c) */
+        return;
+    }
+    if (st_index_wait)
         return;
     for (;;) {
         /* A pulse still high is left to compare B (a count without a step must not cut it: at

@@ -35,11 +35,22 @@ static const uint16_t backlash[N_AXES] = BACKLASH_STEPS;      /* 'JocL' / 'JocT'
 #define KEEP_RATE_PLAIN { 47500.0f, 47500.0f, 50000.0f, 47500.0f, 40000.0f }
 #define KEEP_RATE_BRES  { 47500.0f, 42500.0f, 40000.0f, 30000.0f, 30000.0f }
 #endif
+/* Three axes in Bresenham ratios are also held to a sum of steps a second: there a tick's cost
+ * grows with the steps it makes (bench/firmware_isr_cost.py: 332 cycles an event at 1:0.5:0.25,
+ * 347 at 1:0.67:0.67, 368 at 1:0.99:0.89), and 1:0.99:0.89 at 40 000 events/s left the main loop
+ * 8 % of the CPU: one turn planning a short move took 33 ms, near the stall guard's 50 (the mixed
+ * stress's board 116 restarted there with the encoder's interrupt on as well). The sum is that
+ * of 1:0.67:0.67 at 40 000 (87 % of the CPU in the interrupt); 1:0.99:0.89 then runs at 32 500
+ * (75 %). With one, two or four axes every case measured stays within 83 %: no sum. */
+#ifndef KEEP_RATE_STEPS_BRES
+#define KEEP_RATE_STEPS_BRES { 1e9f, 1e9f, 93600.0f, 1e9f, 1e9f }
+#endif
 /* A line that watches a switch (a homing seek or release, PROB) runs on the slow tick, which
  * reads the switch before every step: 25 000 events/s held under RDST every 2 ms, 27 500 restarted
  * the board (tests/test_firmware_stress_mix.py); kept with the host's margin of 0.8. */
 #define KEEP_RATE_WATCH 20000.0f
 static const float keep_plain[5] = KEEP_RATE_PLAIN, keep_bres[5] = KEEP_RATE_BRES;
+static const float keep_steps_bres[5] = KEEP_RATE_STEPS_BRES;
 
 #define JUNCTION_SHARE 0.5f            /* of an axis's acceleration, for a turn's velocity jump */
 #define FEED_NONE 255                  /* a take-up move: no override changes it */
@@ -49,10 +60,20 @@ static move_t queue[PLANNER_MOVES];
 static uint8_t q_first, q_count;
 static uint8_t cut[PLANNER_MOVES];     /* the move's acceleration was cut for a turn */
 
+/* Each axis's limits per mm and its joint terms (jump_limit), worked out once: the same floats
+ * the planner computed at every move before, without its divisions and roots. */
+static float rate_mm[N_AXES], accel_mm[N_AXES], jump_c[N_AXES], jump_budget[N_AXES];
+
 void planner_reset(void)
 {
-    for (uint8_t i = 0; i < N_AXES; i++)
+    for (uint8_t i = 0; i < N_AXES; i++) {
         last_dir[i] = -1;                    /* at power-up the nut rests on its negative face */
+        float acc = max_accel[i] / steps_per_mm[i], step = 1.0f / steps_per_mm[i];
+        rate_mm[i] = max_rate[i] / steps_per_mm[i];
+        accel_mm[i] = acc;
+        jump_c[i] = sqrtf(2.0f * acc * step);
+        jump_budget[i] = JUNCTION_SHARE * acc * step;
+    }
 }
 
 void planner_resync(void)
@@ -86,13 +107,21 @@ static void limits(move_t *m)
         moving++;
         bres |= m->delta[i] != m->events;
         float share = (float)m->delta[i] / steps_per_mm[i] / m->mm;   /* |unit| of the axis */
-        if (max_rate[i] / steps_per_mm[i] / share < v)
-            v = max_rate[i] / steps_per_mm[i] / share;
-        if (max_accel[i] / steps_per_mm[i] / share < a)
-            a = max_accel[i] / steps_per_mm[i] / share;
+        if (rate_mm[i] / share < v)
+            v = rate_mm[i] / share;
+        if (accel_mm[i] / share < a)
+            a = accel_mm[i] / share;
     }
     float per_mm = (float)m->events / m->mm;
     float keep = moving ? (bres ? keep_bres : keep_plain)[moving - 1] : MAX_RATE;
+    if (bres && keep_steps_bres[moving - 1] < 1e9f) {   /* the steps a tick makes */
+        float steps = 0.0f;
+        for (uint8_t i = 0; i < N_AXES; i++)
+            steps += (float)m->delta[i];
+        float cap = keep_steps_bres[moving - 1] * (float)m->events / steps;
+        if (cap < keep)
+            keep = cap;
+    }
     if (keep > MAX_RATE)
         keep = MAX_RATE;
     if ((m->kind == MOVE_SEEK || m->kind == MOVE_RELEASE) && keep > KEEP_RATE_WATCH)
@@ -246,9 +275,7 @@ static float jump_limit(const move_t *a, const move_t *b)
         if (!(du > 0.0f))
             continue;
         float m = fmaxf(fabsf(a->unit[k]), fabsf(b->unit[k]));
-        float acc = max_accel[k] / steps_per_mm[k], step = 1.0f / steps_per_mm[k];
-        float c = sqrtf(2.0f * acc * step);
-        float budget = JUNCTION_SHARE * acc * step;
+        float c = jump_c[k], budget = jump_budget[k];
         float v = (-du * c + sqrtf(du * du * c * c + 4.0f * du * m * budget)) / (2.0f * du * m);
         if (v < best)
             best = v;

@@ -38,7 +38,7 @@ void stepper_init(void)
     ICLK_PORT |= _BV(ICLK_BIT);                /* pull-ups on the indexer inputs */
     SIND_PORT |= _BV(SIND_BIT);
     EICRA = _BV(ISC01) | _BV(ISC00) | _BV(ISC11) | _BV(ISC10);   /* rising edges */
-    EIMSK = _BV(INT0) | _BV(INT1);
+    EIMSK = _BV(INT1);                         /* INT0 only while a line follows the encoder */
 }
 
 segment_t *stepper_slot(void)

@@ -80,8 +80,14 @@ static uint8_t next_segment(void)
         set_level(level);
     if (st_seg_flags & SEG_INDEXER) {
         st_ev_bits = 0;
-        if (enc_begin(ticks, p))                  /* its first event (a limit may halt it) */
-            st_state = ENCODER;                   /* the encoder's clock takes over, last */
+        if (enc_begin(ticks, p)) {                /* its first event (a limit may halt it) */
+            uint8_t sreg = SREG;
+            cli();
+            st_state = ENCODER;                   /* the encoder's clock takes over, last; */
+            EIFR = _BV(INTF0);                    /* its counts from now on, none from before */
+            EIMSK |= _BV(INT0);
+            SREG = sreg;
+        }
         return 0;
     }
     st_ticks_left = ticks;

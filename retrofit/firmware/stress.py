@@ -41,16 +41,23 @@ def keep_rates(firmware: Path | None = None) -> dict[str, list[float]]:
     from .sim import FIRMWARE
     text = ((firmware or FIRMWARE) / "planner.c").read_text()
     out = {}
-    for kind in ("plain", "bres"):
-        m = re.search(rf"#define KEEP_RATE_{kind.upper()}\s+\{{([^}}]*)\}}", text)
+    for kind, name in (("plain", "KEEP_RATE_PLAIN"), ("bres", "KEEP_RATE_BRES"),
+                       ("steps", "KEEP_RATE_STEPS_BRES")):
+        m = re.search(rf"#define {name}\s+\{{([^}}]*)\}}", text)
         out[kind] = [float(v.strip().rstrip("f")) for v in m.group(1).split(",")]
     return out
 
 
 def keep_rate(ratios) -> float:
-    """The firmware's ceiling for a line whose axes step at ``ratios`` of its base axis."""
-    kind = "plain" if all(r == 1 for r in ratios) else "bres"
-    return keep_rates()[kind][len(ratios) - 1]
+    """The firmware's ceiling for a line whose axes step at ``ratios`` of its base axis (three or
+    more axes in Bresenham ratios: also the sum of steps a second, KEEP_RATE_STEPS_BRES)."""
+    rates = keep_rates()
+    if all(r == 1 for r in ratios):
+        return rates["plain"][len(ratios) - 1]
+    keep = rates["bres"][len(ratios) - 1]
+    if len(ratios) >= 3:
+        keep = min(keep, rates["steps"][len(ratios) - 1] / sum(ratios))
+    return keep
 
 
 @dataclass
