@@ -1,6 +1,7 @@
 """The link's pieces checked where a mutation run found them unchecked (bench/mutation.py): the
 bytes stuffing writes, a scripted host's frames and sessions, how often a simulated noisy wire inserts
-bytes, a host link over a port that dies, and a host's answer to an answer it cannot read."""
+bytes, a host link over a port that dies, a host's answer to an answer it cannot read, a ZMOV
+with a stray byte, the bytes a decoder counts as noise, and the status bit of a dwell."""
 
 from __future__ import annotations
 
@@ -196,3 +197,48 @@ def test_a_host_needs_positive_timeouts_and_at_least_one_try():
         with pytest.raises(ValueError, match="timeout_s and busy_retry_s must be > 0, max_tries >= 1"):
             HostEndpoint(machine, **options)
     assert HostEndpoint(machine, max_tries=1, timeout_s=1e-6).max_tries == 1
+
+
+def test_a_zmov_with_a_stray_byte_is_refused_for_its_length_and_homes_nothing():
+    # docs/protocol.md: ZMOV is n, then n axis bit numbers (X 0, Z 2): 2 + n bytes. 03 01 00 02
+    # counts one axis but carries two, 03 02 00 counts two and carries one: ERR 2 (wrong length)
+    # with the opcode as detail, each
+    machine = load_machine("chivu-lathe")
+    from retrofit.commands import ZMov
+    from retrofit.link.device import DeviceEndpoint, SessionNumbers
+    from retrofit.link.framing import QUEUED
+    from retrofit.link.replies import Ack, Err, Session
+    host, delivered = ScriptedHost(machine), []
+    device = DeviceEndpoint(machine, delivered.append, sessions=SessionNumbers(SIMAVR_FIRST_SESSION))
+    device.receive(host.frame("ZMOV X") + host.frame(payload=bytes((0x03, 1, 0, 2)), channel=QUEUED)
+                   + host.frame(payload=bytes((0x03, 2, 0)), channel=QUEUED))
+    assert delivered == [ZMov(("X",))]
+    answers = [Session(SIMAVR_FIRST_SESSION)] * SYNC_COPIES + [Ack(), Err(2, 0x03), Err(2, 0x03)]
+    assert host.replies(device.take_output()) == answers
+    assert Err(2, 0x03).text() == "wrong payload length for the opcode (detail 0x03)"
+
+
+def test_a_decoder_counts_the_bytes_outside_its_frames_as_noise():
+    # 2 bytes before the first frame and 8 after it; then a frame refused for its length byte
+    # (0x00), the 1 byte after that byte noise too: 2 + 8, then + 1
+    frame = encode_frame(0x01, b"\x04\x05", None)
+    decoder = FrameDecoder()
+    events = decoder.feed(b"\x11\x22" + frame + bytes(range(1, 9)))
+    assert [e.payload for e in events] == [b"\x04\x05"] and decoder.noise_bytes == 10
+    events = decoder.feed(b"\x7e\x00\x66" + frame)
+    assert [type(e).__name__ for e in events] == ["BadFrame", "Frame"] and decoder.noise_bytes == 11
+
+
+def test_a_dwell_reads_as_status_bit_11_on_the_link_as_the_firmware_sends_it():
+    # docs/protocol.md's status word: bit 0 MOVING, bit 11 DWELLING; a STAT answer is 85, the
+    # word in 3 bytes (most significant first), then the queue's length
+    from retrofit.commands import Dely, Rdst
+    from retrofit.controller import Controller
+    from retrofit.link.replies import decode_reply, encode_reply, flag_names
+    machine = load_machine("chivu-lathe")
+    ctl = Controller(machine)
+    ctl.submit(Dely(0.01))
+    for _ in range(5):
+        ctl.tick()
+    assert encode_reply(ctl.submit(Rdst())) == bytes.fromhex("85 00 08 01 00")
+    assert flag_names(decode_reply(bytes.fromhex("85 00 08 00 00")).flags) == ["DWELLING"]
