@@ -44,9 +44,13 @@ sys.exit(cli.main())
 """
 
 
-def _run(*args: str) -> subprocess.CompletedProcess:
+def _run(*args: str, ctrl_c_ignored: bool = False) -> subprocess.CompletedProcess:
+    """The command in a process of its own; ``ctrl_c_ignored``: started with SIGINT ignored, as
+    a shell without job control starts its background jobs."""
+    ignore = (lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)) if ctrl_c_ignored else None
     return subprocess.run([sys.executable, "-c", SCRIPT, *args], capture_output=True, text=True,
-                          env=dict(os.environ, PYTHONPATH=str(ROOT)), timeout=120)
+                          env=dict(os.environ, PYTHONPATH=str(ROOT)), timeout=120,
+                          preexec_fn=ignore)
 
 
 @pytest.mark.parametrize("kind", ["value", "retrofit"])
@@ -55,6 +59,15 @@ def test_a_ctrl_c_turned_into_another_error_ends_the_command_as_interrupted(kind
     assert done.returncode == 130, done.stderr
     assert done.stderr.startswith("retrofit: interrupted"), done.stderr
     assert "Traceback" not in done.stderr and "Invalid bounding box" not in done.stderr
+
+
+def test_a_command_started_with_ctrl_c_ignored_still_stops_on_it():
+    """A script that starts `retrofit run` in its background, or CI from a shell without job
+    control, hands it SIGINT ignored; the operator's Ctrl-C (SIGINT to the process group) must
+    stop the machine all the same: exit 130, one line."""
+    done = _run("SIGINT", "retrofit", ctrl_c_ignored=True)
+    assert done.returncode == 130, done.stderr
+    assert done.stderr.startswith("retrofit: interrupted"), done.stderr
 
 
 def test_a_sigterm_turned_into_another_error_ends_the_command_as_stopped_by_it():

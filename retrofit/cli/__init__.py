@@ -81,8 +81,10 @@ def main(argv: list[str] | None = None) -> int:
         import signal
 
         from ..failsafe import ctrl_c
-        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-            signal.signal(signal.SIGINT, ctrl_c)         # a Ctrl-C is remembered (_stopped)
+        # a Ctrl-C is remembered (_stopped); heard even when the command was started with it
+        # ignored (a background job of a shell without job control): a machine stops on it
+        if signal.getsignal(signal.SIGINT) in (signal.default_int_handler, signal.SIG_IGN):
+            signal.signal(signal.SIGINT, ctrl_c)
     try:
         return _command(argv)
     finally:
