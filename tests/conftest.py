@@ -49,6 +49,17 @@ def ctrl_c_handler_restored():
     signal.signal(signal.SIGINT, handler)
 
 
+@pytest.fixture(autouse=True)
+def sigpipe_ignored():
+    """Every test starts with Python's own SIGPIPE disposition (ignored: a write to a closed
+    socket raises BrokenPipeError): vcdvcd sets it to the default action when imported, which
+    every worker does while collecting, and a write to a peer that has gone then killed the
+    worker (tests/test_sigpipe_between_tests.py)."""
+    import signal
+    signal.signal(signal.SIGPIPE, signal.SIG_IGN)
+    yield
+
+
 @pytest.fixture(scope="session", autouse=True)
 def machine_state_in_tmp_for_wider_fixtures(tmp_path_factory):
     """Fixtures wider than one test (a module's console, set up before any test's own fixtures)
