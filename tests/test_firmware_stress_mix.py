@@ -18,8 +18,6 @@ import pytest
 
 from retrofit.machine.config import load_machine
 
-from tests import soak
-
 pytestmark = pytest.mark.skipif(
     shutil.which("avr-gcc") is None or shutil.which("make") is None,
     reason="the firmware needs avr-gcc and make: apt-get install gcc-avr avr-libc make libsimavr-dev")
@@ -28,9 +26,9 @@ fs = pytest.importorskip("retrofit.firmware.sim")
 mx = pytest.importorskip("retrofit.firmware.stress_mix")
 
 #: the slow stage's long run: chunks of at least CHUNK_S simulated seconds, each a fresh board
-#: with seed LONG_SEED * 10 000 + chunk, CHUNKS of them: ten simulated minutes in all; CI runs
-#: CI_CHUNKS of them (tests/soak.py)
-LONG_SEED, CHUNKS, CHUNK_S, CI_CHUNKS = 1, 120, 5.0, 60
+#: with seed LONG_SEED * 10 000 + chunk, CHUNKS of them: ten simulated minutes in all, every one
+#: in every CI run
+LONG_SEED, CHUNKS, CHUNK_S = 1, 120, 5.0
 
 
 @pytest.fixture(scope="module")
@@ -88,7 +86,7 @@ def test_the_board_that_restarted_with_the_encoder_turning_holds(mix):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("chunk", soak.parts(CHUNKS, CI_CHUNKS))   # CI: 60 of the 120 boards
+@pytest.mark.parametrize("chunk", range(CHUNKS))
 def test_ten_simulated_minutes_of_mixed_stress(mix, chunk):
     """One of CHUNKS fresh boards, at least CHUNK_S simulated seconds each: moves up to 60 kHz
     asked, homing, threads (the encoder's speed drawn per chunk); no pin log, the harness's
