@@ -29,6 +29,8 @@ class OutputError(RetrofitError, OSError):
 class MotionError(RetrofitError, ValueError):
     """A move cannot be made: outside the step space, the soft limits, or the machine's reach."""
 
+    command_index: int | None   # the index of the command at fault, where it is known (not always set)
+
 
 class ToolChangeError(RetrofitError, ValueError):
     """A tool change or a tool measurement is refused: a tool number out of range, no reference."""

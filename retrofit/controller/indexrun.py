@@ -57,7 +57,7 @@ class IndexRun:
         self.origin = None if chained_from is None else chained_from * self.sign
         self.turn: Turnaround | None = None   # a Turnaround when the spindle reverses at the end
         self.phase = "takeup"
-        self.seen = None                      # the index count last seen while waiting
+        self.seen: int | None = None          # the index count last seen while waiting
         self.index_at: int | None = None      # the tick it was last seen to change
         self._last_index = -1                 # the index count at that tick
         self.timeout_ticks = round(INDEX_TIMEOUT_S * self.rate)

@@ -17,11 +17,23 @@ twice that speed the controller halts, as from rest.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 from ..commands import FFdr
 from ..motion.planner import kinematics
 from .prepare import LineEntry
 from .runs import ClockRun
+
+if TYPE_CHECKING:
+    from collections import deque
+
+    from ..machine.config import Machine
+    from ..motion.lookahead import Kinematics
+    from .homing import HomeRun
+    from .indexrun import IndexRun
+    from .prepare import Walker
+    from .runs import DwellRun
+    from .window import WindowPlanner
 
 #: the feed every move gets when the heartbeat brakes the machine
 BRAKE_FEED_MM_MIN = 1.0
@@ -29,6 +41,16 @@ BRAKE_FEED_MM_MIN = 1.0
 
 class FeedOverrides:
     """Mixin of :class:`~retrofit.controller.processor.Processor`: FFDR and MFDR."""
+
+    # the processor's state these methods read and set (see Processor.__init__)
+    machine: Machine
+    walker: Walker
+    planner: WindowPlanner
+    window: deque
+    run: ClockRun | DwellRun | IndexRun | HomeRun | None
+    prev_kin: Kinematics | None
+    exit_speed: float
+    t_plan: float
 
     def override(self, cmd, tick: int) -> None:
         """Set the fast (FFDR) or machining (MFDR) feed now."""
@@ -76,6 +98,7 @@ class FeedOverrides:
 
     def _with_feed(self, entry: LineEntry, feed_mm_min: float):
         kin = kinematics(self.machine, entry.start, entry.end, feed_mm_min / 60.0)
+        assert entry.kin is not None              # a line entry has its kinematics (Walker._line)
         kin.stop_before = entry.kin.stop_before
         return kin
 

@@ -11,8 +11,9 @@ halts on STOP, on a limit switch or on a move that cannot run.
 from __future__ import annotations
 
 from collections import deque
+from fractions import Fraction
 
-from ..commands import Pstn, Spin
+from ..commands import Cool, Pstn, Spin
 from ..errors import MotionError
 from ..machine.config import Machine
 from ..motion.bresenham import prepare_line
@@ -53,7 +54,7 @@ class Processor(FeedOverrides):
         self.prev_kin = None                  # kinematics of the last move started
         self.exit_speed = 0.0                 # speed (mm/s) at which it ends
         self.t_plan = 0.0                     # planned time (s) at which it ends
-        self.track_end = None                 # exact count where the last ISTP line ended
+        self.track_end: Fraction | None = None   # exact count where the last ISTP line ended
         self.shift = [0] * n                  # motor counter - walker steps
         self.comp = [0] * n                   # motor - commanded, as of the entries started
         self.offsets = [0] * n                # PSTN offsets in force (program -> machine steps)
@@ -64,7 +65,7 @@ class Processor(FeedOverrides):
         self.fault_serial: int | None = None  # the command (1 = first submitted) at fault
         self._serial_now = 0                  # the command of the entry executing
         self.spindle_cmd = (0.0, 0)
-        self.spindle_start = None
+        self.spindle_start: int | None = None
         self.coolant = 0
         self.closed: set[str] = set()
         self.spindle_inputs = None
@@ -105,6 +106,7 @@ class Processor(FeedOverrides):
     def spindle_at(self, tick: int):
         """The encoder (ICLK count, SIND) and the drive's at-speed output after frame ``tick``."""
         if self._spindle_tick != tick:
+            assert self.sim_spindle is not None   # an ISTP move starts only with one (_begin_indexed)
             self.spindle_inputs = self.sim_spindle.read(tick)
             self._spindle_tick = tick
         return self.spindle_inputs
@@ -132,6 +134,7 @@ class Processor(FeedOverrides):
                 if self.run is None and not self._start(tick):
                     break
                 run = self.run
+                assert run is not None            # _start() began one
                 if isinstance(run, IndexRun):
                     if run.signed and run.turn is None:
                         run.turn = self._turn_for(run)
@@ -213,6 +216,7 @@ class Processor(FeedOverrides):
 
     def _begin_line(self, entry: LineEntry) -> ClockRun:
         kin, v0 = entry.kin, self.exit_speed
+        assert kin is not None                    # a line entry has its kinematics (Walker._line)
         moves = [kin] + [e.kin for e in self.window if e.is_move]
         exit_v, accel = self.planner.plan(self.prev_kin, moves, v0)
         profile = None
@@ -281,6 +285,7 @@ class Processor(FeedOverrides):
         elif isinstance(cmd, Spin):
             self._spin(tick, cmd.rpm, cmd.direction)
         else:
+            assert isinstance(cmd, Cool)          # the action entries: PSTN, SPIN, COOL
             self.coolant = cmd.mode
 
     def _spin(self, tick: int, rpm: float, direction: int) -> None:
@@ -348,7 +353,9 @@ class Processor(FeedOverrides):
         due = self.pulses.next_due()
         options = [due - 1] if due is not None else []
         if run is not None:
-            options.append(run.next_due() - 1)
+            run_due = run.next_due()
+            assert run_due is not None            # a run ends (and leaves) in the tick it is done
+            options.append(run_due - 1)
         elif self.window:
             if not isinstance(self.window[0], (IndexEntry, HomeEntry)):
                 return None

@@ -18,6 +18,8 @@ from .profiles import MoveProfile, ramp_pieces
 class ClockRun:
     """A straight move executing: cycles of the interpolator, each at its tick on the profile."""
 
+    prev: Kinematics | None              # the move before it (set by the processor as it starts)
+
     def __init__(self, entry, line: LineMove, kin: Kinematics, profile: MoveProfile | None,
                  t0: float, rate: float, dda: bool):
         self.entry = entry

@@ -207,8 +207,10 @@ class SpanRunner:
         if run.bresenham is not None:
             state[0] = run.bresenham.error
         else:
+            assert run.dda is not None                # no Bresenham executor: a DDA one
             state[0], state[1] = run.dda.sent, run.dda.short_num
         profile = run.profile
+        assert profile is not None                    # _clock_work() said there is work
         starts, offsets = np.array(profile.starts, np.float64), np.array(profile.offsets, np.float64)
         rows = np.array(profile.rows, np.float64)
         cycle_due = np.zeros(c_stop - c0 + 1, dtype=np.int64)
@@ -233,6 +235,7 @@ class SpanRunner:
     def _steps_so_far(run: ClockRun) -> list[int]:
         if run.bresenham is not None:
             return [abs(p - s) for p, s in zip(run.bresenham._position, run.line.start)]
+        assert run.dda is not None                    # no Bresenham executor: a DDA one
         return list(run.dda.sent)
 
     @staticmethod
@@ -247,10 +250,11 @@ class SpanRunner:
             ex.error = [cycles * inc - line.error_dec * k for inc, k in zip(line.error_inc, steps)]
             ex._position = position
         else:
-            ex = run.dda
-            ex.long, ex.sent = cycles, list(steps)
-            ex.short_num = [line.n * (k + 1) for k in steps]
-            ex._position = position
+            dda = run.dda
+            assert dda is not None                    # no Bresenham executor: a DDA one
+            dda.long, dda.sent = cycles, list(steps)
+            dda.short_num = [line.n * (k + 1) for k in steps]
+            dda._position = position
             run.sent = list(steps)
 
     # -- an ISTP move -------------------------------------------------------------------------------
@@ -325,7 +329,7 @@ class SpanRunner:
         return run.seek_switch.name not in closed and run.ref_switch.name not in closed
 
     def _home(self, run: HomeRun, t_end: int) -> None:
-        jog, axis = run.jog, self.ctl.machine.axes[run.i]
+        jog, axis = run._jog(), self.ctl.machine.axes[run.i]
         stop = 1 << 62
         if run.phase == "backoff" and self._backoff_clear(run):
             stop = run.backoff_from + round(run.how.backoff_mm * axis.steps_per_mm)

@@ -105,8 +105,8 @@ class Compensator:
         self.inch = inch
         self.lathe = lathe
         self.first = True
-        self.current = tuple(start)          # the tool centre
-        self.programmed = tuple(start)       # the programmed point
+        self.current: tuple[float, float] = (start[0], start[1])      # the tool centre
+        self.programmed: tuple[float, float] = (start[0], start[1])   # the programmed point
         self.queue: list[Held] = []
         self.endpoint: tuple[float, float] | None = None   # where the queue's moves start
 

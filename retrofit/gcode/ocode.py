@@ -20,6 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from .errors import RuleError
+from .lazylines import LazyLines
 from .lexer import UNREADABLE, Line
 
 LOOPS = ("WHILE", "DO", "REPEAT")
@@ -30,7 +31,7 @@ class Source:
     """The lexed lines of one file and the structure of its O-words."""
 
     file: str
-    lines: list[Line]
+    lines: list[Line] | LazyLines
     subs: dict[str, tuple[int, int]] = field(default_factory=dict)   # name -> (sub, endsub) index
     branches: dict[int, list[int]] = field(default_factory=dict)     # if index -> branch indexes
     end: dict[int, int] = field(default_factory=dict)                # opening index -> closing

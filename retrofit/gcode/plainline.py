@@ -65,6 +65,7 @@ def run_plain(tr, words: list, line: int, file: str):
         else:
             end[name] = round(mm + s.offset(name), DECIMALS) + 0.0
     check_soft_limits(tr.machine, end)
+    command: FMov | PMov
     if mode == 0:
         command = FMov(tuple([(n, end[n]) for n in names]))
     else:

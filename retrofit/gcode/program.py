@@ -9,6 +9,7 @@ with ``%``, or at the end of the file.
 
 from __future__ import annotations
 
+from collections.abc import Callable, MutableSequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,7 +23,7 @@ from .dialect import run_dollar
 from .errors import RuleError
 from .expressions import evaluate
 from .lazylines import LazyLines
-from .lexer import lex_lines
+from .lexer import Line, lex_lines
 from .ocode import Source, scan
 from .plainline import run_plain
 from .plainrun import RUN_LINES, take_run
@@ -45,7 +46,7 @@ class Program:
     ``(PRINT,..)`` comments and of grbl lines skipped.
     """
 
-    commands: list[Command]
+    commands: MutableSequence[Command]
     lines: list[int]
     file: str
     files: list[str] = field(default_factory=list)
@@ -82,12 +83,15 @@ class Interpreter:
     def lines_run(self, main: Source):
         """:meth:`run` one line at a time: a generator that yields after each line (the
         translator's commands so far are then complete)."""
-        src, pc, calls, repeats = main, 0, [], {}
+        src, pc = main, 0
+        calls: list = []                    # (source, index) to return to, or fanuc.Call
+        repeats: dict[tuple[int, int, int], int] = {}
         most = len(main.lines) + MAX_STEPS
         first = main.lines.first() if hasattr(main.lines, "first") else \
             ((0, main.lines[0]) if main.lines else None)
         closing_percent = first is not None and first[1].percent
         if closing_percent:
+            assert first is not None            # a closing % needs an opening line
             pc = first[0] + 1
         while pc < len(src.lines):
             line = src.lines[pc]
@@ -213,7 +217,7 @@ class Interpreter:
             return calls.pop()
         if kw == "IF":
             for branch in src.branches[pc]:
-                _, bkw, bargs = src.lines[branch].oword
+                _, bkw, bargs = _oword_of(src, branch)
                 if bkw == "ELSE" or self._value(bargs[0]):
                     return src, branch + 1
             return src, src.end[pc] + 1
@@ -242,7 +246,7 @@ class Interpreter:
             repeats[key] = repeats.get(key, 1) - 1
             return src, (src.start[pc] + 1 if repeats[key] > 0 else pc + 1)
         loop = src.start[pc]                             # BREAK, CONTINUE
-        lkw = src.lines[loop].oword[1]
+        lkw = _oword_of(src, loop)[1]
         if kw == "BREAK":
             repeats.pop((len(calls), id(src), loop), None)
             return src, src.end[loop] + 1
@@ -279,7 +283,13 @@ class Interpreter:
                         f"{name.strip('<>')}.ngc in {where})")
 
 
-_PREDEFINED = {
+def _oword_of(src: Source, index: int) -> tuple:
+    oword = src.lines[index].oword
+    assert oword is not None, "scan() pairs O-words with O-word lines only"
+    return oword
+
+
+_PREDEFINED: dict[str, Callable[..., float]] = {
     "_metric": lambda s: 0.0 if s.inch else 1.0, "_imperial": lambda s: 1.0 if s.inch else 0.0,
     "_absolute": lambda s: 0.0 if s.incremental else 1.0,
     "_incremental": lambda s: 1.0 if s.incremental else 0.0,
@@ -333,7 +343,7 @@ def compile_program(text: str, machine: Machine, file: str = "<string>",
         if dialect == "fanuc":
             from .fanuc_lathe import run_fanuc
             run_fanuc(text, translator, file, interpreter.messages)
-            lines = []
+            lines: list[Line] | LazyLines = []
         else:
             lines = LazyLines(text)
         interpreter.run(scan(Source(file, lines)))

@@ -55,7 +55,7 @@ class ReadAhead:
             tr.finish()
         yield self._take()
 
-    def _take(self) -> tuple[list, list, list]:
+    def _take(self) -> tuple[CommandList, list[int], list[str]]:
         tr = self.interpreter.tr
         batch = tr.commands, tr.lines, tr.files
         tr.commands, tr.lines, tr.files = CommandList(), [], []

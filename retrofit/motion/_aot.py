@@ -24,6 +24,7 @@ import platform
 import re
 import sys
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -86,7 +87,7 @@ def describe(value) -> str | None:
         return _dtype_name(value.dtype) or None
     if type(value) is tuple:
         parts = [describe(v) for v in value]
-        return None if None in parts else f"({','.join(parts)})"
+        return None if None in parts else f"({','.join(cast('list[str]', parts))})"
     if value is None:
         return "none"
     return None
@@ -127,8 +128,8 @@ def describe_type(t) -> str | None:
     if isinstance(t, (types.Integer, types.Float)):
         return t.name
     if isinstance(t, types.BaseTuple) and not isinstance(t, types.BaseNamedTuple):
-        parts = [describe_type(v) for v in t.types]
-        return None if None in parts else f"({','.join(parts)})"
+        parts = [describe_type(v) for v in t.types]  # type: ignore[attr-defined]  # Numba: every tuple has it
+        return None if None in parts else f"({','.join(cast('list[str]', parts))})"
     if isinstance(t, types.NoneType):
         return "none"
     return None
@@ -182,6 +183,7 @@ def load() -> Library | None:
         path = folder() / table["file"]
         loader = importlib.machinery.ExtensionFileLoader(NAME, str(path))
         spec = importlib.util.spec_from_file_location(NAME, path, loader=loader)
+        assert spec is not None                   # a loader is given: there is always a spec
         module = importlib.util.module_from_spec(spec)
         loader.exec_module(module)
     except (OSError, ValueError, KeyError, ImportError):

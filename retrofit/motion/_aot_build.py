@@ -19,11 +19,12 @@ import os
 import tempfile
 import warnings
 from pathlib import Path
+from typing import Any, cast
 
 from . import _aot, _jit
 
 #: the runs that fill Numba's cache before the build: (program, machine, extra arguments)
-WARM_UP = (("lathe-profile.ngc", "chivu-lathe", ["--controller"]),
+WARM_UP: tuple[tuple[str, str, list[str]], ...] = (("lathe-profile.ngc", "chivu-lathe", ["--controller"]),
            ("lathe-profile.ngc", "chivu-lathe", []),
            ("engraving.ngc", "engraver", []))
 
@@ -103,7 +104,7 @@ def _exports(cc) -> dict[str, dict[str, str]]:
     kernels: dict[str, dict[str, str]] = {}
     ordered = sorted(_jit._kernels.items(), key=lambda item: _aot.kernel_name(item[1]))
     for n, (key, func) in enumerate(ordered):
-        dispatcher = _jit._current[key]
+        dispatcher: Any = _jit._current[key]           # a Numba dispatcher (to_jit() ran)
         for m, sig in enumerate(signatures(dispatcher)):
             described = [_aot.describe_type(t) for t in sig]
             if None in described:
@@ -111,5 +112,5 @@ def _exports(cc) -> dict[str, dict[str, str]]:
             dispatcher.compile(sig)
             export = f"k{n}_{m}"
             cc.export(export, dispatcher.overloads[sig].signature)(func)
-            kernels.setdefault(_aot.kernel_name(func), {})["|".join(described)] = export
+            kernels.setdefault(_aot.kernel_name(func), {})["|".join(cast("list[str]", described))] = export
     return kernels

@@ -80,6 +80,7 @@ class Columns:
         parts, size = [], self.steps_from(lo)
         count = len(self) - lo
         while not self.final and (count <= 1 or size <= window_steps):
+            assert self.blocks is not None        # not final: the columns roll (made by rolling())
             block, end_s = next(self.blocks)
             parts.append(block)
             count += len(block)
@@ -124,5 +125,6 @@ def _joined(parts: list[PlanArrays]) -> PlanArrays:
 
 def _empty(n_axes: int) -> PlanArrays:
     from .profile import P_WIDTH
-    return PlanArrays(*(np.zeros((0, n_axes), np.int64) for _ in range(3)), np.zeros(0), np.zeros((0, P_WIDTH)),
+    starts, ends, targets = (np.zeros((0, n_axes), np.int64) for _ in range(3))
+    return PlanArrays(starts, ends, targets, np.zeros(0), np.zeros((0, P_WIDTH)),
                       np.zeros(0, np.bool_), np.zeros(0), np.zeros(0, np.int64))

@@ -11,6 +11,8 @@ So memory holds the look-ahead and a batch, whatever the program's length.
 
 from __future__ import annotations
 
+from typing import NoReturn
+
 from ..commands import Prob, Wait
 from ..errors import MotionError
 from ._jit import compiled
@@ -59,7 +61,7 @@ class BlockPlanner:
         self.has_last = True
         return arrays, self.t
 
-    def _refuse(self, commands: list) -> None:
+    def _refuse(self, commands: list) -> NoReturn:
         """Word the refusal of the first command the array walker cannot take."""
         if any(isinstance(c, (Wait, Prob)) for c in commands):
             raise NotInBlocks("an input wait or a probing move")

@@ -206,7 +206,7 @@ class _Walker:
                               f"send PROB to a device with one (firmware/), or probe with "
                               f"G38.2-G38.5 in G-code on a machine with a tool setter")
 
-    def _move(self, cmd: Command, index: int) -> _Segment:
+    def _move(self, cmd: FMov | PMov | ZMov, index: int) -> _Segment:
         """A straight move in motor steps: the clearance is added while the nut is on its + face."""
         machine = self.machine
         target = _target(machine, cmd, self.position, self.offset)
@@ -237,7 +237,7 @@ def _axis_name(machine: Machine, name: str, names: tuple[str, ...] | None = None
     return name.upper()
 
 
-def _target(machine: Machine, cmd: Command, position: list[int], offset: list[int]) -> list[int]:
+def _target(machine: Machine, cmd: FMov | PMov | ZMov, position: list[int], offset: list[int]) -> list[int]:
     """The commanded end point in machine steps, checked against the soft limits."""
     target = list(position)
     names = machine.axis_names

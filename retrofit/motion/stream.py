@@ -16,8 +16,9 @@ window of steps whatever the program's length.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -31,7 +32,7 @@ from .fast import _bresenham_requests, _dda_requests, plan_steps
 from .planner import Plan
 from .stepshape import fresh_state, lag_of, shape_steps
 
-_BIG = np.int64(1) << 62
+_BIG = cast(int, np.int64(1) << 62)         # NumPy's int64, used as an int
 #: the first window holds this share of ``window_steps`` (the run reads that much before its first step)
 FIRST_WINDOW_SHARE = 32
 
@@ -158,7 +159,7 @@ class _StepGen:
 
 def stream_frames(plan: Plan, window_steps: int = 1 << 20,
                   on_waypoints: Callable[[np.ndarray, np.ndarray, np.ndarray], None] | None = None,
-                  progress: Callable[[float], None] | None = None) -> Iterator[PortFrames]:
+                  progress: Callable[[float], None] | None = None) -> Generator[PortFrames, None, StreamStats]:
     """The plan's port frames in consecutive chunks (equal, joined, to ``execute_fast``'s).
 
     Moves are taken in windows of about ``window_steps`` steps. ``on_waypoints(steps, loaded,
@@ -173,7 +174,7 @@ def stream_frames(plan: Plan, window_steps: int = 1 << 20,
 
 
 def stream_blocks(machine, start_steps, blocks, window_steps: int = 1 << 20,
-                  on_waypoints=None, progress=None) -> Iterator[PortFrames]:
+                  on_waypoints=None, progress=None) -> Generator[PortFrames, None, StreamStats]:
     """:func:`stream_frames` of a plan handed on block by block (``blocks``: (PlanArrays, None)
     until the last, (PlanArrays, end time) for the last): the same frames, while only the moves
     of the window being made and those the planner has handed on beyond it are held;
@@ -182,6 +183,7 @@ def stream_blocks(machine, start_steps, blocks, window_steps: int = 1 << 20,
     cols = Columns.rolling(machine, rate, blocks)
     cols.more(0, _first(window_steps))
     if cols.final and not compiled(int(cols.steps_from(0))):     # small: one chunk by NumPy
+        assert cols.end_s is not None                             # final: the end is known
         plan = Plan(machine, tuple(start_steps), end_s=cols.end_s, arrays=cols.arrays)
         index = cols.arrays.index
 
@@ -197,7 +199,8 @@ def _first(window_steps: int) -> int:
     return max(window_steps // FIRST_WINDOW_SHARE, 1)
 
 
-def stream_columns(cols: Columns, window_steps: int, on_waypoints, progress) -> Iterator[PortFrames]:
+def stream_columns(cols: Columns, window_steps: int, on_waypoints,
+                   progress) -> Generator[PortFrames, None, StreamStats]:
     """The frames of the moves of ``cols`` (whole or rolling), window by window."""
     machine = cols.machine
     keep_freed_memory()
@@ -213,6 +216,7 @@ def stream_columns(cols: Columns, window_steps: int, on_waypoints, progress) -> 
         hi = cols.window_end(lo, size) if n_moves else 0
         last_window = cols.final and hi >= n_moves
         if last_window:
+            assert cols.end_s is not None                         # final: the end is known
             end = max(end, tick_of(cols.end_s, rate))
         wanted, dirs, counts = _window_requests(machine, cols, lo, hi, rate) if hi > lo else ([], [], None)
         window_rises, last = gen.shape(wanted, dirs, counts, cols.seen[lo:hi])
