@@ -225,3 +225,18 @@ def test_unknown_labs_folder_is_an_error(tmp_path, capsys):
     assert "no such folder" in capsys.readouterr().err
     assert main(["lab", "check", "99", "--labs", str(ROOT)]) == 2
     assert "labs: 01_circle" in capsys.readouterr().err
+
+
+def test_a_labs_checks_run_from_its_folder_leave_nothing_there(tmp_path, monkeypatch):
+    """A student runs the checks from the lab's folder (the notebooks do too): the folder is as
+    it was afterwards, but for what the lab writes into out/ (pytest-benchmark's plugin, loaded
+    by the checks' pytest, once left a .benchmarks folder in every lab)."""
+    import shutil
+    copy = tmp_path / "labs" / LABS[0].path.name
+    shutil.copytree(LABS[0].path, copy, ignore=shutil.ignore_patterns(".*", "__pycache__"))
+    before = {p.name for p in copy.iterdir()}
+    monkeypatch.chdir(copy)
+    lab = next(lab for lab in list_labs(copy.parent) if lab.number == LABS[0].number)
+    results = check_lab(lab, solution=True)
+    assert results and all(r.status == "passed" for r in results), results
+    assert {p.name for p in copy.iterdir()} - {"out"} == before - {"out"}

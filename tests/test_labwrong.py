@@ -1,6 +1,7 @@
 """Lab variants kept as patches: a patch gives back the file it was made from, follows the reference
 when lines are added above it, and says which patch and hunk no longer fit; every lab's variants apply."""
 
+import shutil
 from pathlib import Path
 
 import pytest
@@ -116,3 +117,17 @@ def test_any_change_made_into_a_patch_gives_the_changed_file_back(tmp_path_facto
         assert apply_variant(read_variant(path), ref_text) == new_text
     except ConfigError as exc:
         assert "as near as each other" in str(exc)
+
+
+def test_materialise_links_the_labs_data_not_the_caches_tools_left_in_its_folder(tmp_path):
+    """A lab folder a tool has written into (pytest-benchmark's .benchmarks, pytest's cache,
+    Hypothesis's database: a student who ran pytest there) lends the variant its data files only;
+    a suite run twice on one checkout once found .benchmarks linked beside the variant."""
+    lab_copy = tmp_path / "05_acceleration"
+    shutil.copytree(next(lab for lab in list_labs(ROOT) if lab.number == "05").path, lab_copy,
+                    ignore=shutil.ignore_patterns(".*", "__pycache__"))
+    for cache in (".benchmarks", ".pytest_cache", ".hypothesis"):
+        (lab_copy / cache).mkdir()
+    variant = variants(lab_copy, "wrong")[0]
+    target = materialise(lab_copy, variant, tmp_path / "out")
+    assert {p.name for p in target.parent.iterdir()} == {target.name, "engraver-x.toml"}

@@ -309,8 +309,9 @@ def _check_title(item) -> str:
 
 
 #: pytest plugins a lab check does without: its own report replaces the terminal's, nothing is
-#: cached in the labs folder, and no garbage collection after every check (slow in a big process)
-_QUIET = ("-p", "no:terminal", "-p", "no:cacheprovider", "-p", "no:unraisableexception",
+#: cached or stored in the labs folder (pytest's cache, pytest-benchmark's .benchmarks), and no
+#: garbage collection after every check (slow in a big process)
+_QUIET = ("-p", "no:terminal", "-p", "no:cacheprovider", "-p", "no:benchmark", "-p", "no:unraisableexception",
           "-p", "no:threadexception")
 
 

@@ -167,7 +167,8 @@ def materialise(lab_path: str | Path, variant: Variant, folder: str | Path) -> P
     target = folder / f"{variant.name}.py"
     target.write_text(apply_variant(variant, reference), encoding="utf-8")
     for entry in lab_path.iterdir():
-        if entry.name in _NOT_DATA or entry.suffix in (".py", ".md", ".ini") or (folder / entry.name).exists():
+        if (entry.name in _NOT_DATA or entry.name.startswith(".") or entry.suffix in (".py", ".md", ".ini")
+                or (folder / entry.name).exists()):        # (a dot folder is a tool's cache, not data)
             continue
         (folder / entry.name).symlink_to(entry.resolve(), target_is_directory=entry.is_dir())
     return target
