@@ -72,6 +72,11 @@ def kernel_name(func) -> str:
     return f"{func.__module__}:{func.__qualname__}"
 
 
+def joined(parts: list[str | None], sep: str) -> str | None:
+    """The described parts joined by ``sep``, or None when one has no description (no kernel takes it)."""
+    return None if None in parts else sep.join(cast("list[str]", parts))
+
+
 def describe(value) -> str | None:
     """How Numba would type ``value`` as an argument, as a string; None for what this cannot say."""
     kind = _SCALARS.get(type(value))
@@ -86,8 +91,8 @@ def describe(value) -> str | None:
     if isinstance(value, np.generic):
         return _dtype_name(value.dtype) or None
     if type(value) is tuple:
-        parts = [describe(v) for v in value]
-        return None if None in parts else f"({','.join(cast('list[str]', parts))})"
+        parts = joined([describe(v) for v in value], ",")
+        return None if parts is None else f"({parts})"
     if value is None:
         return "none"
     return None
@@ -128,8 +133,8 @@ def describe_type(t) -> str | None:
     if isinstance(t, (types.Integer, types.Float)):
         return t.name
     if isinstance(t, types.BaseTuple) and not isinstance(t, types.BaseNamedTuple):
-        parts = [describe_type(v) for v in t.types]  # type: ignore[attr-defined]  # Numba: every tuple has it
-        return None if None in parts else f"({','.join(cast('list[str]', parts))})"
+        parts = joined([describe_type(v) for v in t.types], ",")  # type: ignore[attr-defined]  # Numba: every tuple has it
+        return None if parts is None else f"({parts})"
     if isinstance(t, types.NoneType):
         return "none"
     return None

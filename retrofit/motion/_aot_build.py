@@ -19,7 +19,7 @@ import os
 import tempfile
 import warnings
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 from . import _aot, _jit
 
@@ -106,11 +106,11 @@ def _exports(cc) -> dict[str, dict[str, str]]:
     for n, (key, func) in enumerate(ordered):
         dispatcher: Any = _jit._current[key]           # a Numba dispatcher (to_jit() ran)
         for m, sig in enumerate(signatures(dispatcher)):
-            described = [_aot.describe_type(t) for t in sig]
-            if None in described:
+            described = _aot.joined([_aot.describe_type(t) for t in sig], "|")
+            if described is None:
                 continue
             dispatcher.compile(sig)
             export = f"k{n}_{m}"
             cc.export(export, dispatcher.overloads[sig].signature)(func)
-            kernels.setdefault(_aot.kernel_name(func), {})["|".join(cast("list[str]", described))] = export
+            kernels.setdefault(_aot.kernel_name(func), {})[described] = export
     return kernels
